@@ -1,0 +1,53 @@
+#pragma once
+/// Shared pieces of the strandmesh command-line tool. Each subcommand lives in its own
+/// cmd_<name>.cpp and registers itself with add_<name>_command().
+///
+/// Exit codes: 0 ok, 1 bad input (malformed file, invalid parameters, unreadable or
+/// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error.
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace sm::cli {
+
+enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3 };
+
+struct GlobalOptions {
+  int threads = 0;  ///< 0 = all cores
+  bool quiet = false;
+  bool verbose = false;
+};
+
+/// The action a subcommand runs once parsing is done; returns the exit code.
+using Action = std::function<int()>;
+
+/// Registers a subcommand. `setup` adds the options to `sub` and returns the action, which
+/// main() runs after parsing when that subcommand was chosen.
+void add_command(CLI::App& app, const std::string& name, const std::string& description,
+                 const std::function<Action(CLI::App& sub)>& setup);
+
+/// The action of the subcommand that was parsed, or an empty function when none was.
+Action parsed_action();
+
+/// A subcommand that exists in the interface but not yet in the code: it fails with
+/// "not yet available" and exit code 2.
+void add_unavailable_command(CLI::App& app, const std::string& name, const std::string& description);
+
+/// A progress bar on stderr (only when stderr is a terminal or --verbose, and not --quiet).
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled);
+  ~ProgressBar();
+  void update(std::string_view phase, double fraction);
+  void finish();
+
+ private:
+  bool enabled_;
+  bool drawn_ = false;
+  std::string phase_;
+  int last_percent_ = -1;
+};
+
+}  // namespace sm::cli

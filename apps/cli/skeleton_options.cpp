@@ -1,0 +1,90 @@
+#include "apps/cli/skeleton_options.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+
+#include "core/log.h"
+#include "skeleton/io.h"
+
+namespace sm::cli {
+
+void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
+  sub.add_option("--max-nodes", p.max_nodes, "Reject skeletons with more nodes than this")->capture_default_str();
+  sub.add_option("--merge-edge-ratio", p.merge_edge_ratio, "Merge edges shorter than this x radius into the parent")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub.add_option("--radius-floor", p.radius_floor, "Radius floor in metres (0 = automatic)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  const std::map<std::string, ThickChildPolicy> policies{{"clamp", ThickChildPolicy::clamp_child},
+                                                         {"raise", ThickChildPolicy::raise_parent},
+                                                         {"keep", ThickChildPolicy::keep}};
+  sub.add_option("--thick-child", p.thick_child_policy,
+                 "What to do with a child thicker than its parent: clamp (child), raise (parent), keep")
+      ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
+      ->default_str("clamp");
+  sub.add_option("--max-child-ratio", p.max_child_ratio, "Largest allowed child/parent radius ratio")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+}
+
+SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params) {
+  SkeletonResult result = build_skeleton(read_skeleton(path), params);
+  for (const auto& w : result.report.warnings.list()) {
+    std::string line = w.message + " (" + std::to_string(w.count) + "x";
+    for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
+    log::warn(line + ")");
+  }
+  return result;
+}
+
+std::string describe_skeleton(const SkeletonResult& result) {
+  const Skeleton& s = result.skeleton;
+  const SkeletonReport& r = result.report;
+  std::size_t tips = 0, forks = 0;
+  double total_length = 0, rmin = 1e300, rmax = 0;
+  dvec3 lo(1e300), hi(-1e300);
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const NodeId n(i);
+    tips += s.is_tip(n) ? 1 : 0;
+    forks += s.is_fork(n) ? 1 : 0;
+    total_length += s.edge_length(n);
+    rmin = std::min(rmin, s.radius[i]);
+    rmax = std::max(rmax, s.radius[i]);
+    lo = glm::min(lo, s.position[i]);
+    hi = glm::max(hi, s.position[i]);
+  }
+  const auto d = s.depths();
+  const std::uint32_t depth = d.empty() ? 0 : *std::max_element(d.begin(), d.end());
+  char buf[1024];
+  std::string out;
+  std::snprintf(buf, sizeof buf,
+                "nodes            %zu (input %zu)\n"
+                "tips             %zu\n"
+                "forks            %zu\n"
+                "depth            %u edges\n"
+                "radius           %.6g .. %.6g m\n"
+                "total length     %.6g m\n"
+                "extent           [%.6g, %.6g, %.6g] .. [%.6g, %.6g, %.6g] (up axis %s)\n",
+                s.size(), r.input_nodes, tips, forks, depth, rmin, rmax, total_length, lo.x, lo.y, lo.z, hi.x, hi.y,
+                hi.z, s.up_axis == UpAxis::y ? "y" : "z");
+  out += buf;
+  std::snprintf(buf, sizeof buf,
+                "sanitize report\n"
+                "  merged edges     %zu\n"
+                "  raised radii     %zu (floor %.6g m)\n"
+                "  clamped children %zu\n"
+                "  resampled edges  %zu\n"
+                "  binarized nodes  %zu\n"
+                "  inserted nodes   %zu\n",
+                r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
+                r.binarized_nodes, r.inserted_nodes);
+  out += buf;
+  return out;
+}
+
+}  // namespace sm::cli

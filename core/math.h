@@ -1,0 +1,45 @@
+#pragma once
+/// Small geometric helpers shared by the stages (GLM, double precision).
+
+#include <cmath>
+
+#include <glm/glm.hpp>
+
+namespace sm {
+
+using glm::dvec2;
+using glm::dvec3;
+
+/// An orthonormal frame: `tangent` points along the branch (from the root towards the tips),
+/// `normal` and `binormal` span the cross-section plane; (normal, binormal, tangent) is
+/// right-handed, so 2D cross-section coordinates (x along normal, y along binormal) turn
+/// counter-clockwise when seen from the tip side, looking against the tangent.
+struct Frame {
+  dvec3 tangent{0, 0, 1};
+  dvec3 normal{1, 0, 0};
+  dvec3 binormal{0, 1, 0};
+
+  /// 3D offset of the 2D cross-section point p (metres) in this frame.
+  [[nodiscard]] dvec3 to_world(dvec2 p) const { return p.x * normal + p.y * binormal; }
+  /// 2D cross-section coordinates of the 3D offset v (projected onto the section plane).
+  [[nodiscard]] dvec2 to_local(const dvec3& v) const { return {glm::dot(v, normal), glm::dot(v, binormal)}; }
+};
+
+/// A unit vector perpendicular to the unit vector `t` (deterministic choice).
+dvec3 any_perpendicular(const dvec3& t);
+
+/// The frame with tangent `t` (unit) obtained from `f` by the minimal rotation taking
+/// f.tangent to t (one step of parallel transport, double reflection method of Wang et al.
+/// 2008 reduced to a single rotation). The result is re-orthonormalized.
+Frame transport_frame(const Frame& f, const dvec3& t);
+
+/// Normalizes v; returns `fallback` when |v| is (close to) zero.
+inline dvec3 normalize_or(const dvec3& v, const dvec3& fallback) {
+  const double l = glm::length(v);
+  return l > 1e-300 && std::isfinite(l) ? v / l : fallback;
+}
+
+/// 2D cross product (z of the 3D cross product): > 0 when b is counter-clockwise of a.
+inline double cross2(const dvec2& a, const dvec2& b) { return a.x * b.y - a.y * b.x; }
+
+}  // namespace sm

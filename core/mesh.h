@@ -1,0 +1,41 @@
+#pragma once
+/// The triangle mesh produced by the meshing stage and consumed by export and checks.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/ids.h"
+
+namespace sm {
+
+/// A welded, indexed triangle mesh (structure of arrays).
+///
+/// Triangles are counter-clockwise seen from outside. Vertices are shared between all
+/// triangles that meet there (the mesh is welded, so topology checks work on it directly);
+/// attributes that are discontinuous (UV seams) are stored per corner and only split into
+/// separate vertices by the exporters.
+struct Mesh {
+  using Triangle = std::array<std::uint32_t, 3>;
+
+  std::vector<glm::dvec3> positions;  ///< #V, world coordinates of the input (metres)
+  std::vector<Triangle> triangles;    ///< #F vertex indices, CCW seen from outside
+
+  std::vector<glm::dvec3> normals;          ///< #V unit normals, or empty
+  std::vector<std::array<glm::vec2, 3>> corner_uvs;  ///< #F × 3 texture coordinates, or empty
+  std::vector<StrandId> vertex_strand;      ///< #V strand the vertex lies on (invalid: cap centre), or empty
+  std::vector<NodeId> vertex_node;          ///< #V skeleton node whose edge or section made the vertex, or empty
+  std::vector<std::uint32_t> triangle_branch;  ///< #F branch id (see Skeleton::branch_id), or empty
+
+  [[nodiscard]] std::size_t vertex_count() const { return positions.size(); }
+  [[nodiscard]] std::size_t triangle_count() const { return triangles.size(); }
+  [[nodiscard]] bool empty() const { return triangles.empty(); }
+};
+
+/// Angle-weighted vertex normals of the welded mesh (unit length; a vertex
+/// with no non-degenerate incident triangle gets (0,0,1)).
+std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
+
+}  // namespace sm

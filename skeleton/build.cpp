@@ -1,0 +1,428 @@
+// Skeleton validation and sanitizing (DESIGN.md, skeleton/). Real skeletons (QSM, MTG,
+// Sapling output; ../shared/skeletons/README.md) need every repair below, so each one is
+// counted and reported rather than silently applied.
+
+#include "skeleton/build.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <unordered_map>
+
+#include "core/errors.h"
+#include "skeleton/frames.h"
+
+namespace sm {
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+std::string fmt(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+/// The n-ary working tree: indices into the raw arrays plus inserted nodes.
+struct WorkTree {
+  std::vector<dvec3> pos;
+  std::vector<double> radius;
+  std::vector<std::uint32_t> parent;                 // kNone for the root
+  std::vector<std::vector<std::uint32_t>> children;  // in input order
+  std::vector<std::int64_t> source;                  // input id or -1
+  std::vector<bool> removed;
+  std::uint32_t root = 0;
+
+  std::uint32_t add(dvec3 p, double r, std::uint32_t par, std::int64_t src) {
+    pos.push_back(p);
+    radius.push_back(r);
+    parent.push_back(par);
+    children.emplace_back();
+    source.push_back(src);
+    removed.push_back(false);
+    return static_cast<std::uint32_t>(pos.size() - 1);
+  }
+
+  /// Live nodes in breadth-first order from the root (parents before children).
+  [[nodiscard]] std::vector<std::uint32_t> bfs() const {
+    std::vector<std::uint32_t> order;
+    order.reserve(pos.size());
+    order.push_back(root);
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      for (std::uint32_t c : children[order[k]]) order.push_back(c);
+    }
+    return order;
+  }
+};
+
+[[noreturn]] void reject(const std::string& msg) { throw InvalidInputError(msg); }
+
+/// "file: place" for error messages (places in RawSkeleton::where do not repeat the file).
+std::string at(const RawSkeleton& raw, std::size_t i) {
+  return raw.source.empty() ? raw.place(i) : raw.source + ": " + raw.place(i);
+}
+
+/// Validation: everything that makes the input malformed, each with one clear message.
+/// Returns the index of the root. Fills `index_of` (id -> index).
+std::uint32_t validate(const RawSkeleton& raw, const SkeletonParams& params,
+                       std::unordered_map<std::int64_t, std::uint32_t>& index_of) {
+  const std::size_t n = raw.size();
+  if (raw.parent_id.size() != n || raw.position.size() != n || raw.radius.size() != n) {
+    throw InternalError("RawSkeleton arrays have different lengths");
+  }
+  const std::string file = raw.source.empty() ? std::string("skeleton") : raw.source;
+  if (n == 0) reject(file + ": the skeleton has no nodes");
+  if (n > params.max_nodes) {
+    reject(file + ": the skeleton has " + std::to_string(n) + " nodes, more than the limit of " +
+           std::to_string(params.max_nodes) + " (raise it with --max-nodes)");
+  }
+  index_of.reserve(n * 2);
+  std::uint32_t root = kNone;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string where = at(raw, i);
+    if (raw.id[i] < 0) reject(where + ": node id " + std::to_string(raw.id[i]) + " is negative; ids must be >= 0");
+    if (raw.parent_id[i] < -1) {
+      reject(where + ": parent " + std::to_string(raw.parent_id[i]) + " is invalid; use -1 for the root or a node id");
+    }
+    const dvec3& p = raw.position[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      reject(where + ": position (" + fmt(p.x) + ", " + fmt(p.y) + ", " + fmt(p.z) + ") is not finite");
+    }
+    if (!std::isfinite(raw.radius[i])) reject(where + ": radius " + fmt(raw.radius[i]) + " is not finite");
+    if (raw.radius[i] < 0) reject(where + ": radius " + fmt(raw.radius[i]) + " is negative; radii must be >= 0");
+    auto [it, inserted] = index_of.emplace(raw.id[i], static_cast<std::uint32_t>(i));
+    if (!inserted) {
+      reject(where + ": duplicate node id " + std::to_string(raw.id[i]) + " (also at " + raw.place(it->second) + ")");
+    }
+    if (raw.parent_id[i] == -1) {
+      if (root != kNone) {
+        reject(where + ": a second root (parent -1); the skeleton must have exactly one root, the first is at " +
+               raw.place(root));
+      }
+      root = static_cast<std::uint32_t>(i);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int64_t pid = raw.parent_id[i];
+    if (pid == -1) continue;
+    if (pid == raw.id[i]) reject(at(raw, i) + ": node is its own parent (a cycle)");
+    if (!index_of.count(pid)) {
+      reject(at(raw, i) + ": parent id " + std::to_string(pid) + " does not exist");
+    }
+  }
+  if (root == kNone) reject(file + ": no root (no node has parent -1); the parent links form a cycle");
+  return root;
+}
+
+/// Builds children lists and rejects cycles (nodes not reachable from the root).
+WorkTree make_tree(const RawSkeleton& raw, std::uint32_t root,
+                   const std::unordered_map<std::int64_t, std::uint32_t>& index_of) {
+  const std::size_t n = raw.size();
+  WorkTree t;
+  t.pos = raw.position;
+  t.radius = raw.radius;
+  t.parent.assign(n, kNone);
+  t.children.resize(n);
+  t.source = raw.id;
+  t.removed.assign(n, false);
+  t.root = root;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (raw.parent_id[i] == -1) continue;
+    const std::uint32_t p = index_of.at(raw.parent_id[i]);
+    t.parent[i] = p;
+    t.children[p].push_back(static_cast<std::uint32_t>(i));
+  }
+  const auto order = t.bfs();
+  if (order.size() != n) {
+    // Every node has one parent and there is one root, so an unreachable node leads, by
+    // following parents, into a cycle. Find and name it.
+    std::vector<bool> reached(n, false);
+    for (auto i : order) reached[i] = true;
+    std::uint32_t start = 0;
+    while (reached[start]) ++start;
+    std::vector<std::uint32_t> seen_at(n, kNone);
+    std::vector<std::uint32_t> path;
+    std::uint32_t v = start;
+    while (seen_at[v] == kNone) {
+      seen_at[v] = static_cast<std::uint32_t>(path.size());
+      path.push_back(v);
+      v = t.parent[v];
+    }
+    std::string cycle;
+    const std::size_t from = seen_at[v];
+    for (std::size_t k = from; k < path.size() && k < from + 8; ++k) {
+      cycle += std::to_string(raw.id[path[k]]) + " -> ";
+    }
+    cycle += path.size() - from > 8 ? "..." : std::to_string(raw.id[v]);
+    reject(at(raw, v) + ": the parent links form a cycle (ids " + cycle + "); a skeleton must be a tree");
+  }
+  return t;
+}
+
+double auto_radius_floor(const WorkTree& t) {
+  double max_r = 0, min_pos = std::numeric_limits<double>::infinity();
+  for (double r : t.radius) {
+    max_r = std::max(max_r, r);
+    if (r > 0) min_pos = std::min(min_pos, r);
+  }
+  if (max_r <= 0) {
+    // No radius at all: 1% of the bounding box diagonal, or 1 cm for a single point.
+    dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const auto& p : t.pos) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    const double diag = glm::length(hi - lo);
+    return diag > 0 ? 0.01 * diag : 0.01;
+  }
+  return std::max(min_pos, 0.002 * max_r);
+}
+
+void raise_radii(WorkTree& t, double floor, SkeletonReport& rep, const RawSkeleton& raw) {
+  for (std::size_t i = 0; i < t.radius.size(); ++i) {
+    if (t.radius[i] < floor) {
+      t.radius[i] = floor;
+      ++rep.raised_radii;
+      rep.warnings.add("raised_radius", "radius below the floor " + fmt(floor) + " m raised to it", raw.place(i));
+    }
+  }
+}
+
+/// Merges zero-length and too-short edges into the parent, top-down.
+void merge_short_edges(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  std::vector<std::uint32_t> queue{t.root};
+  std::vector<std::vector<std::uint32_t>> kept(t.pos.size());
+  for (std::size_t k = 0; k < queue.size(); ++k) {
+    const std::uint32_t v = queue[k];
+    // Children of v, including those inherited from merged children (appended as we go).
+    auto& ch = t.children[v];
+    for (std::size_t j = 0; j < ch.size(); ++j) {
+      const std::uint32_t c = ch[j];
+      const double len = glm::length(t.pos[c] - t.pos[v]);
+      const double scale = std::max({std::abs(t.pos[c].x), std::abs(t.pos[c].y), std::abs(t.pos[c].z), 1.0});
+      const double tol = std::max(params.merge_edge_ratio * std::max(t.radius[c], t.radius[v]), 1e-12 * scale);
+      if (len <= tol) {
+        t.removed[c] = true;
+        ++rep.merged_edges;
+        rep.warnings.add("merged_edge",
+                         len <= 1e-12 * scale ? "zero-length edge merged into its parent"
+                                              : "edge shorter than merge_edge_ratio x radius merged into its parent",
+                         raw.place(c < raw.size() ? c : v));
+        for (std::uint32_t g : t.children[c]) {
+          t.parent[g] = v;
+          ch.push_back(g);  // examined later in this same loop against v
+        }
+        t.children[c].clear();
+      } else {
+        kept[v].push_back(c);
+        queue.push_back(c);
+      }
+    }
+  }
+  for (std::size_t v = 0; v < t.children.size(); ++v) {
+    if (!t.removed[v]) t.children[v] = std::move(kept[v]);
+  }
+}
+
+void fix_thick_children(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  if (params.thick_child_policy == ThickChildPolicy::keep) return;
+  const double ratio = std::max(params.max_child_ratio, 1e-6);
+  const auto order = t.bfs();
+  auto note = [&](std::uint32_t c) {
+    ++rep.clamped_children;
+    rep.warnings.add("thick_child",
+                     params.thick_child_policy == ThickChildPolicy::clamp_child
+                         ? "child thicker than max_child_ratio x its parent clamped down"
+                         : "parent thinner than its child raised",
+                     c < raw.size() ? raw.place(c) : std::string("inserted node"));
+  };
+  if (params.thick_child_policy == ThickChildPolicy::clamp_child) {
+    for (std::uint32_t c : order) {
+      if (t.parent[c] == kNone) continue;
+      const double limit = ratio * t.radius[t.parent[c]];
+      if (t.radius[c] > limit * (1 + 1e-12)) {
+        t.radius[c] = limit;
+        note(c);
+      }
+    }
+  } else {
+    for (auto it = order.rbegin(); it != order.rend(); ++it) {
+      const std::uint32_t c = *it;
+      if (t.parent[c] == kNone) continue;
+      double& rp = t.radius[t.parent[c]];
+      if (t.radius[c] > ratio * rp * (1 + 1e-12)) {
+        rp = t.radius[c] / ratio;
+        note(c);
+      }
+    }
+  }
+}
+
+void resample_long_edges(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep) {
+  if (params.max_edge_ratio <= 0) return;
+  const auto order = t.bfs();
+  for (std::uint32_t c : order) {
+    const std::uint32_t p = t.parent[c];
+    if (p == kNone) continue;
+    const double len = glm::length(t.pos[c] - t.pos[p]);
+    const double max_len = params.max_edge_ratio * 0.5 * (t.radius[c] + t.radius[p]);
+    if (len <= max_len) continue;
+    const auto pieces = static_cast<std::size_t>(std::min(std::ceil(len / max_len), 1e4));
+    ++rep.resampled_edges;
+    rep.warnings.add("resampled_edge", "edge longer than max_edge_ratio x radius split into equal parts");
+    std::uint32_t prev = p;
+    auto& pc = t.children[p];
+    const auto slot = std::find(pc.begin(), pc.end(), c) - pc.begin();
+    for (std::size_t k = 1; k < pieces; ++k) {
+      const double a = double(k) / double(pieces);
+      const std::uint32_t m = t.add(glm::mix(t.pos[p], t.pos[c], a), glm::mix(t.radius[p], t.radius[c], a), prev, -1);
+      if (prev == p) {
+        t.children[p][static_cast<std::size_t>(slot)] = m;
+      } else {
+        t.children[prev].push_back(m);
+      }
+      prev = m;
+      ++rep.inserted_nodes;
+    }
+    t.children[prev].push_back(c);
+    t.parent[c] = prev;
+  }
+}
+
+/// Sum of tip radius² per subtree (bottom-up over a BFS order).
+std::vector<double> tip_weights(const WorkTree& t, const std::vector<std::uint32_t>& order) {
+  std::vector<double> w(t.pos.size(), 0.0);
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    const std::uint32_t v = *it;
+    if (t.children[v].empty()) {
+      w[v] = t.radius[v] * t.radius[v];
+    } else {
+      double s = 0;
+      for (auto c : t.children[v]) s += w[c];
+      w[v] = s;
+    }
+  }
+  return w;
+}
+
+/// Orders every node's children main first (largest tip weight, ties by lower index) and
+/// replaces nodes with more than two children by chains of extra nodes.
+void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  auto order = t.bfs();
+  const std::vector<double> w = tip_weights(t, order);
+  auto heavier = [&](std::uint32_t a, std::uint32_t b) { return w[a] != w[b] ? w[a] > w[b] : a < b; };
+  for (std::uint32_t v : order) {
+    auto& ch = t.children[v];
+    std::sort(ch.begin(), ch.end(), heavier);
+    if (ch.size() <= 2) continue;
+    ++rep.binarized_nodes;
+    rep.warnings.add("binarized", "node with more than two children replaced by a chain of binary forks",
+                     v < raw.size() ? raw.place(v) : std::string("inserted node"));
+    const std::vector<std::uint32_t> sorted = ch;  // [main, lateral1 (thickest), lateral2, ...]
+    const std::uint32_t main = sorted[0];
+    const std::size_t k = sorted.size();
+    const dvec3 origin = t.pos[v];
+    const double dist = glm::length(t.pos[main] - origin);
+    const dvec3 dir = (t.pos[main] - origin) / dist;  // dist > 0 after merging
+    // k - 2 extra nodes, each at least one merge tolerance apart so re-importing the
+    // sanitized skeleton does not merge them again.
+    const double min_step = 2.0 * params.merge_edge_ratio * t.radius[v];
+    const double step = std::max({params.binarize_step_ratio * t.radius[v], min_step, 1e-9});
+    ch = {sorted[1]};
+    std::uint32_t prev = v;
+    for (std::size_t j = 1; j + 1 < k; ++j) {
+      const std::uint32_t e = t.add(origin + dir * (step * double(j)), t.radius[v], prev, -1);
+      t.children[prev].insert(t.children[prev].begin(), e);  // chain node is the main child
+      if (j + 1 < k - 1) t.children[e].push_back(sorted[j + 1]);
+      t.parent[sorted[j + 1]] = e;
+      prev = e;
+      ++rep.inserted_nodes;
+    }
+    // The last chain node carries the main child and the last lateral.
+    t.children[prev] = {main, sorted[k - 1]};
+    t.parent[main] = prev;
+    t.parent[sorted[k - 1]] = prev;
+    if (dist <= step * double(k - 2) + min_step) {
+      // The main child sits inside the chain: move it just beyond the last chain node.
+      const dvec3 delta = origin + dir * (step * double(k - 2) + 1.5 * std::max(min_step, step)) - t.pos[main];
+      t.pos[main] += delta;
+      rep.warnings.add("binarize_moved_child", "main child moved slightly outward to make room for binarized forks",
+                       main < raw.size() ? raw.place(main) : std::string("inserted node"));
+    }
+  }
+}
+
+}  // namespace
+
+SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
+  Stopwatch clock;
+  SkeletonResult result;
+  SkeletonReport& rep = result.report;
+  rep.input_nodes = raw.size();
+
+  std::unordered_map<std::int64_t, std::uint32_t> index_of;
+  const std::uint32_t root = validate(raw, params, index_of);
+  WorkTree t = make_tree(raw, root, index_of);
+  rep.timings.add("validate", clock.lap());
+
+  rep.radius_floor = params.radius_floor > 0 ? params.radius_floor : auto_radius_floor(t);
+  raise_radii(t, rep.radius_floor, rep, raw);
+  merge_short_edges(t, params, rep, raw);
+  fix_thick_children(t, params, rep, raw);
+  resample_long_edges(t, params, rep);
+  binarize(t, params, rep, raw);
+  rep.timings.add("repair", clock.lap());
+
+  // Renumber depth-first from the root, main child first, so main chains are contiguous and
+  // parent[i] < i. Explicit stack: no recursion over depth.
+  Skeleton& s = result.skeleton;
+  s.up_axis = raw.up_axis;
+  std::vector<std::pair<std::uint32_t, NodeId>> stack{{t.root, NodeId{}}};
+  while (!stack.empty()) {
+    auto [v, par] = stack.back();
+    stack.pop_back();
+    const NodeId id = s.add_node(par, t.pos[v], t.radius[v], t.source[v]);
+    const auto& ch = t.children[v];
+    for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.emplace_back(*it, id);
+  }
+  // add_node fills child slots in visiting order, which is main first (pushed last above).
+  compute_frames(s);
+  rep.output_nodes = s.size();
+  validate_binary_skeleton(s);
+  rep.timings.add("frames", clock.lap());
+  return result;
+}
+
+void validate_binary_skeleton(const Skeleton& s) {
+  const std::size_t n = s.size();
+  SM_CHECK(s.radius.size() == n && s.parent.size() == n && s.children.size() == n && s.frame.size() == n &&
+               s.source_id.size() == n,
+           "skeleton arrays have different lengths");
+  if (n == 0) return;
+  SM_CHECK(!s.parent[0].valid(), "node 0 must be the root");
+  for (std::size_t i = 0; i < n; ++i) {
+    const NodeId id(i);
+    SM_CHECK(std::isfinite(s.radius[i]) && s.radius[i] > 0, "radius must be finite and > 0");
+    const dvec3& p = s.position[i];
+    SM_CHECK(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z), "position must be finite");
+    if (i > 0) {
+      SM_CHECK(s.parent[i].valid() && s.parent[i].idx() < i, "parent must precede its child");
+      const auto& pc = s.children[s.parent[i].idx()];
+      SM_CHECK(pc[0] == id || pc[1] == id, "parent must list the node as a child");
+      SM_CHECK(s.edge_length(id) > 0, "edges must have positive length");
+    }
+    const auto& c = s.children[i];
+    SM_CHECK(c[0].valid() || !c[1].valid(), "a lateral child requires a main child");
+    for (const NodeId k : c) {
+      if (k.valid()) SM_CHECK(k.idx() < n && s.parent[k.idx()] == id, "child must point back to its parent");
+    }
+    const Frame& f = s.frame[i];
+    SM_CHECK(std::abs(glm::length(f.tangent) - 1) < 1e-9 && std::abs(glm::length(f.normal) - 1) < 1e-9 &&
+                 std::abs(glm::dot(f.tangent, f.normal)) < 1e-9 && std::abs(glm::dot(f.tangent, f.binormal)) < 1e-9,
+             "frames must be orthonormal");
+  }
+}
+
+}  // namespace sm

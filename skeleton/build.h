@@ -1,0 +1,81 @@
+#pragma once
+/// Skeleton stage entry point: validate, repair, binarize and frame a raw skeleton.
+///
+/// Validation comes first and rejects malformed input with an InvalidInputError naming the
+/// node and the rule: no nodes, too many nodes, duplicate ids, negative ids, a missing parent,
+/// several roots or none, cycles, non-finite coordinates or radii, negative radii.
+///
+/// Then each repair runs in this order, counted in the report (and as Warnings):
+///  1. edges shorter than `merge_edge_ratio` × radius (or exactly zero) are merged into the
+///     parent node (the child's children move to the parent);
+///  2. radii below the floor are raised to it;
+///  3. children thicker than their parent are clamped (or the parent raised; see policy);
+///  4. optionally, edges longer than `max_edge_ratio` × radius are resampled;
+///  5. nodes with more than two children become a chain of extra nodes a tiny step apart,
+///     each with one lateral child (thickest laterals first, nearest the parent);
+///  6. nodes are renumbered root-first (depth-first, main child first) and framed by
+///     parallel transport.
+
+#include <cstddef>
+#include <cstdint>
+
+#include "core/report.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+/// What to do with a child that is thicker than its parent.
+enum class ThickChildPolicy {
+  clamp_child,   ///< lower the child's radius to the parent's (default; local, predictable)
+  raise_parent,  ///< raise the parent (and its ancestors as needed) to the child's radius
+  keep,          ///< leave radii as they are (later stages cope; meshes may bulge)
+};
+
+struct SkeletonParams {
+  /// Largest accepted node count; more is rejected as malformed input.
+  std::size_t max_nodes = 20'000'000;
+  /// Edges shorter than this fraction of the larger of their two radii are merged into the
+  /// parent (relative to the local radius). Zero-length edges are always merged.
+  double merge_edge_ratio = 0.05;
+  /// Radius floor in metres; 0 = automatic: the smallest positive radius in the input, but
+  /// at least 0.2% of the largest radius.
+  double radius_floor = 0.0;
+  /// A child may be at most this many times as thick as its parent before the policy applies.
+  double max_child_ratio = 1.0;
+  ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
+  /// Edges longer than this many times the local radius are split into equal parts;
+  /// 0 disables resampling (default).
+  double max_edge_ratio = 0.0;
+  /// Step between the extra nodes of a binarized n-ary node, relative to the node's radius.
+  double binarize_step_ratio = 0.02;
+};
+
+/// The counted repairs of one build_skeleton() run, for `strandmesh info` and the viewer.
+struct SkeletonReport {
+  std::size_t input_nodes = 0;
+  std::size_t output_nodes = 0;
+  std::size_t merged_edges = 0;          ///< zero-length or too-short edges merged into parents
+  std::size_t raised_radii = 0;          ///< radii raised to the floor
+  std::size_t clamped_children = 0;      ///< thick children clamped (or parents raised)
+  std::size_t resampled_edges = 0;       ///< long edges split
+  std::size_t binarized_nodes = 0;       ///< nodes with more than two children
+  std::size_t inserted_nodes = 0;        ///< extra nodes created by binarizing or resampling
+  double radius_floor = 0;               ///< the floor used (metres)
+  Warnings warnings;                     ///< one counted warning per kind of repair
+  Timings timings;
+};
+
+struct SkeletonResult {
+  Skeleton skeleton;
+  SkeletonReport report;
+};
+
+/// Validates and sanitizes `raw` into a binary framed skeleton.
+/// Throws InvalidInputError (naming node and rule) on malformed input.
+SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params = {});
+
+/// Checks the invariants documented on Skeleton; throws InternalError on the first breach.
+/// Cheap (linear); used by tests and as a guard before later stages.
+void validate_binary_skeleton(const Skeleton& skeleton);
+
+}  // namespace sm

@@ -1,0 +1,72 @@
+#include "skeleton/skeleton.h"
+
+#include "core/errors.h"
+
+namespace sm {
+
+std::size_t RawSkeleton::add(std::int64_t node_id, std::int64_t parent, dvec3 pos, double r) {
+  id.push_back(node_id);
+  parent_id.push_back(parent);
+  position.push_back(pos);
+  radius.push_back(r);
+  if (!where.empty()) where.emplace_back();
+  return id.size() - 1;
+}
+
+std::string RawSkeleton::place(std::size_t i) const {
+  if (i < where.size() && !where[i].empty()) return where[i];
+  return "node id " + std::to_string(id[i]);
+}
+
+double Skeleton::edge_length(NodeId n) const {
+  const NodeId p = parent[n.idx()];
+  return p.valid() ? glm::length(position[n.idx()] - position[p.idx()]) : 0.0;
+}
+
+std::vector<std::uint32_t> Skeleton::depths() const {
+  std::vector<std::uint32_t> d(size(), 0);
+  for (std::size_t i = 1; i < size(); ++i) d[i] = d[parent[i].idx()] + 1;  // parent[i] < i
+  return d;
+}
+
+std::vector<std::uint32_t> Skeleton::branch_ids() const {
+  std::vector<std::uint32_t> b(size(), 0);
+  for (std::size_t i = 1; i < size(); ++i) {
+    const NodeId p = parent[i];
+    b[i] = children[p.idx()][0] == NodeId(i) ? b[p.idx()] : static_cast<std::uint32_t>(i);
+  }
+  return b;
+}
+
+std::string Skeleton::describe(NodeId n) const {
+  std::string s = "node " + std::to_string(n.value);
+  if (n.idx() < source_id.size()) {
+    if (source_id[n.idx()] >= 0) {
+      s += " (input id " + std::to_string(source_id[n.idx()]) + ")";
+    } else {
+      s += " (inserted)";
+    }
+  }
+  return s;
+}
+
+NodeId Skeleton::add_node(NodeId p, dvec3 pos, double r, std::int64_t source) {
+  const NodeId n(position.size());
+  if (p.valid()) {
+    SM_CHECK(p.idx() < size(), "add_node: parent out of range");
+    auto& c = children[p.idx()];
+    SM_CHECK(!c[1].valid(), "add_node: parent already has two children");
+    (c[0].valid() ? c[1] : c[0]) = n;
+  } else {
+    SM_CHECK(empty(), "add_node: only the first node may be a root");
+  }
+  position.push_back(pos);
+  radius.push_back(r);
+  parent.push_back(p);
+  children.push_back({NodeId{}, NodeId{}});
+  frame.emplace_back();
+  source_id.push_back(source);
+  return n;
+}
+
+}  // namespace sm

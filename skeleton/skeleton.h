@@ -1,0 +1,86 @@
+#pragma once
+/// The tree skeleton: the input of every later stage.
+///
+/// Two representations:
+///  - `RawSkeleton` is what a file or a grower provides: any number of children per node,
+///    arbitrary ids, possibly messy (zero-length edges, zero radii, thick children). It has
+///    not been validated.
+///  - `Skeleton` is the clean binary tree every later stage relies on, produced by
+///    `build_skeleton()` (skeleton/build.h): validated, repaired, binarized and framed.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/ids.h"
+#include "core/math.h"
+
+namespace sm {
+
+/// Which world axis points up in the input. Coordinates are kept as given; exporters convert
+/// to the y-up convention of glTF.
+enum class UpAxis { z, y };
+
+/// A skeleton as read from a file or produced by a grower, before validation.
+/// All arrays have the same length #N (one entry per node, in input order).
+struct RawSkeleton {
+  std::vector<std::int64_t> id;         ///< #N node ids as given (any distinct non-negative integers)
+  std::vector<std::int64_t> parent_id;  ///< #N parent ids as given; -1 marks the root
+  std::vector<dvec3> position;          ///< #N positions (metres, world frame of the input)
+  std::vector<double> radius;           ///< #N radii (metres)
+  std::vector<std::string> where;       ///< #N or empty: human-readable place of each node for
+                                        ///< error messages ("line 12"); empty → "node id <id>"
+  UpAxis up_axis = UpAxis::z;
+  std::string source;                   ///< informative description of the origin
+
+  [[nodiscard]] std::size_t size() const { return id.size(); }
+  /// Appends a node; returns its index.
+  std::size_t add(std::int64_t node_id, std::int64_t parent, dvec3 pos, double r);
+  /// Human-readable place of node i for messages.
+  [[nodiscard]] std::string place(std::size_t i) const;
+};
+
+/// A validated, binary, framed skeleton (structure of arrays, #N nodes).
+///
+/// Invariants (established by build_skeleton and checked by `validate_binary_skeleton`):
+///  - node 0 is the root and `parent[i] < i` for every other node, so iterating indices
+///    downwards visits children before parents (bottom-up) without recursion;
+///  - every node has 0, 1 or 2 children; `children[i][0]` is the main continuation (the child
+///    whose subtree has the larger sum of tip radius², ties broken by the lower index) and
+///    `children[i][1]` the lateral; a node with one child stores it in slot 0;
+///  - radii are finite and > 0, positions finite, edges have positive length;
+///  - `frame[i]` is orthonormal, its tangent along the branch, obtained by parallel transport
+///    from the root (see skeleton/frames.h).
+struct Skeleton {
+  std::vector<dvec3> position;                 ///< #N node positions (metres, input frame)
+  std::vector<double> radius;                  ///< #N radii (metres), > 0
+  std::vector<NodeId> parent;                  ///< #N parent, invalid for the root
+  std::vector<std::array<NodeId, 2>> children;  ///< #N [main, lateral], invalid when absent
+  std::vector<Frame> frame;                    ///< #N orthonormal cross-section frames
+  std::vector<std::int64_t> source_id;         ///< #N id in the input; -1 for inserted nodes
+  UpAxis up_axis = UpAxis::z;
+
+  [[nodiscard]] std::size_t size() const { return position.size(); }
+  [[nodiscard]] bool empty() const { return position.empty(); }
+  [[nodiscard]] static NodeId root() { return NodeId(0u); }
+  [[nodiscard]] int child_count(NodeId n) const {
+    return int(children[n.idx()][0].valid()) + int(children[n.idx()][1].valid());
+  }
+  [[nodiscard]] bool is_tip(NodeId n) const { return !children[n.idx()][0].valid(); }
+  [[nodiscard]] bool is_fork(NodeId n) const { return children[n.idx()][1].valid(); }
+  /// Length of the edge from n's parent to n (0 for the root).
+  [[nodiscard]] double edge_length(NodeId n) const;
+  /// Number of edges from the root to n.
+  [[nodiscard]] std::vector<std::uint32_t> depths() const;
+  /// #N branch id of every node: a branch is a maximal chain of main continuations; its id is
+  /// the index of its first node (the root, or a lateral child). Used for `_BRANCH_ID`.
+  [[nodiscard]] std::vector<std::uint32_t> branch_ids() const;
+  /// Human-readable name of node n for messages: "node 12 (input id 40)".
+  [[nodiscard]] std::string describe(NodeId n) const;
+  /// Appends a node with the given parent (invalid for the root) and returns its id. Slots:
+  /// the first child added goes to slot 0. Frames are left default; call compute_frames().
+  NodeId add_node(NodeId parent, dvec3 pos, double r, std::int64_t source = -1);
+};
+
+}  // namespace sm

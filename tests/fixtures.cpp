@@ -1,0 +1,122 @@
+#include "tests/fixtures.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <unistd.h>
+
+#include "skeleton/grow/random_grower.h"
+
+namespace sm::test {
+
+RawSkeleton straight_branch(int nodes) {
+  RawSkeleton raw;
+  raw.source = "straight_branch";
+  for (int i = 0; i < nodes; ++i) {
+    raw.add(i, i - 1, dvec3(0, 0, 0.4 * i), 0.1 - 0.05 * i / std::max(1, nodes - 1));
+  }
+  return raw;
+}
+
+RawSkeleton y_fork(double angle_degrees) {
+  RawSkeleton raw;
+  raw.source = "y_fork";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 0.5), 0.095);
+  raw.add(2, 1, dvec3(0, 0, 1.0), 0.09);
+  const double a = angle_degrees * std::numbers::pi / 180.0;
+  const dvec3 d1(std::sin(a), 0, std::cos(a)), d2(-std::sin(a), 0, std::cos(a));
+  raw.add(3, 2, dvec3(0, 0, 1.0) + 0.5 * d1, 0.07);
+  raw.add(4, 3, dvec3(0, 0, 1.0) + 1.0 * d1, 0.06);
+  raw.add(5, 2, dvec3(0, 0, 1.0) + 0.5 * d2, 0.055);
+  raw.add(6, 5, dvec3(0, 0, 1.0) + 1.0 * d2, 0.045);
+  return raw;
+}
+
+RawSkeleton trifurcation() {
+  RawSkeleton raw;
+  raw.source = "trifurcation";
+  raw.add(10, -1, dvec3(0, 0, 0), 0.1);
+  raw.add(11, 10, dvec3(0, 0, 0.6), 0.09);
+  raw.add(12, 11, dvec3(0, 0, 1.2), 0.07);
+  raw.add(13, 11, dvec3(0.4, 0, 1.0), 0.05);
+  raw.add(14, 11, dvec3(-0.3, 0.3, 1.0), 0.04);
+  return raw;
+}
+
+RawSkeleton six_children() {
+  RawSkeleton raw;
+  raw.source = "six_children";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.12);
+  raw.add(1, 0, dvec3(0, 0, 0.6), 0.11);
+  for (int k = 0; k < 6; ++k) {
+    const double phi = 2 * std::numbers::pi * k / 6.0;
+    const dvec3 d = k == 0 ? dvec3(0, 0, 1) : glm::normalize(dvec3(std::cos(phi), std::sin(phi), 1.2));
+    raw.add(2 + k, 1, dvec3(0, 0, 0.6) + 0.5 * d, k == 0 ? 0.08 : 0.03 + 0.004 * k);
+  }
+  return raw;
+}
+
+RawSkeleton zero_length_edges() {
+  RawSkeleton raw;
+  raw.source = "zero_length_edges";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 0.5), 0.09);
+  raw.add(2, 1, dvec3(0, 0, 0.5), 0.09);  // duplicate of 1
+  raw.add(3, 2, dvec3(0, 0, 1.0), 0.08);
+  raw.add(4, 3, dvec3(0, 0, 1.0), 0.0);   // zero-length tip with zero radius
+  raw.add(5, 2, dvec3(0.3, 0, 0.8), 0.04);
+  return raw;
+}
+
+RawSkeleton thick_child() {
+  RawSkeleton raw;
+  raw.source = "thick_child";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 0.5), 0.05);
+  raw.add(2, 1, dvec3(0, 0, 1.0), 0.04);
+  raw.add(3, 1, dvec3(0.4, 0, 0.8), 0.1);  // twice as thick as its parent
+  return raw;
+}
+
+RawSkeleton long_chain(int nodes) {
+  RawSkeleton raw;
+  raw.source = "long_chain";
+  raw.id.reserve(std::size_t(nodes));
+  for (int i = 0; i < nodes; ++i) {
+    // A gentle helix so frames have something to transport.
+    const double t = 0.01 * i;
+    raw.add(i, i - 1, dvec3(0.2 * std::cos(t), 0.2 * std::sin(t), 0.05 * i), 0.02);
+  }
+  return raw;
+}
+
+RawSkeleton grown_tree(std::uint64_t seed) {
+  RandomGrowParams p;
+  p.seed = seed;
+  return grow_random(p);
+}
+
+Skeleton built(const RawSkeleton& raw, const SkeletonParams& params) { return build_skeleton(raw, params).skeleton; }
+
+std::vector<std::filesystem::path> sample_skeletons() {
+  std::vector<std::filesystem::path> files;
+  const std::filesystem::path dir = STRANDMESH_SAMPLE_DIR;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return files;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const auto ext = e.path().extension().string();
+    if (ext == ".json" || ext == ".swc") files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::filesystem::path temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("strandmesh_test_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace sm::test

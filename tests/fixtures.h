@@ -1,0 +1,39 @@
+#pragma once
+/// Skeleton fixtures built in code, shared by every stage's tests (pmp-library's
+/// tests/helpers.h is the model). All are z-up, in metres.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "skeleton/build.h"
+#include "skeleton/skeleton.h"
+
+namespace sm::test {
+
+/// A straight vertical branch of `nodes` nodes, tapering from 0.1 to 0.05 m.
+RawSkeleton straight_branch(int nodes = 6);
+/// A trunk of three nodes that forks into two branches of three nodes each.
+RawSkeleton y_fork(double angle_degrees = 35.0);
+/// A trunk whose top node has three children.
+RawSkeleton trifurcation();
+/// A trunk whose top node has six children spread around it.
+RawSkeleton six_children();
+/// A branch with two zero-length edges (duplicate points), like Sapling output.
+RawSkeleton zero_length_edges();
+/// A fork whose lateral child is twice as thick as its parent.
+RawSkeleton thick_child();
+/// A single chain of `nodes` nodes (deep tree: no recursion over depth allowed anywhere).
+RawSkeleton long_chain(int nodes = 100'000);
+/// A random binary tree grown by the default random grower with this seed.
+RawSkeleton grown_tree(std::uint64_t seed = 1);
+
+/// Sanitized versions.
+Skeleton built(const RawSkeleton& raw, const SkeletonParams& params = {});
+
+/// The sample skeletons of ../shared/skeletons (empty when the folder is absent).
+std::vector<std::filesystem::path> sample_skeletons();
+/// A fresh empty temporary directory for one test.
+std::filesystem::path temp_dir(const std::string& name);
+
+}  // namespace sm::test

@@ -1,0 +1,106 @@
+// End-to-end tests of the strandmesh binary: exit codes, messages, no partial output.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sys/wait.h>
+
+#include "core/file_io.h"
+#include "tests/fixtures.h"
+
+namespace sm {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CmdResult {
+  int code = -1;
+  std::string out, err;
+};
+
+CmdResult run(const std::string& args) {
+  const fs::path dir = test::temp_dir("cli_run");
+  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
+                          " 2>" + (dir / "err").string();
+  const int status = std::system(cmd.c_str());
+  CmdResult r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_file(dir / "out");
+  r.err = read_file(dir / "err");
+  return r;
+}
+
+TEST(Cli, HelpAndVersion) {
+  EXPECT_EQ(run("--help").code, 0);
+  EXPECT_EQ(run("info --help").code, 0);
+  EXPECT_EQ(run("grow --help").code, 0);
+  EXPECT_NE(run("--version").out.find("strandmesh"), std::string::npos);
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+  EXPECT_EQ(run("").code, 2);
+  EXPECT_EQ(run("info").code, 2);
+  EXPECT_EQ(run("info --no-such-option x.json").code, 2);
+  EXPECT_EQ(run("frobnicate").code, 2);
+}
+
+TEST(Cli, GrowIsDeterministicAcrossThreadCounts) {
+  const fs::path dir = test::temp_dir("cli_grow");
+  ASSERT_EQ(run("--threads 1 grow --seed 9 -o " + (dir / "a.json").string()).code, 0);
+  ASSERT_EQ(run("grow --seed 9 -o " + (dir / "b.json").string()).code, 0);
+  ASSERT_EQ(run("grow --seed 10 -o " + (dir / "c.json").string()).code, 0);
+  EXPECT_EQ(read_file(dir / "a.json"), read_file(dir / "b.json"));
+  EXPECT_NE(read_file(dir / "a.json"), read_file(dir / "c.json"));
+  const CmdResult info = run("info " + (dir / "a.json").string());
+  EXPECT_EQ(info.code, 0) << info.err;
+  EXPECT_NE(info.out.find("sanitize report"), std::string::npos);
+  EXPECT_EQ(info.err, "");  // a grown tree needs no repairs
+}
+
+TEST(Cli, MalformedInputExitsOneWithoutOutput) {
+  const fs::path dir = test::temp_dir("cli_bad");
+  const std::pair<const char*, const char*> cases[] = {
+      {"truncated.json", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,)"},
+      {"cycle.json", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                        {"id":1,"parent":2,"position":[0,0,1],"radius":1},{"id":2,"parent":1,"position":[0,0,2],"radius":1}]})"},
+      {"negative.json", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":-1}]})"},
+      {"empty.json", ""},
+      {"garbage.swc", "\x7f\x45\x4c\x46\x02\x01\x01\n"},
+  };
+  for (const auto& [name, text] : cases) {
+    SCOPED_TRACE(name);
+    write_file_atomically(dir / name, text);
+    const fs::path out = dir / (std::string(name) + ".out.json");
+    const CmdResult r = run("info " + (dir / name).string() + " --export " + out.string());
+    EXPECT_EQ(r.code, 1);
+    EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(name), std::string::npos) << r.err;  // names the file
+    EXPECT_FALSE(fs::exists(out));
+  }
+  const CmdResult missing = run("info " + (dir / "does_not_exist.json").string());
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_NE(missing.err.find("cannot open"), std::string::npos);
+}
+
+TEST(Cli, InfoOnSamplesReportsRepairs) {
+  const auto files = test::sample_skeletons();
+  if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
+  const fs::path dir = test::temp_dir("cli_samples");
+  for (const auto& f : files) {
+    SCOPED_TRACE(f.filename().string());
+    const fs::path out = dir / f.filename();
+    const CmdResult r = run("info --json " + f.string() + " --export " + out.string());
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("\"nodes\""), std::string::npos);
+    EXPECT_TRUE(fs::exists(out));
+    // The exported skeleton is already clean: re-importing it repairs nothing.
+    const CmdResult again = run("info " + out.string());
+    EXPECT_EQ(again.code, 0);
+    EXPECT_EQ(again.err, "") << "re-import needed repairs";
+  }
+}
+
+}  // namespace
+}  // namespace sm

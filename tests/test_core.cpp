@@ -1,0 +1,96 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <unistd.h>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "core/math.h"
+#include "core/report.h"
+#include "core/rng.h"
+
+namespace sm {
+namespace {
+
+TEST(Rng, SameSeedSameStream) {
+  Rng a(42), b(42), c(43);
+  bool differs = false;
+  for (int i = 0; i < 100; ++i) {
+    const auto x = a.next();
+    EXPECT_EQ(x, b.next());
+    differs |= x != c.next();
+  }
+  EXPECT_TRUE(differs);
+}
+
+TEST(Rng, UniformRangeAndMean) {
+  Rng r(7);
+  double sum = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double u = r.uniform();
+    ASSERT_GE(u, 0.0);
+    ASSERT_LT(u, 1.0);
+    sum += u;
+  }
+  EXPECT_NEAR(sum / 100000, 0.5, 0.01);
+  for (int i = 0; i < 1000; ++i) ASSERT_LT(r.below(7), 7u);
+}
+
+TEST(Rng, DerivedSeedsAreDistinct) {
+  std::set<std::uint64_t> seen;
+  for (std::uint64_t a = 0; a < 100; ++a)
+    for (std::uint64_t b = 0; b < 10; ++b) seen.insert(derive_seed(1, a, b));
+  EXPECT_EQ(seen.size(), 1000u);
+  EXPECT_NE(derive_seed(1, 2), derive_seed(2, 1));
+}
+
+TEST(Warnings, CountsAndExamples) {
+  Warnings w;
+  for (int i = 0; i < 5; ++i) w.add("k", "a thing", "node " + std::to_string(i));
+  w.add("j", "another");
+  EXPECT_EQ(w.count("k"), 5u);
+  EXPECT_EQ(w.total(), 6u);
+  EXPECT_EQ(w.list()[0].examples.size(), Warnings::max_examples);
+  EXPECT_NE(w.to_string().find("a thing (5x; e.g. node 0"), std::string::npos);
+}
+
+TEST(Frames, TransportKeepsOrthonormalAndMinimal) {
+  Frame f;
+  const dvec3 t = glm::normalize(dvec3(0.3, 0.1, 1));
+  const Frame g = transport_frame(f, t);
+  EXPECT_NEAR(glm::length(g.normal), 1, 1e-12);
+  EXPECT_NEAR(glm::dot(g.normal, g.tangent), 0, 1e-12);
+  EXPECT_NEAR(glm::dot(g.binormal, glm::cross(g.tangent, g.normal)), 1, 1e-12);
+  // Transport back returns the original frame (no twist accumulates).
+  const Frame h = transport_frame(g, f.tangent);
+  EXPECT_NEAR(glm::length(h.normal - f.normal), 0, 1e-12);
+  // Opposite tangent does not produce NaN.
+  const Frame k = transport_frame(f, -f.tangent);
+  EXPECT_TRUE(std::isfinite(k.normal.x));
+  EXPECT_NEAR(glm::dot(k.normal, k.tangent), 0, 1e-12);
+}
+
+TEST(FileIo, AtomicWriteLeavesNoPartialFile) {
+  const auto dir = std::filesystem::temp_directory_path() / ("sm_core_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "out.txt";
+  write_file_atomically(path, "hello");
+  EXPECT_EQ(read_file(path), "hello");
+  EXPECT_THROW(write_file_atomically(path, [](std::ostream& out) {
+                 out << "partial";
+                 throw IoError("boom");
+               }),
+               IoError);
+  EXPECT_EQ(read_file(path), "hello");  // untouched
+  std::size_t files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1u);  // no temporary left behind
+  EXPECT_THROW(write_file_atomically(dir / "missing" / "x.txt", "x"), IoError);
+  EXPECT_THROW(read_file(dir / "nope.txt"), IoError);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace sm

@@ -1,0 +1,341 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#define GLM_ENABLE_EXPERIMENTAL
+#include <glm/gtx/quaternion.hpp>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "skeleton/build.h"
+#include "skeleton/frames.h"
+#include "skeleton/grow/random_grower.h"
+#include "skeleton/io.h"
+#include "tests/fixtures.h"
+
+namespace sm {
+namespace {
+
+using test::built;
+
+std::size_t count_forks(const Skeleton& s) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) n += s.is_fork(NodeId(i));
+  return n;
+}
+std::size_t count_tips(const Skeleton& s) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) n += s.is_tip(NodeId(i));
+  return n;
+}
+
+/// Largest twist (radians) between consecutive frames: the angle about the node's tangent
+/// between its normal and the parent's normal carried over by the minimal rotation between
+/// the two tangents (computed independently of the code under test, with a GLM quaternion).
+double max_twist(const Skeleton& s) {
+  double worst = 0;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    const Frame& f = s.frame[i];
+    const Frame& p = s.frame[s.parent[i].idx()];
+    if (glm::dot(p.tangent, f.tangent) < -0.999) continue;  // reversal: minimal rotation undefined
+    const dvec3 carried = glm::rotation(p.tangent, f.tangent) * p.normal;
+    const double a = std::atan2(glm::dot(glm::cross(carried, f.normal), f.tangent), glm::dot(carried, f.normal));
+    worst = std::max(worst, std::abs(a));
+  }
+  return worst;
+}
+
+void expect_valid(const Skeleton& s) {
+  EXPECT_NO_THROW(validate_binary_skeleton(s));
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const auto& c = s.children[i];
+    if (c[1].valid()) {
+      // Main child: larger subtree tip weight (checked via a direct recomputation).
+      auto weight = [&](NodeId root) {
+        double w = 0;
+        std::vector<NodeId> stack{root};
+        while (!stack.empty()) {
+          const NodeId v = stack.back();
+          stack.pop_back();
+          if (s.is_tip(v)) w += s.radius[v.idx()] * s.radius[v.idx()];
+          for (NodeId k : s.children[v.idx()])
+            if (k.valid()) stack.push_back(k);
+        }
+        return w;
+      };
+      EXPECT_GE(weight(c[0]), weight(c[1]) * (1 - 1e-12)) << s.describe(NodeId(i));
+    }
+  }
+}
+
+TEST(Skeleton, StraightBranch) {
+  const auto r = build_skeleton(test::straight_branch(6));
+  expect_valid(r.skeleton);
+  EXPECT_EQ(r.skeleton.size(), 6u);
+  EXPECT_EQ(count_tips(r.skeleton), 1u);
+  EXPECT_EQ(r.report.warnings.total(), 0u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_NEAR(glm::length(r.skeleton.frame[i].tangent - dvec3(0, 0, 1)), 0, 1e-12);
+    EXPECT_NEAR(glm::length(r.skeleton.frame[i].normal - dvec3(1, 0, 0)), 0, 1e-12);
+  }
+}
+
+TEST(Skeleton, YForkMainChildIsThicker) {
+  const Skeleton s = built(test::y_fork());
+  expect_valid(s);
+  ASSERT_EQ(s.size(), 7u);
+  const NodeId fork(2u);
+  ASSERT_TRUE(s.is_fork(fork));
+  // Input node 3 (radius 0.07 branch, tip 0.06) is thicker than node 5 (tip 0.045).
+  EXPECT_EQ(s.source_id[s.children[2][0].idx()], 3);
+  EXPECT_EQ(s.source_id[s.children[2][1].idx()], 5);
+  // Depth-first main-first numbering: the main chain is contiguous.
+  EXPECT_EQ(s.children[2][0], NodeId(3u));
+}
+
+TEST(Skeleton, MainChildTieBrokenByInputOrder) {
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  raw.add(7, 1, dvec3(0.5, 0, 1.5), 0.05);
+  raw.add(3, 1, dvec3(-0.5, 0, 1.5), 0.05);
+  const Skeleton s = built(raw);
+  EXPECT_EQ(s.source_id[s.children[1][0].idx()], 7);  // first in input order wins the tie
+}
+
+TEST(Skeleton, TrifurcationIsBinarized) {
+  const auto r = build_skeleton(test::trifurcation());
+  expect_valid(r.skeleton);
+  EXPECT_EQ(r.report.binarized_nodes, 1u);
+  EXPECT_EQ(r.report.inserted_nodes, 1u);
+  EXPECT_EQ(r.skeleton.size(), 6u);
+  EXPECT_EQ(count_forks(r.skeleton), 2u);
+  EXPECT_EQ(count_tips(r.skeleton), 3u);
+  EXPECT_EQ(r.report.warnings.count("binarized"), 1u);
+}
+
+TEST(Skeleton, SixChildrenBecomeAChainOfForks) {
+  const auto r = build_skeleton(test::six_children());
+  const Skeleton& s = r.skeleton;
+  expect_valid(s);
+  EXPECT_EQ(r.report.inserted_nodes, 4u);
+  EXPECT_EQ(count_forks(s), 5u);
+  EXPECT_EQ(count_tips(s), 6u);
+  // Geometry kept: every input node is still there at its position.
+  const RawSkeleton raw = test::six_children();
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    bool found = false;
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      if (s.source_id[k] == raw.id[i]) {
+        found = true;
+        EXPECT_LT(glm::length(s.position[k] - raw.position[i]), 1e-12);
+      }
+    }
+    EXPECT_TRUE(found) << raw.id[i];
+  }
+  // Inserted nodes sit a tiny step apart (much less than the radius).
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    if (s.source_id[k] < 0) {
+      EXPECT_LT(s.edge_length(NodeId(k)), 0.5 * s.radius[k]);
+    }
+  }
+}
+
+TEST(Skeleton, ZeroLengthEdgesMergedZeroRadiusRaised) {
+  const auto r = build_skeleton(test::zero_length_edges());
+  expect_valid(r.skeleton);
+  EXPECT_EQ(r.report.merged_edges, 2u);
+  EXPECT_EQ(r.report.raised_radii, 1u);
+  EXPECT_EQ(r.skeleton.size(), 4u);
+  EXPECT_EQ(count_forks(r.skeleton), 1u);
+}
+
+TEST(Skeleton, ThickChildPolicies) {
+  const auto clamp = build_skeleton(test::thick_child());
+  EXPECT_EQ(clamp.report.clamped_children, 1u);
+  for (std::size_t i = 1; i < clamp.skeleton.size(); ++i) {
+    EXPECT_LE(clamp.skeleton.radius[i], clamp.skeleton.radius[clamp.skeleton.parent[i].idx()] * (1 + 1e-12));
+  }
+  SkeletonParams raise;
+  raise.thick_child_policy = ThickChildPolicy::raise_parent;
+  const auto r = build_skeleton(test::thick_child(), raise);
+  EXPECT_GE(r.report.clamped_children, 1u);
+  for (std::size_t i = 1; i < r.skeleton.size(); ++i) {
+    EXPECT_LE(r.skeleton.radius[i], r.skeleton.radius[r.skeleton.parent[i].idx()] * (1 + 1e-12));
+  }
+  EXPECT_NEAR(r.skeleton.radius[0], 0.1, 1e-12);
+  SkeletonParams keep;
+  keep.thick_child_policy = ThickChildPolicy::keep;
+  EXPECT_EQ(build_skeleton(test::thick_child(), keep).report.clamped_children, 0u);
+}
+
+TEST(Skeleton, ResamplingSplitsLongEdges) {
+  SkeletonParams p;
+  p.max_edge_ratio = 2.0;
+  const auto r = build_skeleton(test::straight_branch(3), p);
+  expect_valid(r.skeleton);
+  EXPECT_GT(r.report.resampled_edges, 0u);
+  for (std::size_t i = 1; i < r.skeleton.size(); ++i) {
+    const double rr = 0.5 * (r.skeleton.radius[i] + r.skeleton.radius[r.skeleton.parent[i].idx()]);
+    EXPECT_LE(r.skeleton.edge_length(NodeId(i)), 2.0 * rr * 1.05);
+  }
+}
+
+TEST(Skeleton, LongChainHasNoRecursion) {
+  const auto r = build_skeleton(test::long_chain(100'000));
+  EXPECT_EQ(r.skeleton.size(), 100'000u);
+  EXPECT_NO_THROW(validate_binary_skeleton(r.skeleton));
+  EXPECT_LT(max_twist(r.skeleton), 1e-6);
+  const auto json = skeleton_to_json(r.skeleton);
+  EXPECT_EQ(build_skeleton(parse_skeleton_json(json)).skeleton.size(), 100'000u);
+}
+
+TEST(Skeleton, FramesOrthonormalAndTwistFree) {
+  for (const auto& raw : {test::y_fork(), test::six_children(), test::grown_tree(3)}) {
+    const Skeleton s = built(raw);
+    for (const Frame& f : s.frame) {
+      EXPECT_NEAR(glm::length(f.normal), 1, 1e-9);
+      EXPECT_NEAR(glm::dot(f.normal, f.tangent), 0, 1e-9);
+      EXPECT_NEAR(glm::dot(glm::cross(f.tangent, f.normal), f.binormal), 1, 1e-9);
+    }
+    EXPECT_LT(max_twist(s), 1e-6) << raw.source;
+  }
+}
+
+TEST(Skeleton, JsonRoundTrip) {
+  const Skeleton a = built(test::six_children());
+  const Skeleton b = built(parse_skeleton_json(skeleton_to_json(a)));
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a.position[i], b.position[i]);
+    EXPECT_EQ(a.radius[i], b.radius[i]);
+    EXPECT_EQ(a.parent[i], b.parent[i]);
+    EXPECT_EQ(a.children[i], b.children[i]);
+  }
+}
+
+TEST(Skeleton, SwcImport) {
+  const std::string swc =
+      "# a small neuron-like tree\n"
+      "1 1 0 0 0 0.5 -1\n"
+      "2 3 0 0 2 0.4 1\n"
+      "\n"
+      "3 3 1 0 3 0.2 2   # lateral\n"
+      "4 3 0 0 4.0 0.3 2\n";
+  const Skeleton s = built(parse_swc(swc, "test.swc"));
+  EXPECT_EQ(s.size(), 4u);
+  EXPECT_EQ(count_forks(s), 1u);
+  EXPECT_EQ(s.source_id[s.children[1][0].idx()], 4);
+}
+
+TEST(Skeleton, UpAxisAndUnknownKeys) {
+  const auto raw = parse_skeleton_json(
+      R"({"up_axis":"y","extra":{"a":1},"nodes":[{"id":5,"parent":-1,"position":[0,0,0],"radius":1,"color":"red"},
+          {"id":9,"parent":5,"position":[0,2,0],"radius":0.5}]})");
+  EXPECT_EQ(raw.up_axis, UpAxis::y);
+  const Skeleton s = built(raw);
+  EXPECT_EQ(s.up_axis, UpAxis::y);
+  EXPECT_EQ(s.size(), 2u);
+}
+
+struct BadInput {
+  const char* name;
+  const char* text;
+  const char* expected;  // substring of the error message
+  bool swc = false;
+};
+
+class Malformed : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(Malformed, GivesOneClearError) {
+  const BadInput& b = GetParam();
+  try {
+    const RawSkeleton raw = b.swc ? parse_swc(b.text, "in.swc") : parse_skeleton_json(b.text, "in.json");
+    build_skeleton(raw);
+    FAIL() << "accepted " << b.name;
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find(b.expected), std::string::npos) << b.name << ": " << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Table, Malformed,
+    ::testing::Values(
+        BadInput{"truncated", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,)", "in.json:1:"},
+        BadInput{"string_for_number", R"({"nodes":[{"id":0,"parent":-1,"position":[0,"a",0],"radius":1}]})",
+                 "\"position\"[1] must be a number, not string"},
+        BadInput{"nan_literal", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":NaN}]})", "not valid JSON"},
+        BadInput{"overflow_inf", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,1e999],"radius":1}]})",
+                 "not valid JSON: number overflow"},
+        BadInput{"cycle",
+                 R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                    {"id":1,"parent":2,"position":[0,0,1],"radius":1},{"id":2,"parent":1,"position":[0,0,2],"radius":1}]})",
+                 "cycle"},
+        BadInput{"self_parent", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                    {"id":1,"parent":1,"position":[0,0,1],"radius":1}]})",
+                 "its own parent"},
+        BadInput{"two_roots", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                    {"id":1,"parent":-1,"position":[0,0,1],"radius":1}]})",
+                 "second root"},
+        BadInput{"no_root", R"({"nodes":[{"id":0,"parent":1,"position":[0,0,0],"radius":1},
+                    {"id":1,"parent":0,"position":[0,0,1],"radius":1}]})",
+                 "no root"},
+        BadInput{"missing_parent", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                    {"id":1,"parent":7,"position":[0,0,1],"radius":1}]})",
+                 "parent id 7 does not exist"},
+        BadInput{"negative_radius", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":-0.5}]})",
+                 "radius -0.5 is negative"},
+        BadInput{"duplicate_id", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1},
+                    {"id":0,"parent":0,"position":[0,0,1],"radius":1}]})",
+                 "duplicate node id 0"},
+        BadInput{"empty_file", "", "the file is empty"},
+        BadInput{"empty_nodes", R"({"nodes":[]})", "no nodes"},
+        BadInput{"no_nodes_key", R"({"bones":[]})", "missing the \"nodes\" array"},
+        BadInput{"binary_garbage", "\x7f" "ELF\x02\x01\x01\x00\xff\xfe\x00\x10", "not valid JSON"},
+        BadInput{"swc_nan", "1 1 0 0 0 nan -1\n", "radius nan is not finite", true},
+        BadInput{"swc_fields", "1 1 0 0 0 1\n", "in.swc:1: expected 7 fields", true},
+        BadInput{"swc_text", "1 1 0 zero 0 1 -1\n", "in.swc:1: y \"zero\" is not a number", true},
+        BadInput{"swc_missing_parent", "1 1 0 0 0 1 -1\n2 1 0 0 1 1 5\n", "in.swc: line 2 (id 2): parent id 5 does not exist",
+                 true}),
+    [](const ::testing::TestParamInfo<BadInput>& p) { return std::string(p.param.name); });
+
+TEST(Skeleton, NodeLimit) {
+  SkeletonParams p;
+  p.max_nodes = 10;
+  EXPECT_THROW(build_skeleton(test::long_chain(11), p), InvalidInputError);
+}
+
+TEST(Samples, LoadSanitizeRoundTrip) {
+  const auto files = test::sample_skeletons();
+  if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
+  for (const auto& f : files) {
+    SCOPED_TRACE(f.filename().string());
+    const auto r = build_skeleton(read_skeleton(f));
+    expect_valid(r.skeleton);
+    EXPECT_EQ(r.report.output_nodes, r.skeleton.size());
+    EXPECT_LT(max_twist(r.skeleton), 1e-6);
+    const Skeleton back = built(parse_skeleton_json(skeleton_to_json(r.skeleton)));
+    ASSERT_EQ(back.size(), r.skeleton.size());
+    for (std::size_t i = 0; i < back.size(); ++i) {
+      ASSERT_EQ(back.position[i], r.skeleton.position[i]);
+      ASSERT_EQ(back.radius[i], r.skeleton.radius[i]);
+      ASSERT_EQ(back.children[i], r.skeleton.children[i]);
+    }
+  }
+}
+
+TEST(Grower, DeterministicAndSeedDependent) {
+  const std::string a = raw_skeleton_to_json(test::grown_tree(5));
+  const std::string b = raw_skeleton_to_json(test::grown_tree(5));
+  const std::string c = raw_skeleton_to_json(test::grown_tree(6));
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  const auto r = build_skeleton(test::grown_tree(5));
+  EXPECT_GT(r.skeleton.size(), 200u);
+  EXPECT_GT(count_forks(r.skeleton), 20u);
+  EXPECT_EQ(r.report.warnings.total(), 0u) << r.report.warnings.to_string();
+}
+
+}  // namespace
+}  // namespace sm
