@@ -1,0 +1,108 @@
+// strandmesh mesh SKELETON -o OUT: the whole pipeline, one command.
+
+#include <cstdio>
+#include <mutex>
+
+#include "apps/cli/commands.h"
+#include "apps/cli/skeleton_options.h"
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "core/log.h"
+#include "meshing/export.h"
+#include "pipeline/pipeline.h"
+#include "skeleton/io.h"
+
+namespace sm::cli {
+
+void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
+  add_command(app, "mesh", "Mesh a skeleton: strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}", [&global](CLI::App& sub) -> Action {
+    struct Opts {
+      std::string input, output, config, dump_dir, stats_path;
+      std::uint64_t seed = 1;
+      double spacing = 0;
+      std::uint32_t root_strands = 0;
+      bool print_config = false;
+      SkeletonParams skeleton;
+    };
+    auto o = std::make_shared<Opts>();
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc)")->required();
+    sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply")->required();
+    sub.add_option("--config", o->config, "Parameter file (JSON; see configs/ and docs/parameters.md)");
+    auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")->capture_default_str();
+    auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
+                        ->check(CLI::NonNegativeNumber);
+    auto* root = sub.add_option("--root-strands", o->root_strands, "Choose the spacing so the root has about this many strands");
+    sub.add_option("--dump-stages", o->dump_dir, "Also write every stage's result as JSON into this directory");
+    sub.add_option("--stats", o->stats_path, "Write the run's figures (counts, seconds per stage) as JSON");
+    sub.add_flag("--print-config", o->print_config, "Print the full parameter set as a config file and exit");
+    add_skeleton_options(sub, o->skeleton);
+    // Which skeleton options were given explicitly (they override the config file).
+    std::vector<CLI::Option*> skeleton_opts;
+    for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
+                             "--max-edge-ratio"}) {
+      skeleton_opts.push_back(sub.get_option(name));
+    }
+    return [o, seed, spacing, root, skeleton_opts, &global] {
+      Stopwatch total;
+      PipelineParams params;
+      if (!o->config.empty()) params = load_params(o->config);
+      if (seed->count() > 0) params.particles.seed = o->seed;
+      if (spacing->count() > 0) params.particles.spacing = o->spacing;
+      if (root->count() > 0) params.particles.root_strands = o->root_strands;
+      // Explicit skeleton flags override the config file field by field.
+      const SkeletonParams defaults{};
+      const SkeletonParams& cli = o->skeleton;
+      if (skeleton_opts[0]->count()) params.skeleton.max_nodes = cli.max_nodes;
+      if (skeleton_opts[1]->count()) params.skeleton.merge_edge_ratio = cli.merge_edge_ratio;
+      if (skeleton_opts[2]->count()) params.skeleton.radius_floor = cli.radius_floor;
+      if (skeleton_opts[3]->count()) params.skeleton.thick_child_policy = cli.thick_child_policy;
+      if (skeleton_opts[4]->count()) params.skeleton.max_child_ratio = cli.max_child_ratio;
+      if (skeleton_opts[5]->count()) params.skeleton.max_edge_ratio = cli.max_edge_ratio;
+      (void)defaults;
+      if (o->print_config) {
+        std::fputs(params_to_json(params).c_str(), stdout);
+        return int(kOk);
+      }
+      const MeshFormat format = mesh_format_from_path(o->output);  // fail before the long run
+      const RawSkeleton raw = read_skeleton(o->input);
+      ProgressBar bar(!global.quiet);
+      std::mutex m;
+      const PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {
+        std::lock_guard lock(m);
+        bar.update(phase, f);
+      });
+      bar.finish();
+      for (const auto& w : r.warnings().list()) {
+        std::string line = w.message + " (" + std::to_string(w.count) + "x";
+        for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
+        log::warn(line + ")");
+      }
+      Stopwatch export_clock;
+      ExportParams ep;
+      ep.up_axis = r.skeleton.skeleton.up_axis;
+      write_file_atomically(o->output, encode_mesh(r.mesh.mesh, format, ep));
+      const double export_seconds = export_clock.elapsed();
+      if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);
+      if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
+      char line[512];
+      std::snprintf(line, sizeof line, "%s: %zu nodes, %zu strands, %zu particles => %zu triangles, %zu vertices in %.2f s -> %s",
+                    o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
+                    r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
+      log::info(line);
+      for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) {
+        std::snprintf(line, sizeof line, "  %-10s %8.3f s", s, r.timings.get(s));
+        log::verbose(line);
+      }
+      std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
+      log::verbose(line);
+      if (r.mesh.stats.bad_edges > 0) {
+        log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
+                   " edges not shared by exactly two triangles; please report this skeleton");
+        return int(kInternal);
+      }
+      return int(kOk);
+    };
+  });
+}
+
+}  // namespace sm::cli

@@ -1,0 +1,151 @@
+// Boundary selection (seed 003 §2.4.2): the angular walk around the centroid, made robust.
+//
+// The seed sorts the points by angle around their centroid and walks them like a Graham
+// scan, dropping points where the contour turns inwards by more than a threshold. It measured
+// turns with acos and a sign taken separately, and the sign flipped for nearly collinear
+// points, so points far inside were kept (the seed's Figure 8). Here every turn is measured
+// with atan2(cross, dot) of the two edge vectors, whose sign is that of the cross product and
+// is exact up to rounding for any configuration; collinear and duplicate points are dropped
+// (a turn of exactly zero counts as concave), which also keeps degenerate triangles out of the
+// mesh.
+//
+// Because the kept points are visited in strictly increasing angle around the centroid, the
+// loop is simple and star-shaped around it whenever every angular gap between consecutive
+// loop vertices is below pi. That, and every input point lying inside (or on) the loop, is
+// verified afterwards; when it fails (a slice that is not star-shaped around its centroid,
+// e.g. a strongly bent union of two bundles), the loop falls back to the convex hull, which is
+// always a valid outer loop.
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+
+#include "contours/contours.h"
+
+namespace sm {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+/// Turn angle at b for the path a -> b -> c: > 0 left (convex for a CCW loop), < 0 right.
+double turn(const dvec2& a, const dvec2& b, const dvec2& c) {
+  const dvec2 u = b - a, v = c - b;
+  return std::atan2(cross2(u, v), glm::dot(u, v));
+}
+
+/// Andrew's monotone chain; strictly convex (collinear points dropped), CCW.
+std::vector<std::uint32_t> convex_hull(const std::vector<dvec2>& p) {
+  std::vector<std::uint32_t> idx(p.size());
+  std::iota(idx.begin(), idx.end(), 0u);
+  std::sort(idx.begin(), idx.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return p[a].x != p[b].x ? p[a].x < p[b].x : (p[a].y != p[b].y ? p[a].y < p[b].y : a < b);
+  });
+  std::vector<std::uint32_t> h(2 * idx.size() + 1);
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < idx.size(); ++i) {
+    while (k >= 2 && cross2(p[h[k - 1]] - p[h[k - 2]], p[idx[i]] - p[h[k - 2]]) <= 0) --k;
+    h[k++] = idx[i];
+  }
+  for (std::size_t i = idx.size() - 1, t = k + 1; i-- > 0;) {
+    while (k >= t && cross2(p[h[k - 1]] - p[h[k - 2]], p[idx[i]] - p[h[k - 2]]) <= 0) --k;
+    h[k++] = idx[i];
+  }
+  h.resize(k > 1 ? k - 1 : k);
+  return h;
+}
+
+/// True when the loop (vertices in increasing angle `key` around c, the first at key 0) has
+/// all angular gaps below pi and every point lies inside it or within `tol` of it.
+/// O(n log m): each point's sector is found by binary search on the keys.
+bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key,
+                     const std::vector<std::uint32_t>& loop, double tol) {
+  const std::size_t m = loop.size();
+  if (m < 3) return false;
+  std::vector<double> lk(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    lk[k] = key[loop[k]];
+    if (k > 0 && !(lk[k] > lk[k - 1])) return false;
+    if (k > 0 && lk[k] - lk[k - 1] >= kPi) return false;
+  }
+  if (2 * kPi - lk[m - 1] >= kPi) return false;
+  for (std::uint32_t i = 0; i < p.size(); ++i) {
+    // Sector k spans [lk[k], lk[k+1]) (the last one wraps to 2 pi).
+    const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
+    const std::size_t k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1));
+    const dvec2& a = p[loop[k]];
+    const dvec2& b = p[loop[(k + 1) % m]];
+    const dvec2 e = b - a;
+    const double len = glm::length(e);
+    if (len > 0 && cross2(e, p[i] - a) / len < -tol) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, bool* fallback) {
+  if (fallback) *fallback = false;
+  const std::size_t n = p.size();
+  if (n < 3) {
+    std::vector<std::uint32_t> all(n);
+    std::iota(all.begin(), all.end(), 0u);
+    return all;
+  }
+  dvec2 c(0);
+  for (const auto& q : p) c += q;
+  c /= double(n);
+  // Scale for tolerances.
+  double extent = 0;
+  for (const auto& q : p) extent = std::max(extent, glm::length(q - c));
+  const double tol = 1e-9 * std::max(extent, 1e-300);
+
+  // Start at the lowest point (ties: leftmost): it is a vertex of the convex hull, so it is
+  // on the loop for any threshold.
+  std::uint32_t start = 0;
+  for (std::uint32_t i = 1; i < n; ++i) {
+    if (p[i].y < p[start].y || (p[i].y == p[start].y && p[i].x < p[start].x)) start = i;
+  }
+  const double a0 = std::atan2(p[start].y - c.y, p[start].x - c.x);
+  std::vector<std::uint32_t> order;
+  order.reserve(n);
+  std::vector<double> key(n), dist(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    double a = std::atan2(p[i].y - c.y, p[i].x - c.x) - a0;
+    while (a < 0) a += 2 * kPi;
+    while (a >= 2 * kPi) a -= 2 * kPi;
+    key[i] = a;
+    dist[i] = glm::length(p[i] - c);
+    if (i != start) order.push_back(i);
+  }
+  // By angle; on equal angles the nearer point first, so the farther one survives the scan.
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return key[a] != key[b] ? key[a] < key[b] : (dist[a] != dist[b] ? dist[a] < dist[b] : a < b);
+  });
+  const double max_concave = concave_turn_degrees * kPi / 180.0;
+  // A turn counts as concave (drop the middle point) when it turns right by more than the
+  // threshold, or is straight / degenerate.
+  auto drop = [&](std::uint32_t a, std::uint32_t b, std::uint32_t q) {
+    const dvec2 u = p[b] - p[a], v = p[q] - p[b];
+    const double cr = cross2(u, v);
+    const double scale = glm::length(u) * glm::length(v);
+    if (scale <= tol * tol || std::abs(cr) <= 1e-12 * scale) return true;  // duplicate or collinear
+    if (cr > 0) return false;                                               // left turn: convex
+    return -turn(p[a], p[b], p[q]) > max_concave || max_concave <= 0;
+  };
+  std::vector<std::uint32_t> stack;
+  stack.reserve(n);
+  stack.push_back(start);
+  for (std::uint32_t q : order) {
+    while (stack.size() >= 2 && drop(stack[stack.size() - 2], stack.back(), q)) stack.pop_back();
+    stack.push_back(q);
+  }
+  // Close the loop back to the start.
+  while (stack.size() >= 3 && drop(stack[stack.size() - 2], stack.back(), start)) stack.pop_back();
+
+  if (stack.size() >= 3 && star_loop_valid(p, key, stack, tol + 1e-6 * extent)) return stack;
+  if (fallback) *fallback = true;
+  return convex_hull(p);
+}
+
+}  // namespace sm

@@ -1,0 +1,504 @@
+// Contours: slicing, split detection and boundary loops (seed 003 §2.4; DESIGN.md contours/).
+//
+// The walk is top-down over "tubes". A tube carries the strands of one subtree (rooted at
+// node X, hanging below an anchor node: the fork whose split started the tube, or nothing for
+// the root tube) and slices it at increasing distance d above the anchor. A slice at distance
+// d "cuts" the subtree: every edge that spans distance d above the anchor contributes its
+// strands evaluated at the matching t, so bundles are followed across nodes (this is what lets
+// us handle bundles that do not separate before the next node, and chains of binarized forks
+// a tiny step apart).
+//
+// Along a chain of single-child nodes the cut is one edge. Past the first fork F of the tube
+// the cut holds the two child bundles; while they are closer than split_gap x s the slice is
+// one fused loop around both; the first distance where they are farther apart (bisection
+// between the last loop and the first separated slice) is the split, where the tube ends in a
+// Junction and two child tubes start (anchored at F). Forks deeper in a child's subtree that
+// were passed while fused are handled by the child tube, which tests them first. A bundle
+// whose strands all end (tips) before separating is absorbed into its sibling's tube (counted
+// warning); bundles still touching where the shorter child edge ends are split there if they
+// are at least loosely apart (counted warning), otherwise they stay fused.
+
+#include "contours/contours.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/errors.h"
+
+namespace sm {
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+/// One cut edge: the strands of node `node` evaluated at `t` on its edge.
+struct CutEdge {
+  NodeId node;
+  double t;
+};
+
+/// The strand points of a slice and where they come from.
+struct SlicePoints {
+  std::vector<dvec3> point;
+  std::vector<StrandId> strand;
+  void clear() {
+    point.clear();
+    strand.clear();
+  }
+};
+
+struct SliceGeometry {
+  dvec3 center;
+  Frame frame;
+  double radius = 0;
+  NodeId node;  // edge the geometry is taken from
+  double t = 1;
+};
+
+class Walker {
+ public:
+  Walker(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p)
+      : s_(s),
+        f_(f),
+        st_(st),
+        p_(p),
+        spacing_(f.neighbour_distance > 0 ? f.neighbour_distance : (f.spacing > 0 ? 1.9 * f.spacing : 1e-3)),
+        density_length_(f.spacing > 0 ? f.spacing : spacing_ / 1.9) {
+    // Distance of every node from the root along the tree (for UV distances).
+    root_distance_.assign(s.size(), 0.0);
+    for (std::size_t i = 1; i < s.size(); ++i) {
+      root_distance_[i] = root_distance_[s.parent[i].idx()] + s.edge_length(NodeId(i));
+    }
+    branch_ = s.branch_ids();
+  }
+
+  ContourSet run(const ProgressFn& progress);
+
+ private:
+  struct Task {
+    NodeId anchor;   // invalid for the root tube
+    NodeId x;        // subtree root carried by the tube
+    double d = 0;     // distance above the anchor of the next slice
+    double last = 0;  // distance above the anchor of the tube's last loop so far
+    std::uint32_t tube = 0;
+  };
+
+  // --- geometry helpers -------------------------------------------------------------------
+  [[nodiscard]] double len(NodeId n) const { return s_.edge_length(n); }
+
+  /// Distance of node y above the anchor, given the distance of its parent.
+  [[nodiscard]] SliceGeometry edge_geometry(NodeId n, double t) const {
+    SliceGeometry g;
+    const NodeId p = s_.parent[n.idx()];
+    g.node = n;
+    g.t = t;
+    if (!p.valid()) {
+      g.center = s_.position[n.idx()];
+      g.frame = s_.frame[n.idx()];
+      g.radius = s_.radius[n.idx()];
+      return g;
+    }
+    const Frame& fp = s_.frame[p.idx()];
+    const Frame& fn = s_.frame[n.idx()];
+    g.center = glm::mix(s_.position[p.idx()], s_.position[n.idx()], t);
+    g.radius = glm::mix(s_.radius[p.idx()], s_.radius[n.idx()], t);
+    const dvec3 tangent = normalize_or(glm::mix(fp.tangent, fn.tangent, t), fn.tangent);
+    g.frame = transport_frame(fp, tangent);
+    return g;
+  }
+
+  [[nodiscard]] double step_at(double radius) const {
+    return std::max(p_.slice_step * radius, p_.min_slice_step * spacing_);
+  }
+
+  /// Appends the strands of node n at t on its edge.
+  void evaluate(NodeId n, double t, SlicePoints& out) {
+    const std::uint32_t count = f_.count(n);
+    const std::uint32_t base = f_.node_begin[n.idx()];
+    stats_.evaluated_points += count;
+    if (t >= 1.0 || !s_.parent[n.idx()].valid()) {
+      for (std::uint32_t j = 0; j < count; ++j) {
+        out.point.push_back(st_.point[base + j]);
+        out.strand.push_back(f_.strand[base + j]);
+      }
+      return;
+    }
+    for (std::uint32_t j = 0; j < count; ++j) {
+      out.point.push_back(st_.evaluate(s_, f_, n, j, t));
+      out.strand.push_back(f_.strand[base + j]);
+    }
+  }
+
+  /// The edges of the subtree rooted at x that span distance d above the anchor, where x's
+  /// own edge starts at distance `base` (0 when x's parent is the anchor). Main children
+  /// first, so the first entry follows the main chain.
+  void cut(NodeId x, double base, double d, std::vector<CutEdge>& out) const {
+    stack_.clear();
+    stack_.emplace_back(x, base);
+    while (!stack_.empty()) {
+      const auto [y, start] = stack_.back();
+      stack_.pop_back();
+      const double l = len(y);
+      if (d < start + l || !s_.parent[y.idx()].valid()) {
+        out.push_back({y, s_.parent[y.idx()].valid() ? std::clamp((d - start) / l, 0.0, 1.0) : 1.0});
+        continue;
+      }
+      const auto& c = s_.children[y.idx()];
+      if (c[1].valid()) stack_.emplace_back(c[1], start + l);
+      if (c[0].valid()) stack_.emplace_back(c[0], start + l);
+    }
+  }
+
+  void evaluate_cut(const std::vector<CutEdge>& edges, SlicePoints& out) {
+    for (const auto& e : edges) evaluate(e.node, e.t, out);
+  }
+
+  /// Smallest distance between the two point sets (3D). Brute force for small sets, a uniform
+  /// grid otherwise.
+  static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b);
+
+  // --- output -------------------------------------------------------------------------------
+  std::uint32_t new_tube(NodeId branch, std::uint32_t start_junction) {
+    Tube t;
+    t.branch = branch;
+    t.start_junction = start_junction;
+    out_.tubes.push_back(std::move(t));
+    return static_cast<std::uint32_t>(out_.tubes.size() - 1);
+  }
+
+  /// Selects the boundary of `pts` in the plane of `g`, offsets it outwards to the surface and
+  /// appends it as a loop of `tube`. Returns the loop index.
+  std::uint32_t add_loop(const SlicePoints& pts, const SliceGeometry& g, LoopKind kind, double distance,
+                         std::uint32_t tube);
+  std::uint32_t add_loop_vertices(const SlicePoints& pts, const std::vector<std::uint32_t>& loop,
+                                  const SliceGeometry& g, LoopKind kind, double distance, std::uint32_t tube);
+
+  void walk(Task task);
+  /// Distance (above the anchor) where fork `fork`'s bundles become farther apart than the
+  /// threshold, by bisection between lo (not separated) and hi (separated).
+  double bisect_split(NodeId fork, double fork_base, double lo, double hi);
+  /// Gap between the bundles of fork's two children at distance u above the anchor (the
+  /// fork sits at distance fork_base). Leaves the points in pts_a_ / pts_b_.
+  double split_gap_at(NodeId fork, double fork_base, double u);
+  /// Geometry of a slice through a cut: the first (main-chain) edge of the cut.
+  SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
+    return edge_geometry(edges.front().node, edges.front().t);
+  }
+  [[nodiscard]] double threshold() const { return p_.split_gap * spacing_; }
+
+  const Skeleton& s_;
+  const ParticleField& f_;
+  const StrandSet& st_;
+  const ContourParams& p_;
+  double spacing_;         // distance between neighbouring particles (metres)
+  double density_length_;  // the particle field's density length s (metres)
+  std::vector<double> root_distance_;
+  std::vector<std::uint32_t> branch_;
+  ContourSet out_;
+  ContourStats& stats_ = out_.stats;
+  std::vector<Task> tasks_;
+  mutable std::vector<std::pair<NodeId, double>> stack_;
+  // scratch
+  SlicePoints pts_, pts_a_, pts_b_;
+  std::vector<CutEdge> cut_, cut_a_, cut_b_;
+  std::vector<dvec2> flat_;
+};
+
+double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b) {
+  double best = std::numeric_limits<double>::infinity();
+  if (a.empty() || b.empty()) return best;
+  if (a.size() * b.size() <= 4096) {
+    for (const auto& p : a)
+      for (const auto& q : b) best = std::min(best, glm::dot(p - q, p - q));
+    return std::sqrt(best);
+  }
+  // Sort both by x and sweep: only pairs within the current best in x are compared.
+  std::vector<dvec3> sa(a), sb(b);
+  auto byx = [](const dvec3& u, const dvec3& v) { return u.x < v.x; };
+  std::sort(sa.begin(), sa.end(), byx);
+  std::sort(sb.begin(), sb.end(), byx);
+  std::size_t lo = 0;
+  double r = std::numeric_limits<double>::infinity();
+  for (const auto& p : sa) {
+    while (lo < sb.size() && sb[lo].x < p.x - r) ++lo;
+    for (std::size_t k = lo; k < sb.size() && sb[k].x <= p.x + r; ++k) {
+      const double d2 = glm::dot(p - sb[k], p - sb[k]);
+      if (d2 < best) {
+        best = d2;
+        r = std::sqrt(best);
+      }
+    }
+  }
+  return std::sqrt(best);
+}
+
+std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, LoopKind kind, double distance,
+                               std::uint32_t tube) {
+  flat_.resize(pts.point.size());
+  for (std::size_t i = 0; i < pts.point.size(); ++i) flat_[i] = g.frame.to_local(pts.point[i] - g.center);
+  bool fallback = false;
+  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback);
+  if (fallback) {
+    ++stats_.boundary_fallbacks;
+    stats_.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; convex hull used",
+                        s_.describe(g.node));
+  }
+  if (loop.size() >= 3) return add_loop_vertices(pts, loop, g, kind, distance, tube);
+
+  // Fewer than three non-collinear strand points (a degenerate bundle): replace the slice by
+  // a small triangle around the points so the surface stays closed.
+  stats_.warnings.add("degenerate_slice", "slice with fewer than 3 boundary strands widened to a triangle",
+                      s_.describe(g.node));
+  dvec2 c(0);
+  for (const auto& q : flat_) c += q;
+  c /= double(std::max<std::size_t>(flat_.size(), 1));
+  SlicePoints extra;
+  loop.clear();
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    const double a = 2.0943951023931953 * k;
+    const dvec2 q = c + 0.3 * g.radius * dvec2(std::cos(a), std::sin(a));
+    extra.point.push_back(g.center + g.frame.to_world(q));
+    extra.strand.push_back(pts.strand.empty() ? StrandId{} : pts.strand[std::min<std::size_t>(k, pts.strand.size() - 1)]);
+    loop.push_back(k);
+  }
+  flat_.assign({c + 0.3 * g.radius * dvec2(1, 0), c + 0.3 * g.radius * dvec2(-0.5, 0.8660254037844386),
+                c + 0.3 * g.radius * dvec2(-0.5, -0.8660254037844386)});
+  return add_loop_vertices(extra, loop, g, kind, distance, tube);
+}
+
+std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vector<std::uint32_t>& loop,
+                                        const SliceGeometry& g, LoopKind kind, double distance, std::uint32_t tube) {
+  const std::size_t m = loop.size();
+  // The boundary strands are particle centres; the wood surface lies about half a particle
+  // spacing further out. Offset each vertex outwards in the slice plane (along its vertex
+  // normal) by delta: half the local spacing, but no further than the skeleton radius asks
+  // for, so thin twigs whose few particles sit well inside their disc reach their radius and
+  // thick branches are not inflated.
+  dvec2 centroid(0);
+  for (auto i : loop) centroid += flat_[i];
+  centroid /= double(m);
+  double mean_r = 0;
+  for (auto i : loop) mean_r += glm::length(flat_[i] - centroid);
+  mean_r /= double(m);
+  // lambda = r / sqrt(n) is the cloud's density length (particles/particles.h); relaxed
+  // boundary particles sit about lambda / 2 inside the disc.
+  const double n = double(std::max<std::size_t>(pts.point.size(), 1));
+  const double lambda = g.radius / std::sqrt(n);
+  double delta = 0;
+  if (kind == LoopKind::fused) {
+    delta = std::min(0.5 * density_length_, 0.3 * g.radius);
+  } else {
+    delta = std::min(lambda, std::max(0.0, g.radius - mean_r));
+  }
+  const auto loop_index = static_cast<std::uint32_t>(out_.loop_kind.size());
+  for (std::size_t k = 0; k < m; ++k) {
+    const dvec2& a = flat_[loop[(k + m - 1) % m]];
+    const dvec2& b = flat_[loop[k]];
+    const dvec2& c = flat_[loop[(k + 1) % m]];
+    // Outward normals of the two edges of a CCW loop: (e.y, -e.x).
+    auto outward = [](dvec2 e) {
+      const double l = glm::length(e);
+      return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);
+    };
+    dvec2 nrm = outward(b - a) + outward(c - b);
+    const double l = glm::length(nrm);
+    nrm = l > 1e-12 ? nrm / l : (glm::length(b - centroid) > 0 ? glm::normalize(b - centroid) : dvec2(1, 0));
+    out_.point.push_back(pts.point[loop[k]] + g.frame.to_world(delta * nrm));
+    out_.strand.push_back(pts.strand[loop[k]]);
+  }
+  out_.loop_begin.push_back(static_cast<std::uint32_t>(out_.point.size()));
+  out_.loop_node.push_back(g.node);
+  out_.loop_t.push_back(g.t);
+  out_.loop_distance.push_back(distance);
+  out_.loop_center.push_back(g.center);
+  out_.loop_frame.push_back(g.frame);
+  out_.loop_radius.push_back(g.radius);
+  out_.loop_kind.push_back(kind);
+  out_.tubes[tube].loops.push_back(loop_index);
+  if (kind == LoopKind::fused) ++stats_.fused_loops;
+  return loop_index;
+}
+
+double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
+  const auto& c = s_.children[fork.idx()];
+  cut_a_.clear();
+  cut_b_.clear();
+  cut(c[0], fork_base, u, cut_a_);
+  cut(c[1], fork_base, u, cut_b_);
+  pts_a_.clear();
+  pts_b_.clear();
+  evaluate_cut(cut_a_, pts_a_);
+  evaluate_cut(cut_b_, pts_b_);
+  return gap(pts_a_.point, pts_b_.point);
+}
+
+double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi) {
+  const double thr = threshold();
+  for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (split_gap_at(fork, fork_base, mid) > thr) {
+      hi = mid;
+    } else {
+      lo = mid;
+    }
+  }
+  return hi;
+}
+
+void Walker::walk(Task task) {
+  const std::uint32_t tube = task.tube;
+  const NodeId anchor = task.anchor;
+  const double anchor_distance = anchor.valid() ? root_distance_[anchor.idx()] : 0.0;
+  double d = task.d;
+  double last = task.last;
+  NodeId cur = task.x;
+  double cur_base = 0;  // distance above the anchor where cur's edge starts
+  auto end_of = [&](NodeId n, double base) { return base + (s_.parent[n.idx()].valid() ? len(n) : 0.0); };
+
+  for (;;) {
+    const double end = end_of(cur, cur_base);
+    if (d < end) {
+      const double t = (d - cur_base) / len(cur);
+      const SliceGeometry g = edge_geometry(cur, t);
+      const double step = step_at(g.radius);
+      if (s_.is_tip(cur) && end - d < 0.35 * step) {
+        d = end;  // close enough: the tip's own section comes next
+        continue;
+      }
+      pts_.clear();
+      evaluate(cur, t, pts_);
+      add_loop(pts_, g, LoopKind::plain, anchor_distance + d, tube);
+      last = d;
+      d += step;
+      continue;
+    }
+    // d has reached node cur.
+    if (s_.is_tip(cur)) {
+      if (last < end - 1e-12 * std::max(1.0, end)) {
+        pts_.clear();
+        evaluate(cur, 1.0, pts_);
+        add_loop(pts_, edge_geometry(cur, 1.0), LoopKind::tip, anchor_distance + end, tube);
+      }
+      return;  // the tube ends at a tip: capped by the meshing stage
+    }
+    if (!s_.is_fork(cur)) {
+      cur_base = end;
+      cur = s_.children[cur.idx()][0];
+      continue;
+    }
+
+    // A fork: fused slices until the two bundles split.
+    const NodeId fork = cur;
+    const double fork_base = end;
+    const NodeId a = s_.children[fork.idx()][0];
+    const NodeId b = s_.children[fork.idx()][1];
+    const double shorter_end = fork_base + std::min(len(a), len(b));
+    bool absorbed = false;
+    for (;;) {
+      const double g_ab = split_gap_at(fork, fork_base, d);
+      if (pts_a_.point.empty() || pts_b_.point.empty()) {
+        if (pts_a_.point.empty() && pts_b_.point.empty()) return;  // everything ended: cap the last loop
+        // One bundle ended (its tips) before separating: the other carries on alone.
+        stats_.warnings.add("absorbed_bundle", "branch ended before separating from its sibling; absorbed",
+                            s_.describe(pts_b_.point.empty() ? b : a));
+        cur = pts_b_.point.empty() ? a : b;
+        cur_base = fork_base;
+        absorbed = true;
+        break;
+      }
+      const bool separated = g_ab > threshold();
+      const bool forced = !separated && d >= shorter_end && g_ab > 0.5 * spacing_;
+      if (separated || forced) {
+        const double step = step_at(cut_geometry(cut_a_).radius);
+        const double min_sep = 0.25 * step;
+        double split = d;
+        if (separated) {
+          const double lo = std::max(last, fork_base);
+          split = bisect_split(fork, fork_base, lo, d);
+        } else {
+          ++stats_.forced_splits;
+          stats_.warnings.add("forced_split", "bundles still touching where the shorter child edge ends; split there",
+                              s_.describe(fork));
+        }
+        split = std::min(d, std::max(split, last + min_sep));
+        // The junction: the tube's last loop below, one new tube per child above.
+        Junction j;
+        j.fork = fork;
+        j.lower = out_.tubes[tube].loops.back();
+        j.lower_tube = tube;
+        j.split_distance = split - fork_base;
+        j.forced = forced;
+        const auto junction = static_cast<std::uint32_t>(out_.junctions.size());
+        out_.tubes[tube].end_junction = junction;
+        std::array<Task, 2> next;
+        for (int k = 0; k < 2; ++k) {
+          const NodeId child = k == 0 ? a : b;
+          const std::uint32_t t = new_tube(NodeId(branch_[child.idx()]), junction);
+          std::vector<CutEdge> edges;
+          cut(child, fork_base, split, edges);
+          pts_.clear();
+          evaluate_cut(edges, pts_);
+          const SliceGeometry g = cut_geometry(edges);
+          j.upper[std::size_t(k)] = add_loop(pts_, g, LoopKind::split, anchor_distance + split, t);
+          j.upper_tubes[std::size_t(k)] = t;
+          next[std::size_t(k)] = Task{fork, child, split - fork_base + step_at(g.radius), split - fork_base, t};
+        }
+        out_.junctions.push_back(j);
+        // Lateral first onto the stack so the main child's tube is walked next.
+        tasks_.push_back(next[1]);
+        tasks_.push_back(next[0]);
+        return;
+      }
+      // Still together: one loop around both bundles.
+      pts_.clear();
+      pts_.point = pts_a_.point;
+      pts_.strand = pts_a_.strand;
+      pts_.point.insert(pts_.point.end(), pts_b_.point.begin(), pts_b_.point.end());
+      pts_.strand.insert(pts_.strand.end(), pts_b_.strand.begin(), pts_b_.strand.end());
+      const SliceGeometry g = cut_geometry(cut_a_);
+      add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
+      last = d;
+      d += step_at(g.radius);
+    }
+    if (absorbed) continue;
+  }
+}
+
+ContourSet Walker::run(const ProgressFn& progress) {
+  Stopwatch clock;
+  out_.loop_begin.push_back(0);
+  if (s_.empty()) return std::move(out_);
+  const NodeId root = Skeleton::root();
+  const std::uint32_t tube = new_tube(root, kNone);
+  pts_.clear();
+  evaluate(root, 1.0, pts_);
+  const SliceGeometry g = edge_geometry(root, 1.0);
+  add_loop(pts_, g, LoopKind::plain, 0.0, tube);
+  tasks_.push_back(Task{NodeId{}, root, step_at(g.radius), 0.0, tube});
+  std::size_t forks = 0;
+  for (std::size_t i = 0; i < s_.size(); ++i) forks += s_.is_fork(NodeId(i));
+  std::size_t done = 0;
+  while (!tasks_.empty()) {
+    const Task t = tasks_.back();
+    tasks_.pop_back();
+    walk(t);
+    ++done;
+    if (progress && (done & 63) == 0) progress("contours", std::min(1.0, double(done) / double(2 * forks + 1)));
+  }
+  stats_.loops = out_.loop_kind.size();
+  stats_.loop_vertices = out_.point.size();
+  stats_.timings.add("slicing", clock.lap());
+  return std::move(out_);
+}
+
+}  // namespace
+
+ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
+                            const ContourParams& params, const ProgressFn& progress) {
+  SM_CHECK(field.node_count() == skeleton.size(), "particle field does not match the skeleton");
+  SM_CHECK(strands.point.size() == field.position.size(), "strand set does not match the particle field");
+  Walker walker(skeleton, field, strands, params);
+  return walker.run(progress);
+}
+
+}  // namespace sm

@@ -1,0 +1,135 @@
+#pragma once
+/// Contours stage: cross-section slices along every branch, split detection above forks and
+/// the ordered boundary loop of the strands in each slice (DESIGN.md contours/, seed 003 §2.4).
+///
+/// The result is a graph of loops that the meshing stage stitches:
+///  - a `Tube` is a run of loops from its start (the root, or a split above a fork) up to its
+///    end (a tip, or the next split); consecutive loops of a tube are stitched by strips;
+///  - a `Junction` joins the last loop of a tube (the union of both bundles just below the
+///    split) with the first loops of the two child tubes (branch fusion);
+///  - the first loop of the root tube gets the base cap, the last loop of every tube ending at
+///    a tip gets a tip cap.
+///
+/// Slicing (seed 003 §2.4.3): each edge is sliced at steps of `slice_step` x the local radius
+/// measured along the edge; the leftover distance carries into the next edge(s), so slices
+/// stay evenly spaced across nodes. A slice at distance d on the edge of node n (length L)
+/// evaluates every strand of n at t = d / L (strands/strands.h parameterization).
+///
+/// Split detection (seed 003 §2.4.1): above a fork F with children A (main) and B (lateral),
+/// slices are taken on both child edges at the same distance above F. While the closest
+/// points of the two bundles are nearer than `split_gap` x their neighbour distance, the slice is one loop
+/// around the union; the first distance where they are farther apart is found by bisection
+/// and becomes the split: from there on each bundle has its own tube. Bundles that do not
+/// separate before the shorter child edge ends are split there (counted warning).
+///
+/// Boundary selection (seed 003 §2.4.2): the points of a slice are projected onto the slice
+/// plane and the outer loop is found by the angular walk around the centroid (a Graham scan
+/// that tolerates small concave turns), with orientation from exact-sign cross products
+/// (never acos). If the resulting polygon is not simple or leaves points outside (the slice is
+/// not star-shaped around its centroid), the loop is recomputed as the boundary of the alpha
+/// shape of the points (CGAL 2D alpha shapes, smallest alpha giving one solid component), and
+/// as a last resort as the convex hull; each fallback is counted.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/ids.h"
+#include "core/math.h"
+#include "core/progress.h"
+#include "core/report.h"
+#include "particles/particles.h"
+#include "skeleton/skeleton.h"
+#include "strands/strands.h"
+
+namespace sm {
+
+struct ContourParams {
+  /// Distance between consecutive slices along a branch, relative to the local radius.
+  double slice_step = 0.4;
+  /// Lower bound on the slice step, relative to the neighbour distance of the particles
+  /// (ParticleField::neighbour_distance; keeps thin twigs from being sliced ever more finely).
+  double min_slice_step = 1.0;
+  /// Two bundles above a fork split where their closest points are farther apart than this,
+  /// relative to the neighbour distance of the particles (1.0 = one empty particle slot).
+  double split_gap = 1.5;
+  /// Bisection steps refining the split position between two slices (a count).
+  std::uint32_t split_bisection_steps = 8;
+  /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives
+  /// the convex hull.
+  double concave_turn_degrees = 12.0;
+};
+
+/// Where a loop comes from.
+enum class LoopKind : std::uint8_t {
+  plain,     ///< one bundle on one edge
+  fused,     ///< the union of the two bundles above a fork, below the split
+  split,     ///< the first loop of a child tube, at the split
+  tip,       ///< the cross-section exactly at a tip node (last loop of its tube)
+};
+
+struct ContourStats {
+  std::size_t loops = 0;
+  std::size_t loop_vertices = 0;
+  std::size_t evaluated_points = 0;     ///< strand evaluations (all slices and bisection)
+  std::size_t fused_loops = 0;
+  std::size_t forced_splits = 0;        ///< bundles that never separated within their edges
+  std::size_t boundary_fallbacks = 0;   ///< slices not star-shaped around their centroid
+  Warnings warnings;
+  Timings timings;
+};
+
+/// A run of loops stitched one to the next. `loops` are indices into ContourSet, bottom
+/// (towards the root) to top.
+struct Tube {
+  std::vector<std::uint32_t> loops;
+  std::uint32_t start_junction = UINT32_MAX;  ///< junction whose upper loop starts the tube, or none (root)
+  std::uint32_t end_junction = UINT32_MAX;    ///< junction whose lower loop ends the tube, or none (tip)
+  NodeId branch;                              ///< first node of the branch the tube belongs to
+};
+
+/// Branch fusion above one fork: `lower` is the last loop of the parent's tube (around both
+/// bundles), `upper[0]` and `upper[1]` the first loops of the main and lateral child tubes.
+struct Junction {
+  NodeId fork;
+  std::uint32_t lower = 0;
+  std::array<std::uint32_t, 2> upper{};
+  std::uint32_t lower_tube = 0;
+  std::array<std::uint32_t, 2> upper_tubes{};
+  double split_distance = 0;  ///< distance above the fork where the bundles split (metres)
+  bool forced = false;        ///< the bundles never separated; the split was forced
+};
+
+/// All loops (structure of arrays: #L loops, #V loop vertices in total).
+struct ContourSet {
+  std::vector<std::uint32_t> loop_begin;  ///< #L+1: loop l owns vertices [loop_begin[l], loop_begin[l+1])
+  std::vector<dvec3> point;               ///< #V vertex positions (metres, world); CCW seen from the tip side
+  std::vector<StrandId> strand;           ///< #V strand of each vertex
+  std::vector<NodeId> loop_node;          ///< #L edge of the slice (the edge of node n, from parent(n) to n);
+                                          ///< for fused loops, the main child's edge
+  std::vector<double> loop_t;             ///< #L strand parameter on that edge
+  std::vector<double> loop_distance;      ///< #L distance along the branch from its base (metres), for UVs
+  std::vector<dvec3> loop_center;         ///< #L centre of the slice (on the skeleton)
+  std::vector<Frame> loop_frame;          ///< #L slice frame; tangent points towards the tips
+  std::vector<double> loop_radius;        ///< #L skeleton radius at the slice (metres)
+  std::vector<LoopKind> loop_kind;        ///< #L
+  std::vector<Tube> tubes;                ///< tube 0 starts at the root
+  std::vector<Junction> junctions;
+  ContourStats stats;
+
+  [[nodiscard]] std::size_t loop_count() const { return loop_kind.size(); }
+  [[nodiscard]] std::uint32_t loop_size(std::uint32_t l) const { return loop_begin[l + 1] - loop_begin[l]; }
+};
+
+/// Slices every branch and selects the boundary loops.
+/// Preconditions: `field` and `strands` were computed for `skeleton`.
+ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
+                            const ContourParams& params = {}, const ProgressFn& progress = {});
+
+/// Boundary selection on its own (exposed for tests and the viewer): indices into `points` of
+/// the outer loop, counter-clockwise, at least 3 when the points are not all collinear.
+/// `fallback` (optional) is set to true when the angular walk had to be replaced.
+std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& points, double concave_turn_degrees,
+                                         bool* fallback = nullptr);
+
+}  // namespace sm

@@ -1,0 +1,400 @@
+// Meshing: strips, branch fusion, caps, normals and UVs (seed 003 §2.5; DESIGN.md meshing/).
+
+#include "meshing/meshing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <unordered_set>
+
+#include "core/errors.h"
+
+namespace sm {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
+}
+
+/// Signed angle difference wrapped into (-pi, pi].
+double wrap_pi(double a) {
+  while (a > std::numbers::pi) a -= kTwoPi;
+  while (a <= -std::numbers::pi) a += kTwoPi;
+  return a;
+}
+
+/// Unwrapped angles of loop vertices around an axis, relative to `ref`; entry k = m is the
+/// first one plus 2 pi, so a full turn ends where it started.
+std::vector<double> unwrapped_angles(const std::vector<std::uint32_t>& loop, const std::vector<glm::dvec3>& pos,
+                                     const Frame& frame, const glm::dvec3& center, double ref) {
+  const std::size_t m = loop.size();
+  std::vector<double> a(m + 1);
+  double prev = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    const dvec2 q = frame.to_local(pos[loop[k]] - center);
+    const double raw = std::atan2(q.y, q.x);
+    a[k] = k == 0 ? wrap_pi(raw - ref) : a[k - 1] + wrap_pi(raw - prev);
+    prev = raw;
+  }
+  a[m] = a[0] + kTwoPi;
+  return a;
+}
+
+struct AngleGuard {
+  std::vector<double> lower, upper;
+  double tolerance = 0;
+};
+
+/// The strip between two closed loops (see stitch_loops in the header). With a guard, a
+/// greedy choice that would run against the angular order around the branch axis by more
+/// than the tolerance is overruled, which keeps the strip from folding over itself when the
+/// two loops are offset or differently sampled.
+void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
+            const std::vector<glm::dvec3>& pos, std::vector<Mesh::Triangle>& out, const AngleGuard* guard) {
+  const std::size_t m = lower.size(), n = upper.size();
+  std::unordered_set<std::uint64_t> diagonals;
+  diagonals.reserve(2 * (m + n));
+  diagonals.insert(edge_key(lower[0], upper[0]));
+  std::size_t i = 0, j = 0;
+  while (i < m || j < n) {
+    const std::uint32_t p = lower[i % m], q = upper[j % n];
+    const std::uint32_t p1 = lower[(i + 1) % m], q1 = upper[(j + 1) % n];
+    bool advance_lower;
+    if (i == m) {
+      advance_lower = false;
+    } else if (j == n) {
+      advance_lower = true;
+    } else {
+      const double dl = glm::length(pos[p1] - pos[q]);
+      const double du = glm::length(pos[p] - pos[q1]);
+      advance_lower = dl <= du;
+      if (guard) {
+        const double al = guard->lower[i + 1], au = guard->upper[j + 1];
+        if (advance_lower && al > au + guard->tolerance) advance_lower = false;
+        if (!advance_lower && au > al + guard->tolerance) advance_lower = true;
+      }
+      // Never create the same diagonal twice (the keyhole loop visits two vertices twice).
+      const bool lower_dup = diagonals.count(edge_key(p1, q)) != 0 && !(i + 1 == m && j == n);
+      const bool upper_dup = diagonals.count(edge_key(p, q1)) != 0 && !(i == m && j + 1 == n);
+      if (advance_lower && lower_dup && !upper_dup) advance_lower = false;
+      if (!advance_lower && upper_dup && !lower_dup) advance_lower = true;
+    }
+    if (advance_lower) {
+      out.push_back({p, p1, q});
+      diagonals.insert(edge_key(p1, q));
+      ++i;
+    } else {
+      out.push_back({p, q1, q});
+      diagonals.insert(edge_key(p, q1));
+      ++j;
+    }
+  }
+}
+
+class Builder {
+ public:
+  Builder(const Skeleton& s, const ContourSet& c, const MeshParams& p) : s_(s), c_(c), p_(p) {}
+  MeshResult run(const ProgressFn& progress);
+
+ private:
+  std::vector<std::uint32_t> loop_ids(std::uint32_t l) const {
+    std::vector<std::uint32_t> ids(c_.loop_size(l));
+    for (std::uint32_t k = 0; k < ids.size(); ++k) ids[k] = c_.loop_begin[l] + k;
+    return ids;
+  }
+  glm::dvec3 loop_centroid(std::uint32_t l) const {
+    glm::dvec3 c(0);
+    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) c += c_.point[v];
+    return c / double(c_.loop_size(l));
+  }
+  /// Rotates `ids` so that it starts at the vertex carrying a strand that `other` also
+  /// carries (the one nearest other's start), or at the vertex closest to other[0].
+  void align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const;
+
+  void strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch);
+  void fuse(const Junction& j, std::uint32_t branch);
+  void tip_cap(std::uint32_t loop, std::uint32_t branch);
+  void root_cap(std::uint32_t loop, std::uint32_t branch);
+  void emit(const std::vector<Mesh::Triangle>& tris, std::uint32_t branch) {
+    mesh_.triangles.insert(mesh_.triangles.end(), tris.begin(), tris.end());
+    mesh_.triangle_branch.insert(mesh_.triangle_branch.end(), tris.size(), branch);
+  }
+  std::uint32_t add_vertex(const glm::dvec3& p, NodeId node, double u, double v) {
+    mesh_.positions.push_back(p);
+    mesh_.vertex_strand.push_back(StrandId{});
+    mesh_.vertex_node.push_back(node);
+    vertex_u_.push_back(u);
+    vertex_v_.push_back(v);
+    return static_cast<std::uint32_t>(mesh_.positions.size() - 1);
+  }
+  void compute_uvs();
+  void check_topology();
+
+  const Skeleton& s_;
+  const ContourSet& c_;
+  const MeshParams& p_;
+  Mesh mesh_;
+  MeshStats stats_;
+  std::vector<double> loop_v_;                  // per loop
+  std::vector<double> vertex_u_, vertex_v_;     // per vertex
+  std::vector<Mesh::Triangle> scratch_;
+};
+
+void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const {
+  const StrandId s0 = c_.strand[lower[0]];
+  std::size_t best = 0;
+  double best_d = std::numeric_limits<double>::infinity();
+  bool shared = false;
+  for (std::size_t k = 0; k < upper.size(); ++k) {
+    const double d = glm::length(c_.point[upper[k]] - c_.point[lower[0]]);
+    const bool same = s0.valid() && c_.strand[upper[k]] == s0;
+    if ((same && !shared) || (same == shared && d < best_d)) {
+      best = k;
+      best_d = d;
+      shared = shared || same;
+    }
+  }
+  std::rotate(upper.begin(), upper.begin() + static_cast<std::ptrdiff_t>(best), upper.end());
+}
+
+void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch) {
+  const auto lower = loop_ids(lower_loop);
+  auto upper = loop_ids(upper_loop);
+  align(upper, lower);
+  const Frame& f = c_.loop_frame[lower_loop];
+  const glm::dvec3 center = 0.5 * (loop_centroid(lower_loop) + loop_centroid(upper_loop));
+  const dvec2 q0 = f.to_local(c_.point[lower[0]] - center);
+  const double ref = std::atan2(q0.y, q0.x);
+  AngleGuard guard;
+  guard.lower = unwrapped_angles(lower, c_.point, f, center, ref);
+  guard.upper = unwrapped_angles(upper, c_.point, f, center, ref);
+  guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
+  scratch_.clear();
+  stitch(lower, upper, c_.point, scratch_, &guard);
+  emit(scratch_, branch);
+  ++stats_.strips;
+}
+
+void Builder::fuse(const Junction& j, std::uint32_t branch) {
+  // The crotch: the closest pair of vertices between the two upper loops.
+  const auto a = loop_ids(j.upper[0]);
+  const auto b = loop_ids(j.upper[1]);
+  std::size_t ia = 0, ib = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t x = 0; x < a.size(); ++x) {
+    for (std::size_t y = 0; y < b.size(); ++y) {
+      const double d = glm::dot(c_.point[a[x]] - c_.point[b[y]], c_.point[a[x]] - c_.point[b[y]]);
+      if (d < best) {
+        best = d;
+        ia = x;
+        ib = y;
+      }
+    }
+  }
+  // Keyhole loop: around A from the crotch back to it, across to B, around B, and back.
+  std::vector<std::uint32_t> keyhole;
+  keyhole.reserve(a.size() + b.size() + 2);
+  for (std::size_t k = 0; k <= a.size(); ++k) keyhole.push_back(a[(ia + k) % a.size()]);
+  for (std::size_t k = 0; k <= b.size(); ++k) keyhole.push_back(b[(ib + k) % b.size()]);
+  // Start the strip away from the crotch: at the keyhole vertex farthest from it, and the
+  // lower-loop vertex nearest to that one.
+  const glm::dvec3 crotch = 0.5 * (c_.point[a[ia]] + c_.point[b[ib]]);
+  std::size_t start = 0;
+  double far = -1;
+  for (std::size_t k = 0; k < keyhole.size(); ++k) {
+    const double d = glm::length(c_.point[keyhole[k]] - crotch);
+    if (d > far) {
+      far = d;
+      start = k;
+    }
+  }
+  std::rotate(keyhole.begin(), keyhole.begin() + static_cast<std::ptrdiff_t>(start), keyhole.end());
+  auto lower = loop_ids(j.lower);
+  std::size_t ls = 0;
+  double near = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < lower.size(); ++k) {
+    const double d = glm::length(c_.point[lower[k]] - c_.point[keyhole[0]]);
+    if (d < near) {
+      near = d;
+      ls = k;
+    }
+  }
+  std::rotate(lower.begin(), lower.begin() + static_cast<std::ptrdiff_t>(ls), lower.end());
+  scratch_.clear();
+  stitch(lower, keyhole, c_.point, scratch_, nullptr);
+  emit(scratch_, branch);
+  ++stats_.junctions;
+}
+
+void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch) {
+  const auto ids = loop_ids(loop);
+  const glm::dvec3 c = loop_centroid(loop);
+  const glm::dvec3 t = c_.loop_frame[loop].tangent;
+  double r = 0;
+  for (auto v : ids) r += glm::length(c_.point[v] - c);
+  r /= double(ids.size());
+  const double h = p_.tip_dome * r;
+  const NodeId node = c_.loop_node[loop];
+  const double v0 = loop_v_[loop];
+  const double dv = p_.uv_repeat_u / (kTwoPi * std::max(r, 1e-12));
+  // One intermediate ring on the sphere (37 degrees up), then the apex.
+  std::vector<std::uint32_t> ring(ids.size());
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    ring[k] = add_vertex(c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv);
+  }
+  const std::uint32_t apex = add_vertex(c + h * t, node, 0.5 * p_.uv_repeat_u, v0 + h * dv);
+  scratch_.clear();
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const std::size_t k1 = (k + 1) % ids.size();
+    scratch_.push_back({ids[k], ids[k1], ring[k]});
+    scratch_.push_back({ids[k1], ring[k1], ring[k]});
+    scratch_.push_back({ring[k], ring[k1], apex});
+  }
+  emit(scratch_, branch);
+  ++stats_.tip_caps;
+}
+
+void Builder::root_cap(std::uint32_t loop, std::uint32_t branch) {
+  const auto ids = loop_ids(loop);
+  // Flat base: the centre in the loop's plane.
+  const Frame& f = c_.loop_frame[loop];
+  glm::dvec3 c = loop_centroid(loop);
+  c -= f.tangent * glm::dot(c - c_.loop_center[loop], f.tangent);
+  const std::uint32_t centre = add_vertex(c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
+  scratch_.clear();
+  for (std::size_t k = 0; k < ids.size(); ++k) scratch_.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
+  emit(scratch_, branch);
+}
+
+void Builder::compute_uvs() {
+  // v: distance along the branch over its circumference (square texels); continuous from
+  // parent tube to child tube. Tubes are numbered parents first.
+  loop_v_.assign(c_.loop_count(), 0.0);
+  const double repeat = p_.uv_repeat_u;
+  for (const Tube& t : c_.tubes) {
+    double v = 0;
+    std::uint32_t prev = UINT32_MAX;
+    if (t.start_junction != UINT32_MAX) prev = c_.junctions[t.start_junction].lower;
+    for (std::uint32_t l : t.loops) {
+      if (prev != UINT32_MAX) {
+        const double r = std::max(0.5 * (c_.loop_radius[prev] + c_.loop_radius[l]), 1e-12);
+        v = loop_v_[prev] + repeat * std::abs(c_.loop_distance[l] - c_.loop_distance[prev]) / (kTwoPi * r);
+      }
+      loop_v_[l] = v;
+      prev = l;
+    }
+  }
+  // u: angle around the loop's own centre, from the frame's normal (parallel transported, so
+  // u = 0 runs along the branch without twisting).
+  vertex_u_.assign(c_.point.size(), 0.0);
+  vertex_v_.assign(c_.point.size(), 0.0);
+  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
+    const glm::dvec3 centre = loop_centroid(l);
+    const Frame& f = c_.loop_frame[l];
+    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
+      const dvec2 q = f.to_local(c_.point[v] - centre);
+      double a = std::atan2(q.y, q.x) / kTwoPi;
+      if (a < 0) a += 1;
+      vertex_u_[v] = a * repeat;
+      vertex_v_[v] = loop_v_[l];
+    }
+  }
+}
+
+void Builder::check_topology() {
+  // Every undirected edge must be used exactly twice, once in each direction.
+  std::vector<std::pair<std::uint64_t, int>> edges;
+  edges.reserve(mesh_.triangles.size() * 3);
+  for (const auto& t : mesh_.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[std::size_t(k)], b = t[std::size_t((k + 1) % 3)];
+      edges.emplace_back(edge_key(a, b), a < b ? 1 : -1);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t k = i;
+    int dir = 0;
+    while (k < edges.size() && edges[k].first == edges[i].first) dir += edges[k++].second;
+    if (k - i != 2 || dir != 0) ++bad;
+    i = k;
+  }
+  stats_.bad_edges = bad;
+  if (bad > 0) {
+    stats_.warnings.add_count("bad_edges", "edges not shared by exactly two consistently oriented triangles", bad);
+  }
+}
+
+MeshResult Builder::run(const ProgressFn& progress) {
+  Stopwatch clock;
+  mesh_.positions = c_.point;
+  mesh_.vertex_strand = c_.strand;
+  mesh_.vertex_node.resize(c_.point.size());
+  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
+    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) mesh_.vertex_node[v] = c_.loop_node[l];
+  }
+  compute_uvs();
+  stats_.timings.add("setup", clock.lap());
+  const std::size_t tubes = c_.tubes.size();
+  for (std::size_t ti = 0; ti < tubes; ++ti) {
+    const Tube& t = c_.tubes[ti];
+    const std::uint32_t branch = t.branch.value;
+    for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strip(t.loops[k], t.loops[k + 1], branch);
+    if (t.end_junction != UINT32_MAX) {
+      fuse(c_.junctions[t.end_junction], branch);
+    } else if (!t.loops.empty()) {
+      tip_cap(t.loops.back(), branch);
+    }
+    if (progress && (ti & 255) == 0) progress("meshing", double(ti) / double(tubes));
+  }
+  if (!c_.tubes.empty() && !c_.tubes[0].loops.empty()) root_cap(c_.tubes[0].loops.front(), c_.tubes[0].branch.value);
+  stats_.timings.add("stitching", clock.lap());
+
+  if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_);
+  if (p_.uvs) {
+    mesh_.corner_uvs.resize(mesh_.triangles.size());
+    const double repeat = p_.uv_repeat_u;
+    for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
+      const auto& t = mesh_.triangles[f];
+      double u[3], v[3];
+      for (int k = 0; k < 3; ++k) {
+        u[k] = vertex_u_[t[std::size_t(k)]];
+        v[k] = vertex_v_[t[std::size_t(k)]];
+      }
+      // Seam: a triangle spanning the u wrap gets its small u values lifted by one turn.
+      const double lo = std::min({u[0], u[1], u[2]}), hi = std::max({u[0], u[1], u[2]});
+      if (hi - lo > 0.5 * repeat) {
+        for (double& x : u) {
+          if (x < 0.5 * repeat) x += repeat;
+        }
+      }
+      for (int k = 0; k < 3; ++k) mesh_.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));
+    }
+  }
+  stats_.timings.add("normals_uvs", clock.lap());
+  check_topology();
+  stats_.timings.add("check", clock.lap());
+  stats_.vertices = mesh_.positions.size();
+  stats_.triangles = mesh_.triangles.size();
+  return MeshResult{std::move(mesh_), std::move(stats_)};
+}
+
+}  // namespace
+
+void stitch_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
+                  const std::vector<glm::dvec3>& positions, std::vector<Mesh::Triangle>& out) {
+  SM_CHECK(!lower.empty() && !upper.empty(), "stitch_loops: empty loop");
+  stitch(lower, upper, positions, out, nullptr);
+}
+
+MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
+                      const ProgressFn& progress) {
+  Builder b(skeleton, contours, params);
+  return b.run(progress);
+}
+
+}  // namespace sm

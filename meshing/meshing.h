@@ -1,0 +1,72 @@
+#pragma once
+/// Meshing stage: stitches the contour loops into one closed, consistently oriented surface
+/// (DESIGN.md meshing/, seed 003 §2.5).
+///
+///  - Consecutive loops of a tube are joined by the greedy shortest-diagonal strip (seed 003
+///    §2.5.1), starting at a strand both loops share (or the closest pair), with a guard that
+///    keeps the strip monotone around the branch axis.
+///  - Branch fusion (seed 003 §2.5.2): at a junction the two upper loops are joined at their
+///    closest pair (the crotch) into one "keyhole" loop that runs around the main child's
+///    loop, across the crotch, around the lateral's loop and back; the lower loop is stitched
+///    to it. The two triangles on the crotch edge are the special triangles of the seed; the
+///    result is a pair of pants: no holes, no overlaps, manifold by construction.
+///  - Caps: a dome on the last loop of every tube that ends at a tip, a flat base on the
+///    root's loop.
+///  - Normals are computed on the finished mesh (angle-weighted), UVs follow the strands:
+///    u around the branch (from the parallel-transported frame, so it does not twist), v along
+///    it, scaled by the circumference so texels stay square. Seams are per-corner UVs only.
+///
+/// The result is a welded mesh: a closed 2-manifold of genus 0 for any tree (checked by
+/// `check_mesh`, meshing/checks.h).
+
+#include <cstdint>
+
+#include "contours/contours.h"
+#include "core/mesh.h"
+#include "core/progress.h"
+#include "core/report.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+struct MeshParams {
+  /// Height of the dome on a tip relative to the tip loop's radius (0 = flat cap).
+  double tip_dome = 0.9;
+  /// Texture repeats around the branch (u runs over [0, uv_repeat_u) once around).
+  double uv_repeat_u = 1.0;
+  /// Compute per-corner UVs.
+  bool uvs = true;
+  /// Compute smooth vertex normals.
+  bool normals = true;
+};
+
+struct MeshStats {
+  std::size_t vertices = 0;
+  std::size_t triangles = 0;
+  std::size_t strips = 0;          ///< loop-to-loop strips
+  std::size_t junctions = 0;       ///< branch fusions
+  std::size_t tip_caps = 0;
+  std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
+  Warnings warnings;
+  Timings timings;
+};
+
+struct MeshResult {
+  Mesh mesh;
+  MeshStats stats;
+};
+
+/// Builds the branch mesh from the contour loops.
+/// Precondition: `contours` was computed for `skeleton`.
+MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params = {},
+                      const ProgressFn& progress = {});
+
+/// Triangulates the band between two closed loops of vertex ids (both counter-clockwise seen
+/// from the tip side; `lower` nearer the root) with the greedy shortest-diagonal rule, starting
+/// at the pair (lower[0], upper[0]). Appends outward-facing triangles to `out`. Never creates an
+/// edge twice (a vertex id may appear more than once in `upper`, as in the keyhole loop).
+/// Exposed for tests.
+void stitch_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
+                  const std::vector<glm::dvec3>& positions, std::vector<Mesh::Triangle>& out);
+
+}  // namespace sm

@@ -1,0 +1,152 @@
+#include "pipeline/pipeline.h"
+
+#include <nlohmann/json.hpp>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "particles/dump.h"
+#include "skeleton/io.h"
+
+namespace sm {
+
+const char* stage_name(Stage s) {
+  switch (s) {
+    case Stage::skeleton: return "skeleton";
+    case Stage::particles: return "particles";
+    case Stage::strands: return "strands";
+    case Stage::contours: return "contours";
+    case Stage::meshing: return "meshing";
+  }
+  return "?";
+}
+
+Warnings PipelineResult::warnings() const {
+  Warnings w;
+  w.merge(skeleton.report.warnings);
+  w.merge(particles.stats.warnings);
+  w.merge(strands.stats.warnings);
+  w.merge(contours.stats.warnings);
+  w.merge(mesh.stats.warnings);
+  return w;
+}
+
+void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelineParams& p, Stage from,
+                    const ProgressFn& progress) {
+  auto report = [&](std::string_view phase, double f) {
+    if (progress) progress(phase, f);
+  };
+  Stopwatch clock;
+  auto timed = [&](Stage s, auto&& fn) {
+    if (from > s) return;
+    clock.lap();
+    fn();
+    for (auto& e : r.timings.entries) {
+      if (e.name == stage_name(s)) e.seconds = 0;
+    }
+    r.timings.add(stage_name(s), clock.lap());
+  };
+  timed(Stage::skeleton, [&] {
+    report("skeleton", 0);
+    r.skeleton = build_skeleton(raw, p.skeleton);
+    if (r.skeleton.skeleton.size() < 2) {
+      throw InvalidInputError(raw.source + ": the skeleton has a single node after sanitizing; a tree needs at least "
+                                           "one edge to be meshed");
+    }
+  });
+  timed(Stage::particles, [&] { r.particles = compute_particles(r.skeleton.skeleton, p.particles, progress); });
+  timed(Stage::strands, [&] {
+    report("strands", 0);
+    r.strands = build_strands(r.skeleton.skeleton, r.particles, p.strands);
+  });
+  timed(Stage::contours,
+        [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
+  timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
+}
+
+PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
+  PipelineResult r;
+  rerun_pipeline(r, raw, params, Stage::skeleton, progress);
+  return r;
+}
+
+namespace {
+
+std::string contours_to_json(const ContourSet& c) {
+  using nlohmann::json;
+  static const char* kinds[] = {"plain", "fused", "split", "tip"};
+  json loops = json::array();
+  for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
+    json strands = json::array(), points = json::array();
+    for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
+      strands.push_back(c.strand[v].valid() ? std::int64_t(c.strand[v].value) : -1);
+      points.push_back({c.point[v].x, c.point[v].y, c.point[v].z});
+    }
+    const auto& ctr = c.loop_center[l];
+    loops.push_back({{"node", c.loop_node[l].value},
+                     {"t", c.loop_t[l]},
+                     {"kind", kinds[static_cast<int>(c.loop_kind[l])]},
+                     {"distance", c.loop_distance[l]},
+                     {"radius", c.loop_radius[l]},
+                     {"center", {ctr.x, ctr.y, ctr.z}},
+                     {"strands", std::move(strands)},
+                     {"points", std::move(points)}});
+  }
+  json tubes = json::array();
+  for (const auto& t : c.tubes) {
+    tubes.push_back({{"loops", t.loops},
+                     {"branch", t.branch.value},
+                     {"start_junction", t.start_junction == UINT32_MAX ? -1 : std::int64_t(t.start_junction)},
+                     {"end_junction", t.end_junction == UINT32_MAX ? -1 : std::int64_t(t.end_junction)}});
+  }
+  json junctions = json::array();
+  for (const auto& j : c.junctions) {
+    junctions.push_back({{"fork", j.fork.value},
+                         {"lower", j.lower},
+                         {"upper", {j.upper[0], j.upper[1]}},
+                         {"split_distance", j.split_distance},
+                         {"forced", j.forced}});
+  }
+  return json{{"loops", std::move(loops)}, {"tubes", std::move(tubes)}, {"junctions", std::move(junctions)}}.dump() +
+         "\n";
+}
+
+}  // namespace
+
+std::string stats_to_json(const PipelineResult& r, double export_seconds, double total_seconds) {
+  using nlohmann::json;
+  json seconds;
+  for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) seconds[s] = r.timings.get(s);
+  seconds["export"] = export_seconds;
+  seconds["total"] = total_seconds > 0 ? total_seconds : r.timings.total() + export_seconds;
+  json warnings = json::array();
+  for (const auto& w : r.warnings().list()) {
+    warnings.push_back({{"kind", w.kind}, {"message", w.message}, {"count", w.count}, {"examples", w.examples}});
+  }
+  const json j{{"nodes", r.skeleton.skeleton.size()},
+               {"input_nodes", r.skeleton.report.input_nodes},
+               {"strands", r.particles.strand_count()},
+               {"particles", r.particles.position.size()},
+               {"spacing", r.particles.spacing},
+               {"slices", r.contours.loop_count()},
+               {"junctions", r.contours.junctions.size()},
+               {"vertices", r.mesh.mesh.vertex_count()},
+               {"triangles", r.mesh.mesh.triangle_count()},
+               {"bad_edges", r.mesh.stats.bad_edges},
+               {"warnings", std::move(warnings)},
+               {"seconds", std::move(seconds)}};
+  return j.dump(2) + "\n";
+}
+
+void dump_stages(const PipelineResult& r, const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw IoError("cannot create directory " + dir.string() + ": " + ec.message());
+  const Skeleton& s = r.skeleton.skeleton;
+  write_file_atomically(dir / "skeleton.json", skeleton_to_json(s));
+  write_file_atomically(dir / "particles.json", particles_to_json(s, r.particles));
+  write_file_atomically(dir / "strands.json", strands_to_json(s, r.particles, r.strands));
+  write_file_atomically(dir / "contours.json", contours_to_json(r.contours));
+  write_file_atomically(dir / "stats.json", stats_to_json(r));
+}
+
+}  // namespace sm

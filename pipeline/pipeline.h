@@ -1,0 +1,71 @@
+#pragma once
+/// The whole pipeline: skeleton → particles → strands → contours → mesh. The CLI and the
+/// viewer only call this (and the stage entry points); they never reach into a stage.
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "contours/contours.h"
+#include "core/progress.h"
+#include "core/report.h"
+#include "meshing/meshing.h"
+#include "particles/particles.h"
+#include "skeleton/build.h"
+#include "strands/strands.h"
+
+namespace sm {
+
+/// Every stage's parameters. Defaults are the documented defaults of each Params struct.
+struct PipelineParams {
+  SkeletonParams skeleton;
+  ParticleParams particles;
+  StrandParams strands;
+  ContourParams contours;
+  MeshParams meshing;
+};
+
+/// The stages, in order; `rerun_pipeline` restarts from one of them.
+enum class Stage { skeleton = 0, particles, strands, contours, meshing };
+const char* stage_name(Stage s);
+
+/// Parses a config file: {"skeleton": {...}, "particles": {...}, "strands": {...},
+/// "contours": {...}, "meshing": {...}}, every section and key optional, values overriding
+/// the defaults in `base`. An unknown section or key, or a value of the wrong type, throws
+/// InvalidInputError naming the file, the key and the accepted keys.
+PipelineParams parse_params_json(std::string_view text, const std::string& name, const PipelineParams& base = {});
+PipelineParams load_params(const std::filesystem::path& path, const PipelineParams& base = {});
+/// All parameters as a config file (every key, current values); parse_params_json reads it back.
+std::string params_to_json(const PipelineParams& params);
+
+struct PipelineResult {
+  SkeletonResult skeleton;
+  ParticleField particles;
+  StrandSet strands;
+  ContourSet contours;
+  MeshResult mesh;
+  /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing".
+  Timings timings;
+  /// Warnings of every stage, in stage order.
+  [[nodiscard]] Warnings warnings() const;
+};
+
+/// Runs every stage on `raw`. Throws InvalidInputError for malformed skeletons or parameters.
+/// `progress` receives (stage name, fraction of that stage).
+PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress = {});
+
+/// Re-runs the stages from `from` on with new parameters, keeping the earlier stages of
+/// `result` (which must come from the same raw skeleton). Used by the viewer.
+void rerun_pipeline(PipelineResult& result, const RawSkeleton& raw, const PipelineParams& params, Stage from,
+                    const ProgressFn& progress = {});
+
+/// Writes the stage results for the viewer and for debugging into `dir` (created if needed):
+/// skeleton.json (the sanitized skeleton), particles.json, strands.json, contours.json and
+/// stats.json. Each file is written atomically.
+void dump_stages(const PipelineResult& result, const std::filesystem::path& dir);
+
+/// The run's figures as JSON: nodes, strands, particles (sum over nodes), slices, vertices,
+/// triangles, warnings, and seconds per stage.
+std::string stats_to_json(const PipelineResult& result, double export_seconds = 0, double total_seconds = 0);
+
+}  // namespace sm
