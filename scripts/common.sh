@@ -15,6 +15,9 @@ STRANDMESH_PACKAGES=(
   libimgui-dev libglfw3-dev libgl-dev libstb-dev
   xvfb xauth libgl1-mesa-dri
 )
+# Node.js and npm run the Khronos glTF validator (scripts/validate_gltf.sh). Installed only when
+# missing: a machine may already have a newer Node.js whose npm conflicts with Debian's.
+command -v npm >/dev/null 2>&1 || STRANDMESH_PACKAGES+=(nodejs npm)
 
 log() { printf '\033[1m[strandmesh]\033[0m %s\n' "$*" >&2; }
 

@@ -6,7 +6,7 @@ void register_commands(CLI::App& app, const GlobalOptions& global) {
   add_info_command(app, global);
   add_grow_command(app, global);
   add_unavailable_command(app, "mesh", "Mesh a skeleton: strandmesh mesh SKELETON -o OUT.glb");
-  add_unavailable_command(app, "check", "Check a mesh: closed, manifold, genus, self-intersections");
+  add_check_command(app, global);
   add_unavailable_command(app, "bench", "Benchmark the pipeline on grown trees");
 }
 

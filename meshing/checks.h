@@ -1,0 +1,124 @@
+#pragma once
+/// Mesh checks: is a mesh a closed, oriented, genus-0 2-manifold without degenerate faces or
+/// self-intersections, and (given the skeleton) does its surface follow the skeleton's radii?
+/// The library side of `strandmesh check`.
+///
+/// Definitions (V, E, F count vertices used by a triangle, undirected edges, triangles):
+///  - boundary edge: used by exactly one triangle; closed = no boundary edges.
+///  - non-manifold edge: used by three or more triangles; edge-manifold = none.
+///  - non-manifold vertex: its triangles form more than one fan (connected through edges at
+///    the vertex); vertex-manifold = none. Only meaningful on edge-manifold meshes.
+///  - misoriented edge: an edge with two triangles that traverse it in the same direction;
+///    oriented = none (and edge-manifold).
+///  - components: connected components of the triangles through shared vertices.
+///  - Euler characteristic χ = V - E + F; genus = (2 C - χ) / 2 summed over the C components,
+///    defined only for closed, manifold, oriented meshes.
+///  - degenerate triangle: a repeated vertex index, or an area at most
+///    `degenerate_area_ratio` × (bounding-box diagonal)² (zero-area triangles included).
+///  - signed volume: Σ det(p0, p1, p2) / 6 over triangles (positive when the triangles face
+///    outward), computed relative to the bounding-box centre so large coordinates do not
+///    cancel.
+///  - self-intersection: a pair of non-degenerate triangles that intersect other than in the
+///    vertex or edge they share in the connectivity (CGAL Polygon Mesh Processing
+///    `self_intersections` on the mesh when the triangles form a valid polygon mesh, otherwise
+///    the same test on the triangle soup with CGAL's box intersection; exact predicates).
+///  - fidelity (with a skeleton): for every mesh vertex, the distance to the skeleton's
+///    round-cone surface (union over edges of the convex hull of the two end spheres; a single
+///    node is a sphere) divided by the radius of the nearest cone at the closest point
+///    (linearly interpolated between its end radii); reported as p50, p95 and max.
+///  - thick nodes inside (with a skeleton): every node whose radius is at least the median
+///    radius must lie inside the mesh or on its surface (a node at the centre of a flat cap)
+///    (CGAL `Side_of_triangle_mesh`; only tested on a closed, manifold, oriented mesh).
+///
+/// Cost: O(F log F) plus the self-intersection test (box intersection, near-linear on meshes
+/// without many overlaps; parallel with oneTBB) and O(V log N) for fidelity with a bounding-
+/// volume hierarchy over the skeleton's edges. The report is identical for any thread count.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/mesh.h"
+#include "core/report.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+/// Options of check_mesh.
+struct MeshCheckParams {
+  bool self_intersections = true;        ///< run the (most expensive) self-intersection test (default true)
+  double degenerate_area_ratio = 1e-14;  ///< degenerate when area <= this × bbox diagonal² (relative; default 1e-14)
+  const Skeleton* skeleton = nullptr;    ///< measure fidelity to this skeleton (mesh's frame); none by default
+  double fidelity_tolerance = 0.15;      ///< ok() needs p95 fidelity <= this (relative to local radius; default 0.15)
+  std::size_t max_examples = 5;          ///< offending edges/triangles/pairs listed per kind (count; default 5)
+};
+
+/// What check_mesh found. Counts are exact; `*_examples` list the first few offenders
+/// (vertex pairs for edges, triangle indices otherwise) in index order.
+struct MeshCheckReport {
+  std::size_t vertices = 0;               ///< #V of the mesh, used or not
+  std::size_t unreferenced_vertices = 0;  ///< vertices no triangle uses (informative)
+  std::size_t nonfinite_vertices = 0;     ///< vertices with a NaN or infinite coordinate
+  std::size_t triangles = 0;              ///< #F
+  std::size_t edges = 0;                  ///< undirected edges
+  std::size_t components = 0;             ///< connected components (through shared vertices)
+  std::size_t boundary_edges = 0;         ///< edges with one triangle
+  std::size_t nonmanifold_edges = 0;      ///< edges with three or more triangles
+  std::size_t nonmanifold_vertices = 0;   ///< vertices whose triangles form several fans
+  std::size_t misoriented_edges = 0;      ///< two-triangle edges traversed twice in the same direction
+  bool closed = false;                    ///< no boundary edges
+  bool edge_manifold = false;             ///< no non-manifold edges
+  bool vertex_manifold = false;           ///< no non-manifold vertices
+  bool oriented = false;                  ///< edge-manifold and no misoriented edges
+  std::int64_t euler_characteristic = 0;  ///< V - E + F (V = used vertices)
+  std::optional<std::int64_t> genus;      ///< total genus, for closed, manifold, oriented meshes
+  std::size_t degenerate_triangles = 0;   ///< repeated index or (near-)zero area
+  double min_triangle_area = 0;           ///< smallest triangle area (m²)
+  double signed_volume = 0;               ///< m³; > 0 when triangles face outward
+  double bbox_diagonal = 0;               ///< length of the bounding-box diagonal (m)
+
+  bool self_intersections_checked = false;  ///< the self-intersection test ran
+  std::size_t self_intersecting_pairs = 0;  ///< intersecting triangle pairs
+
+  bool fidelity_checked = false;       ///< a skeleton was given
+  double fidelity_p50 = 0;             ///< median |distance to round cones| / local radius
+  double fidelity_p95 = 0;             ///< 95th percentile of the same
+  double fidelity_max = 0;             ///< largest of the same
+  double fidelity_tolerance = 0;       ///< the tolerance ok() applies to fidelity_p95
+  bool inside_checked = false;         ///< the thick-node inside test ran (closed manifold oriented mesh)
+  std::size_t thick_nodes = 0;         ///< skeleton nodes with radius >= the median radius
+  std::size_t thick_nodes_inside = 0;  ///< of those, how many lie inside the mesh (or on it)
+
+  std::vector<std::array<std::uint32_t, 2>> boundary_edge_examples;      ///< vertex pairs
+  std::vector<std::array<std::uint32_t, 2>> nonmanifold_edge_examples;   ///< vertex pairs
+  std::vector<std::uint32_t> nonmanifold_vertex_examples;                ///< vertex indices
+  std::vector<std::array<std::uint32_t, 2>> misoriented_edge_examples;   ///< vertex pairs
+  std::vector<std::uint32_t> degenerate_triangle_examples;               ///< triangle indices
+  std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
+  Timings timings;                                                       ///< seconds per phase
+
+  /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component,
+  /// genus 0, no degenerate triangles, no non-finite vertices, no self-intersections (when
+  /// checked), positive volume, and, when a skeleton was given, fidelity p95 <= tolerance and
+  /// every thick node inside.
+  [[nodiscard]] bool ok() const;
+  /// One short sentence per failed criterion ("3 boundary edges (not closed)"); empty when ok().
+  [[nodiscard]] std::vector<std::string> failures() const;
+};
+
+/// Checks `mesh` (any Mesh; it need not be manifold). Throws InvalidInputError when a triangle
+/// references a vertex that does not exist.
+MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params = {});
+
+/// A human-readable multi-line report (stable wording; ends with "result: ok" or "result: FAILED").
+std::string to_text(const MeshCheckReport& report);
+
+/// The report as JSON: every field above plus "ok" and "failures".
+nlohmann::json to_json(const MeshCheckReport& report);
+
+}  // namespace sm

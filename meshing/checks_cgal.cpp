@@ -1,0 +1,175 @@
+// The CGAL part of the mesh checks: self-intersections and point-in-mesh. This is the only
+// translation unit that includes CGAL (it is slow to compile); checks.cpp calls it through
+// checks_cgal.h.
+//
+// Self-intersections use CGAL Polygon Mesh Processing's `self_intersections` on a Surface_mesh
+// whenever the triangles form a valid polygon mesh, which is the normal case for our output.
+// CGAL 5.5 has no triangle-soup variant, so broken inputs (non-manifold, misoriented) go
+// through the same box-intersection filter and the same exact tests written for index
+// triples: pairs sharing an edge intersect only when they fold onto each other (coplanar, on
+// the same side of the edge), pairs sharing a vertex only when an opposite edge meets the
+// other triangle, other pairs when the triangles meet at all.
+
+#include "meshing/checks_cgal.h"
+
+#include <algorithm>
+#include <mutex>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Side_of_triangle_mesh.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/box_intersection_d.h>
+
+namespace sm::detail {
+
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using Triangle3 = Kernel::Triangle_3;
+using Segment3 = Kernel::Segment_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+
+#if defined(CGAL_LINKED_WITH_TBB)
+using Concurrency = CGAL::Parallel_tag;
+#else
+using Concurrency = CGAL::Sequential_tag;
+#endif
+
+using Pair = std::array<std::uint32_t, 2>;
+
+// Triangle pairs of a soup that intersect other than in their shared vertex or edge.
+class SoupIntersector {
+ public:
+  SoupIntersector(const std::vector<Point>& points, const Mesh& mesh) : points_(points), mesh_(mesh) {}
+
+  std::vector<Pair> run() const {
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::uint32_t>;
+    std::vector<Box> boxes;
+    boxes.reserve(mesh_.triangles.size());
+    for (std::size_t t = 0; t < mesh_.triangles.size(); ++t) {
+      const auto& tri = mesh_.triangles[t];
+      const Point &p = points_[tri[0]], &q = points_[tri[1]], &r = points_[tri[2]];
+      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r)) continue;  // degenerate
+      boxes.emplace_back(p.bbox() + q.bbox() + r.bbox(), static_cast<std::uint32_t>(t));
+    }
+    std::vector<const Box*> ptrs;
+    ptrs.reserve(boxes.size());
+    for (const Box& b : boxes) ptrs.push_back(&b);
+    std::vector<Pair> pairs;
+    std::mutex mutex;
+    auto callback = [&](const Box* a, const Box* b) {
+      const std::uint32_t i = a->info(), j = b->info();
+      if (intersect(i, j)) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        pairs.push_back({std::min(i, j), std::max(i, j)});
+      }
+    };
+    CGAL::box_self_intersection_d<Concurrency>(ptrs.begin(), ptrs.end(), callback);
+    return pairs;
+  }
+
+ private:
+  [[nodiscard]] bool intersect(std::uint32_t i, std::uint32_t j) const {
+    const auto& a = mesh_.triangles[i];
+    const auto& b = mesh_.triangles[j];
+    int shared = 0, sa = -1, sb = -1;
+    for (int x = 0; x < 3; ++x) {
+      for (int y = 0; y < 3; ++y) {
+        if (a[static_cast<std::size_t>(x)] == b[static_cast<std::size_t>(y)]) {
+          ++shared;
+          sa = x;
+          sb = y;
+        }
+      }
+    }
+    auto pt = [&](const Mesh::Triangle& t, int k) -> const Point& {
+      return points_[t[static_cast<std::size_t>((k % 3 + 3) % 3)]];
+    };
+    const Triangle3 ta(pt(a, 0), pt(a, 1), pt(a, 2)), tb(pt(b, 0), pt(b, 1), pt(b, 2));
+    switch (shared) {
+      case 0:
+        return CGAL::do_intersect(ta, tb);
+      case 1:
+        return CGAL::do_intersect(ta, Segment3(pt(b, sb + 1), pt(b, sb + 2))) ||
+               CGAL::do_intersect(tb, Segment3(pt(a, sa + 1), pt(a, sa + 2)));
+      case 2: {
+        // The vertex of each triangle that is not on the shared edge.
+        int ca = 0, cb = 0;
+        for (int x = 0; x < 3; ++x) {
+          const auto v = a[static_cast<std::size_t>(x)];
+          if (v != b[0] && v != b[1] && v != b[2]) ca = x;
+        }
+        for (int y = 0; y < 3; ++y) {
+          const auto v = b[static_cast<std::size_t>(y)];
+          if (v != a[0] && v != a[1] && v != a[2]) cb = y;
+        }
+        const Point &s0 = pt(a, ca + 1), &s1 = pt(a, ca + 2), &c = pt(a, ca), &d = pt(b, cb);
+        return CGAL::coplanar(s0, s1, c, d) && CGAL::coplanar_orientation(s0, s1, c, d) == CGAL::POSITIVE;
+      }
+      default:
+        return true;  // the same three vertices: the triangles coincide
+    }
+  }
+
+  const std::vector<Point>& points_;
+  const Mesh& mesh_;
+};
+
+}  // namespace
+
+CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed_polygon_mesh, bool self_intersections,
+                                const std::vector<glm::dvec3>& queries, std::size_t max_examples) {
+  CgalCheckResult result;
+  std::vector<Point> points;
+  points.reserve(mesh.positions.size());
+  for (const auto& p : mesh.positions) points.emplace_back(p.x, p.y, p.z);
+
+  SurfaceMesh sm;
+  if (polygon_mesh) {
+    std::vector<std::array<std::size_t, 3>> polygons(mesh.triangles.size());
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      polygons[t] = {mesh.triangles[t][0], mesh.triangles[t][1], mesh.triangles[t][2]};
+    }
+    // Faces are created in polygon order, so face index == triangle index.
+    PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
+  }
+
+  if (self_intersections) {
+    std::vector<Pair> pairs;
+    if (polygon_mesh) {
+      std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> faces;
+      PMP::self_intersections<Concurrency>(sm, std::back_inserter(faces));
+      for (const auto& [f, g] : faces) {
+        if (f == g) continue;  // CGAL's report of a degenerate face; counted by check_mesh
+        const auto i = static_cast<std::uint32_t>(f.idx()), j = static_cast<std::uint32_t>(g.idx());
+        pairs.push_back({std::min(i, j), std::max(i, j)});
+      }
+    } else {
+      pairs = SoupIntersector(points, mesh).run();
+    }
+    // Parallel runs report in any order; sorting makes the report deterministic.
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    result.self_intersections_checked = true;
+    result.self_intersecting_pairs = pairs.size();
+    pairs.resize(std::min(pairs.size(), max_examples));
+    result.examples = std::move(pairs);
+  }
+
+  if (closed_polygon_mesh && !queries.empty() && !mesh.triangles.empty()) {
+    const CGAL::Side_of_triangle_mesh<SurfaceMesh, Kernel> side(sm);
+    result.inside.resize(queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      // The solid includes its surface: a node on a flat cap counts as inside.
+      result.inside[i] = side(Point(queries[i].x, queries[i].y, queries[i].z)) != CGAL::ON_UNBOUNDED_SIDE ? 1 : 0;
+    }
+    result.inside_checked = true;
+  }
+  return result;
+}
+
+}  // namespace sm::detail

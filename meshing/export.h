@@ -1,0 +1,89 @@
+#pragma once
+/// Writing a Mesh as glTF 2.0 (.glb, .gltf), Wavefront OBJ or PLY.
+///
+/// All writers take the welded `Mesh` (core/mesh.h) and split a vertex only where its corners
+/// disagree on an attribute that is stored per vertex in the file: the UV (per-corner UVs
+/// at seams) and, when `_BRANCH_ID` is written, the branch id of the triangle. Positions and
+/// normals are per vertex in `Mesh` and never cause a split. Vertices no triangle uses are
+/// dropped. The output is deterministic: the same mesh and params give the same bytes.
+///
+/// Formats (chosen by the file extension, case-insensitive):
+///  - `.glb`: binary glTF 2.0, one buffer in the BIN chunk.
+///  - `.gltf`: text glTF 2.0 with the buffer embedded as a base64 `data:` URI (one
+///    self-contained file, nothing written beside it).
+///  Both: one scene, one node, one mesh with one triangle primitive and a default
+///  metallic-roughness material (bark brown, double-sided false). Attributes: POSITION
+///  (float, with min/max), NORMAL (float, unit), TEXCOORD_0 (float, when the mesh has UVs),
+///  `_BRANCH_ID` (unsigned short when every id is below 65536, else float, which is exact up
+///  to 2^24; when the mesh has branch ids and `branch_ids` is set), indices as unsigned int.
+///  glTF is y-up: z-up input (x, y, z) is written as (x, z, -y) (a rotation, so triangles keep
+///  their orientation). Precision: positions are stored relative to an origin (the centre of
+///  the bounding box, in double precision) that becomes the node's translation, so a
+///  georeferenced tree (coordinates of hundreds of metres or more) keeps float32's relative
+///  precision of about 1e-7 of the tree's size instead of the coordinates' size.
+///  - `.obj`: `v x y z`, `vt u v`, `vn x y z`, `f a/a/a ...` with 1-based indices, numbers
+///    printed with 9 significant digits (`%.9g`, enough to round-trip float32 and sub-millimetre
+///    for coordinates below 10 km).
+///  - `.ply`: binary little endian; vertex x, y, z as double (precision of the input kept),
+///    nx, ny, nz and s, t as float; face `list uchar uint vertex_indices`.
+///  OBJ and PLY keep the input's axes (no up-axis conversion); the up axis is written into a
+///  comment line.
+///
+/// Errors: an unknown extension throws InvalidInputError naming it and the accepted ones; a
+/// file that cannot be written throws IoError. Files are written atomically (core/file_io.h):
+/// on any failure no file (and no partial file) is left under the requested name.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/mesh.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+/// Output file formats.
+enum class MeshFormat { glb, gltf, obj, ply };
+
+/// Options of the mesh writers.
+struct ExportParams {
+  UpAxis up_axis = UpAxis::z;  ///< up axis of the mesh coordinates (default z); glTF output is y-up
+  bool normals = true;         ///< write normals: Mesh::normals, else angle-weighted ones (default true)
+  bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
+  bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
+  bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)
+  bool recenter = true;        ///< glTF: positions relative to the bbox centre, kept in the node (default true)
+};
+
+/// The vertex buffers an exporter writes: the welded mesh with vertices split at seams.
+/// Every array has #V' entries (#V' >= number of used welded vertices), `indices` has 3 #F.
+struct ExportBuffers {
+  std::vector<glm::dvec3> positions;         ///< #V' positions, input axes (metres)
+  std::vector<glm::vec3> normals;            ///< #V' unit normals, or empty when not written
+  std::vector<glm::vec2> uvs;                ///< #V' texture coordinates, or empty
+  std::vector<std::uint32_t> branch;         ///< #V' branch id, or empty
+  std::vector<std::uint32_t> source_vertex;  ///< #V' welded vertex each one was copied from ("birth index")
+  std::vector<std::uint32_t> indices;        ///< 3 #F vertex indices, CCW seen from outside
+};
+
+/// Splits the welded mesh into export buffers (see the file comment for when a vertex is
+/// split). Without `params.optimize`, triangles keep their order and the copies of each
+/// welded vertex follow the welded order, so a mesh without seams keeps its vertex order
+/// (minus unused vertices). Throws InvalidInputError when a triangle index is out of range
+/// or an attribute array has the wrong length.
+ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params = {});
+
+/// The format for a path's extension. Throws InvalidInputError for any other extension.
+MeshFormat mesh_format_from_path(const std::filesystem::path& path);
+
+/// The bytes of the file `write_mesh` would write in `format`.
+std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams& params = {});
+
+/// Writes the mesh to `path` in the format given by its extension, atomically.
+/// Throws InvalidInputError (unknown extension, invalid mesh) or IoError (cannot write).
+void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params = {});
+
+}  // namespace sm

@@ -1,0 +1,33 @@
+// Writes glTF files of fixture meshes into a directory, for the Khronos glTF validator test
+// (scripts/validate_gltf.sh): gltf_fixture_writer OUT_DIR
+
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+
+#include "meshing/export.h"
+#include "tests/mesh_fixtures.h"
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: gltf_fixture_writer OUT_DIR\n");
+    return 2;
+  }
+  try {
+    const std::filesystem::path dir = argv[1];
+    std::filesystem::create_directories(dir);
+    using sm::test::capped_tube;
+    // Seams (UVs), branch ids, z-up input.
+    sm::write_mesh(capped_tube({0, 0, 0}, {0.2, 0.1, 1.5}, 0.1, 24, 12, true, 5), dir / "tube.glb");
+    // Georeferenced: a 5 mm twig at UTM-like coordinates (origin in the node translation).
+    sm::write_mesh(sm::test::translated(capped_tube({0, 0, 0}, {0, 0.02, 0.3}, 0.005, 12, 6, true, 1),
+                                        {512345.678, 5412345.678, 254.0}),
+                   dir / "georeferenced.glb");
+    // Text glTF with an embedded buffer, y-up input, no UVs or branch ids.
+    sm::write_mesh(sm::test::icosphere(3, 0.5), dir / "sphere.gltf", {.up_axis = sm::UpAxis::y});
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,436 @@
+// Mesh checks (meshing/checks.h) on meshes built in code, each with the report it must give,
+// plus `strandmesh check` end to end.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "meshing/checks.h"
+#include "meshing/export.h"
+#include "skeleton/io.h"
+#include "tests/fixtures.h"
+#include "tests/mesh_fixtures.h"
+
+namespace sm {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool mentions(const MeshCheckReport& r, const std::string& word) {
+  for (const auto& f : r.failures()) {
+    if (f.find(word) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(Checks, IcosphereIsAClosedGenusZeroManifold) {
+  const Mesh m = test::icosphere(3);
+  const MeshCheckReport r = check_mesh(m);
+  EXPECT_EQ(r.vertices, 642u);
+  EXPECT_EQ(r.triangles, 1280u);
+  EXPECT_EQ(r.edges, 1920u);
+  EXPECT_EQ(r.components, 1u);
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.edge_manifold);
+  EXPECT_TRUE(r.vertex_manifold);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_EQ(r.euler_characteristic, 2);
+  ASSERT_TRUE(r.genus.has_value());
+  EXPECT_EQ(*r.genus, 0);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_TRUE(r.self_intersections_checked);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_GT(r.signed_volume, 0.95 * 4.0 / 3.0 * 3.14159265 * 0.95);
+  EXPECT_LT(r.signed_volume, 4.0 / 3.0 * 3.14159266);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+}
+
+TEST(Checks, CappedTubeIsOk) {
+  const MeshCheckReport r = check_mesh(test::capped_tube());
+  EXPECT_TRUE(r.ok()) << to_text(r);
+  EXPECT_EQ(r.euler_characteristic, 2);
+}
+
+TEST(Checks, TorusHasGenusOne) {
+  const MeshCheckReport r = check_mesh(test::torus());
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_EQ(r.euler_characteristic, 0);
+  ASSERT_TRUE(r.genus.has_value());
+  EXPECT_EQ(*r.genus, 1);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "genus 1"));
+  EXPECT_EQ(r.failures().size(), 1u) << to_text(r);
+}
+
+TEST(Checks, TwoSpheresAreTwoComponents) {
+  const MeshCheckReport r = check_mesh(test::two_spheres());
+  EXPECT_EQ(r.components, 2u);
+  EXPECT_EQ(r.euler_characteristic, 4);
+  ASSERT_TRUE(r.genus.has_value());
+  EXPECT_EQ(*r.genus, 0);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "2 connected components"));
+  EXPECT_EQ(r.failures().size(), 1u) << to_text(r);
+}
+
+TEST(Checks, FlippedTriangleIsNotOriented) {
+  const MeshCheckReport r = check_mesh(test::box_with_flipped_triangle());
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.edge_manifold);
+  EXPECT_FALSE(r.oriented);
+  EXPECT_EQ(r.misoriented_edges, 3u);
+  EXPECT_EQ(r.misoriented_edge_examples.size(), 3u);
+  EXPECT_FALSE(r.genus.has_value());
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);  // the soup path: no false positives
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "misoriented"));
+}
+
+TEST(Checks, MissingTriangleIsNotClosed) {
+  const MeshCheckReport r = check_mesh(test::box_with_missing_triangle());
+  EXPECT_FALSE(r.closed);
+  EXPECT_EQ(r.boundary_edges, 3u);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_TRUE(r.vertex_manifold);
+  EXPECT_FALSE(r.genus.has_value());
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "3 boundary edges"));
+}
+
+TEST(Checks, InterpenetratingBoxesSelfIntersect) {
+  const Mesh m = test::interpenetrating_boxes();
+  const MeshCheckReport r = check_mesh(m);
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_EQ(r.components, 2u);
+  EXPECT_GT(r.self_intersecting_pairs, 0u);
+  ASSERT_FALSE(r.self_intersection_examples.empty());
+  for (const auto& p : r.self_intersection_examples) {
+    EXPECT_LT(p[0], 12u);  // every pair has one triangle of each box
+    EXPECT_GE(p[1], 12u);
+  }
+  EXPECT_TRUE(mentions(r, "self-intersecting"));
+
+  // The same geometry with one triangle reversed is no polygon mesh, so it takes the
+  // triangle-soup path; the pairs must be the same.
+  Mesh flipped = m;
+  std::swap(flipped.triangles[20][1], flipped.triangles[20][2]);
+  const MeshCheckReport rf = check_mesh(flipped, {.max_examples = 1000});
+  const MeshCheckReport rm = check_mesh(m, {.max_examples = 1000});
+  EXPECT_FALSE(rf.oriented);
+  EXPECT_EQ(rf.self_intersecting_pairs, r.self_intersecting_pairs);
+  EXPECT_EQ(rf.self_intersection_examples, rm.self_intersection_examples);
+
+  // Deterministic report, and the test can be skipped.
+  EXPECT_EQ(check_mesh(m).self_intersection_examples, r.self_intersection_examples);
+  const MeshCheckReport skipped = check_mesh(m, {.self_intersections = false});
+  EXPECT_FALSE(skipped.self_intersections_checked);
+  EXPECT_EQ(skipped.self_intersecting_pairs, 0u);
+}
+
+TEST(Checks, TouchingBoxesIntersectSeparateBoxesDoNot) {
+  // Boxes that touch along a face through distinct vertices: the coplanar faces overlap.
+  const Mesh touching =
+      test::merged(test::box(glm::dvec3(0), glm::dvec3(1)), test::box(glm::dvec3(1, 0, 0), glm::dvec3(2, 1, 1)));
+  EXPECT_GT(check_mesh(touching).self_intersecting_pairs, 0u);
+  const Mesh apart =
+      test::merged(test::box(glm::dvec3(0), glm::dvec3(1)), test::box(glm::dvec3(2, 0, 0), glm::dvec3(3, 1, 1)));
+  EXPECT_EQ(check_mesh(apart).self_intersecting_pairs, 0u);
+}
+
+TEST(Checks, FoldedAndDuplicateTrianglesIntersect) {
+  // Two triangles sharing an edge and folded flat onto the same side: they overlap.
+  Mesh fold;
+  fold.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.5, 0.8, 0}};
+  fold.triangles = {{0, 1, 2}, {1, 0, 3}};
+  EXPECT_EQ(check_mesh(fold).self_intersecting_pairs, 1u);
+  // Unfolded (the second on the other side of the edge): no intersection.
+  fold.positions[3] = {0.5, -0.8, 0};
+  EXPECT_EQ(check_mesh(fold).self_intersecting_pairs, 0u);
+  // A duplicated triangle (soup path: its edges have four triangles).
+  Mesh dup = test::box();
+  dup.triangles.push_back(dup.triangles[0]);
+  const MeshCheckReport r = check_mesh(dup);
+  EXPECT_FALSE(r.edge_manifold);
+  EXPECT_EQ(r.self_intersecting_pairs, 1u);
+}
+
+TEST(Checks, DegenerateTriangleIsCounted) {
+  const MeshCheckReport r = check_mesh(test::box_with_degenerate_triangle());
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.edge_manifold);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_EQ(r.degenerate_triangles, 1u);
+  ASSERT_EQ(r.degenerate_triangle_examples.size(), 1u);
+  EXPECT_EQ(r.degenerate_triangle_examples[0], 13u);
+  EXPECT_EQ(r.min_triangle_area, 0.0);
+  // The sliver itself is never part of a pair, but the two triangles on either side of it
+  // now touch along half of the split edge without sharing it: two real contacts.
+  EXPECT_EQ(r.self_intersecting_pairs, 2u);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "degenerate"));
+
+  // Near-zero relative to the mesh: a sliver 1e-15 of the size, and a repeated index.
+  Mesh m = test::box();
+  m.positions.push_back({0.5, 1e-15, 0});
+  m.triangles.push_back({0, 1, 8});
+  m.triangles.push_back({0, 0, 1});
+  EXPECT_EQ(check_mesh(m).degenerate_triangles, 2u);
+}
+
+TEST(Checks, FinMakesANonManifoldEdge) {
+  const MeshCheckReport r = check_mesh(test::box_with_fin());
+  EXPECT_FALSE(r.edge_manifold);
+  EXPECT_EQ(r.nonmanifold_edges, 1u);
+  ASSERT_EQ(r.nonmanifold_edge_examples.size(), 1u);
+  EXPECT_EQ(r.nonmanifold_edge_examples[0], (std::array<std::uint32_t, 2>{0, 1}));
+  EXPECT_EQ(r.boundary_edges, 2u);
+  EXPECT_FALSE(r.oriented);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "edge-manifold"));
+}
+
+TEST(Checks, TetrahedraSharingAVertexAreNotVertexManifold) {
+  const MeshCheckReport r = check_mesh(test::tetrahedra_sharing_vertex());
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.edge_manifold);
+  EXPECT_EQ(r.nonmanifold_vertices, 1u);
+  EXPECT_EQ(r.nonmanifold_vertex_examples, std::vector<std::uint32_t>{0});
+  EXPECT_EQ(r.unreferenced_vertices, 1u);
+  EXPECT_EQ(r.components, 1u);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "vertex-manifold"));
+}
+
+TEST(Checks, InwardFacingMeshHasNegativeVolume) {
+  Mesh m = test::icosphere(1);
+  for (auto& t : m.triangles) std::swap(t[1], t[2]);
+  const MeshCheckReport r = check_mesh(m);
+  EXPECT_TRUE(r.oriented);
+  EXPECT_LT(r.signed_volume, 0);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "volume"));
+}
+
+TEST(Checks, VolumeIsPreciseFarFromTheOrigin) {
+  // A 5 mm twig at UTM-like coordinates: the volume is computed about the box centre.
+  const Mesh m =
+      test::translated(test::capped_tube({0, 0, 0}, {0, 0, 0.1}, 0.005, 16, 4, false), {500000.0, 5000000.0, 254.0});
+  const MeshCheckReport r = check_mesh(m);
+  const double expected = check_mesh(test::capped_tube({0, 0, 0}, {0, 0, 0.1}, 0.005, 16, 4, false)).signed_volume;
+  EXPECT_NEAR(r.signed_volume, expected, 1e-6 * expected);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+}
+
+TEST(Checks, BadInputsDoNotCrash) {
+  Mesh bad = test::box();
+  bad.triangles.push_back({0, 1, 99});
+  EXPECT_THROW(check_mesh(bad), InvalidInputError);
+
+  const MeshCheckReport empty = check_mesh(Mesh{});
+  EXPECT_FALSE(empty.ok());
+  EXPECT_TRUE(mentions(empty, "no triangles"));
+
+  Mesh nan = test::box();
+  nan.positions[3].x = std::numeric_limits<double>::quiet_NaN();
+  const MeshCheckReport rn = check_mesh(nan);
+  EXPECT_EQ(rn.nonfinite_vertices, 1u);
+  EXPECT_FALSE(rn.self_intersections_checked);
+  EXPECT_FALSE(rn.ok());
+}
+
+// ---------------------------------------------------------------- fidelity
+
+Skeleton two_node_skeleton(glm::dvec3 a, glm::dvec3 b, double r) {
+  RawSkeleton raw;
+  raw.add(0, -1, a, r);
+  raw.add(1, 0, b, r);
+  return test::built(raw);
+}
+
+TEST(Checks, FidelityOfAMatchingCylinderIsHigh) {
+  const Skeleton skel = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 32, 16, false);
+  const MeshCheckReport r = check_mesh(m, {.skeleton = &skel});
+  EXPECT_TRUE(r.fidelity_checked);
+  EXPECT_LT(r.fidelity_p50, 1e-9);
+  EXPECT_LT(r.fidelity_p95, 1e-9);
+  EXPECT_NEAR(r.fidelity_max, 1.0, 1e-9);  // the flat caps' centres sit one radius deep
+  EXPECT_TRUE(r.inside_checked);
+  EXPECT_EQ(r.thick_nodes, 2u);
+  EXPECT_EQ(r.thick_nodes_inside, 2u);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+}
+
+TEST(Checks, FidelityOfAScaledCylinderFails) {
+  const Skeleton skel = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.15, 32, 16, false);
+  const MeshCheckReport r = check_mesh(m, {.skeleton = &skel});
+  EXPECT_NEAR(r.fidelity_p50, 0.5, 1e-9);
+  EXPECT_NEAR(r.fidelity_p95, 0.5, 1e-9);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r, "fidelity"));
+  // A looser tolerance accepts it.
+  EXPECT_TRUE(check_mesh(m, {.skeleton = &skel, .fidelity_tolerance = 0.6}).ok());
+}
+
+TEST(Checks, FidelityOfASphereAroundOneNode) {
+  RawSkeleton raw;
+  raw.add(0, -1, {1, 2, 3}, 0.5);
+  const Skeleton skel = test::built(raw);
+  const Mesh m = test::icosphere(2, 0.5, {1, 2, 3});
+  const MeshCheckReport r = check_mesh(m, {.skeleton = &skel});
+  EXPECT_LT(r.fidelity_max, 1e-9);
+  EXPECT_EQ(r.thick_nodes_inside, 1u);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+}
+
+TEST(Checks, FidelityAlongATaperedCone) {
+  // Vertices placed on the side of the round cone of a tapered edge: deviation ~0; the same
+  // vertices pushed out by 20% of the local radius: deviation ~0.2.
+  const double ra = 0.2, rb = 0.1, len = 1.0;
+  const Skeleton skel = [&] {
+    RawSkeleton raw;
+    raw.add(0, -1, {0, 0, 0}, ra);
+    raw.add(1, 0, {0, 0, len}, rb);
+    return test::built(raw);
+  }();
+  const double s = (ra - rb) / len, c = std::sqrt(1 - s * s);
+  Mesh on, out;
+  for (int i = 0; i <= 10; ++i) {
+    // Points along the tangent line from a's tangent point to b's, at several angles.
+    const double f = (i + 0.5) / 11.0;  // inside the conical part, away from the end spheres
+    const double y = ra * s + f * (len * 1.0 + rb * s - ra * s);
+    const double x = ra * c + f * (rb * c - ra * c);
+    const double local = ra + (y / len) * (rb - ra);
+    for (int k = 0; k < 4; ++k) {
+      const double th = k * 1.5707963267948966;
+      on.positions.push_back({x * std::cos(th), x * std::sin(th), y});
+      const double push = 0.2 * local;
+      out.positions.push_back({(x + push * c) * std::cos(th), (x + push * c) * std::sin(th), y + push * s});
+    }
+  }
+  for (std::uint32_t i = 0; i + 2 < on.positions.size(); ++i) {
+    on.triangles.push_back({i, i + 1, i + 2});
+    out.triangles.push_back({i, i + 1, i + 2});
+  }
+  EXPECT_LT(check_mesh(on, {.self_intersections = false, .skeleton = &skel}).fidelity_max, 1e-9);
+  const MeshCheckReport r = check_mesh(out, {.self_intersections = false, .skeleton = &skel});
+  EXPECT_NEAR(r.fidelity_p50, 0.2, 1e-6);
+  EXPECT_NEAR(r.fidelity_max, 0.2, 1e-6);
+}
+
+TEST(Checks, ThickNodesOutsideTheMeshFail) {
+  // A skeleton longer than the mesh: its nodes beyond the mesh are reported.
+  RawSkeleton raw;
+  raw.add(0, -1, {0, 0, 0}, 0.1);
+  raw.add(1, 0, {0, 0, 1}, 0.1);
+  raw.add(2, 1, {0, 0, 2}, 0.1);
+  const Skeleton skel = test::built(raw);
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 32, 16, false);
+  const MeshCheckReport r = check_mesh(m, {.skeleton = &skel, .fidelity_tolerance = 100});
+  EXPECT_EQ(r.thick_nodes, 3u);
+  EXPECT_EQ(r.thick_nodes_inside, 2u);
+  EXPECT_TRUE(mentions(r, "outside the mesh"));
+}
+
+TEST(Checks, TextAndJsonReports) {
+  const MeshCheckReport good = check_mesh(test::icosphere(1));
+  const std::string text = to_text(good);
+  EXPECT_NE(text.find("result: ok"), std::string::npos) << text;
+  EXPECT_NE(text.find("genus"), std::string::npos);
+  const nlohmann::json j = to_json(good);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  EXPECT_EQ(j["triangles"].get<std::size_t>(), 80u);
+  EXPECT_EQ(j["genus"].get<int>(), 0);
+  EXPECT_TRUE(j["failures"].empty());
+
+  const MeshCheckReport bad = check_mesh(test::box_with_missing_triangle());
+  EXPECT_NE(to_text(bad).find("result: FAILED"), std::string::npos);
+  EXPECT_NE(to_text(bad).find("problem: 3 boundary edges"), std::string::npos);
+  const nlohmann::json jb = to_json(bad);
+  EXPECT_FALSE(jb["ok"].get<bool>());
+  EXPECT_TRUE(jb["genus"].is_null());
+  EXPECT_EQ(jb["examples"]["boundary_edges"].size(), 3u);
+}
+
+// ---------------------------------------------------------------- strandmesh check
+
+struct CmdResult {
+  int code = -1;
+  std::string out, err;
+};
+
+CmdResult run(const std::string& args) {
+  const fs::path dir = test::temp_dir("check_cli_run");
+  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
+                          " 2>" + (dir / "err").string();
+  const int status = std::system(cmd.c_str());
+  CmdResult r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_file(dir / "out");
+  r.err = read_file(dir / "err");
+  return r;
+}
+
+TEST(CheckCli, ExitCodes) {
+  const fs::path dir = test::temp_dir("check_cli");
+  write_mesh(test::capped_tube(), dir / "tube.glb");
+  write_mesh(test::torus(), dir / "torus.ply");
+  write_file_atomically(dir / "garbage.obj", "v 1 2\n");
+
+  const CmdResult ok = run("check " + (dir / "tube.glb").string());
+  EXPECT_EQ(ok.code, 0) << ok.out << ok.err;
+  EXPECT_NE(ok.out.find("result: ok"), std::string::npos);
+
+  const CmdResult torus = run("check " + (dir / "torus.ply").string());
+  EXPECT_EQ(torus.code, 4) << torus.out << torus.err;
+  EXPECT_NE(torus.out.find("genus 1"), std::string::npos);
+
+  const CmdResult garbage = run("check " + (dir / "garbage.obj").string());
+  EXPECT_EQ(garbage.code, 1);
+  EXPECT_NE(garbage.err.find("garbage.obj:1"), std::string::npos) << garbage.err;
+
+  EXPECT_EQ(run("check " + (dir / "missing.glb").string()).code, 1);
+  EXPECT_EQ(run("check " + (dir / "tube.stl").string()).code, 1);
+  EXPECT_EQ(run("check").code, 2);
+}
+
+TEST(CheckCli, JsonAndSkeleton) {
+  const fs::path dir = test::temp_dir("check_cli_json");
+  const Skeleton skel = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  write_skeleton_json(skel, dir / "skel.json");
+  write_mesh(test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 32, 16), dir / "tube.glb", {.up_axis = skel.up_axis});
+  write_mesh(test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.2, 32, 16), dir / "fat.glb", {.up_axis = skel.up_axis});
+
+  const CmdResult r =
+      run("check --json --skeleton " + (dir / "skel.json").string() + " " + (dir / "tube.glb").string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  EXPECT_TRUE(j["fidelity_checked"].get<bool>());
+  EXPECT_LT(j["fidelity"]["p95"].get<double>(), 1e-3);  // float32 storage, read back z-up
+  EXPECT_EQ(j["thick_nodes_inside"].get<int>(), 2);
+
+  const CmdResult fat = run("check --skeleton " + (dir / "skel.json").string() + " " + (dir / "fat.glb").string());
+  EXPECT_EQ(fat.code, 4);
+  EXPECT_NE(fat.out.find("fidelity p95"), std::string::npos) << fat.out;
+
+  const CmdResult quick = run("check --json --no-self-intersections " + (dir / "tube.glb").string());
+  ASSERT_EQ(quick.code, 0) << quick.err;
+  EXPECT_FALSE(nlohmann::json::parse(quick.out)["self_intersections_checked"].get<bool>());
+}
+
+}  // namespace
+}  // namespace sm

@@ -1,0 +1,463 @@
+// Mesh export and import (meshing/export.h, meshing/mesh_io.h): seams, axes, precision,
+// round trips, determinism, atomic writes, and readers that reject malformed files cleanly.
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "meshing/checks.h"
+#include "meshing/export.h"
+#include "meshing/mesh_io.h"
+#include "tests/fixtures.h"
+#include "tests/mesh_fixtures.h"
+
+namespace sm {
+namespace {
+
+namespace fs = std::filesystem;
+using glm::dvec3;
+
+const std::vector<std::string> kExtensions = {"glb", "gltf", "obj", "ply"};
+
+double max_position_error(const Mesh& a, const Mesh& b) {
+  double e = 0;
+  for (std::size_t i = 0; i < std::min(a.positions.size(), b.positions.size()); ++i) {
+    e = std::max(e, glm::length(a.positions[i] - b.positions[i]));
+  }
+  return e;
+}
+
+// ---------------------------------------------------------------- splitting
+
+TEST(ExportBuffers, WithoutSeamsKeepsTheWeldedVertices) {
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, /*uvs=*/false);
+  const ExportBuffers b = build_export_buffers(m, {.branch_ids = false, .optimize = false});
+  ASSERT_EQ(b.positions.size(), m.positions.size());
+  for (std::size_t i = 0; i < b.positions.size(); ++i) {
+    EXPECT_EQ(b.source_vertex[i], i);
+    EXPECT_EQ(b.positions[i], m.positions[i]);
+  }
+  EXPECT_EQ(b.indices.size(), 3 * m.triangles.size());
+  EXPECT_TRUE(b.uvs.empty());
+  EXPECT_EQ(b.normals.size(), b.positions.size());
+}
+
+TEST(ExportBuffers, SplitsOnlyWhereUvsDiffer) {
+  const int n = 16, rings = 8;
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, n, rings, /*uvs=*/true);
+  const ExportBuffers b = build_export_buffers(m, {.branch_ids = false, .optimize = false});
+  // Welded: (rings+1)·n + 2. The u = 0/1 seam adds one copy per row, each cap adds a copy of
+  // its n rim vertices (planar cap UVs); the cap centres do not split.
+  const std::size_t welded = (rings + 1) * n + 2;
+  EXPECT_EQ(m.positions.size(), welded);
+  EXPECT_EQ(b.positions.size(), welded + (rings + 1) + 2 * n);
+  // Every corner's UV survives, and copies of one vertex share its position.
+  for (std::size_t c = 0; c < b.indices.size(); ++c) {
+    EXPECT_EQ(b.uvs[b.indices[c]], m.corner_uvs[c / 3][c % 3]);
+    EXPECT_EQ(b.positions[b.indices[c]], m.positions[m.triangles[c / 3][c % 3]]);
+  }
+}
+
+TEST(ExportBuffers, SplitsAtBranchBoundariesOnlyWhenWritingBranchIds) {
+  const int n = 16, rings = 8;
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, n, rings, /*uvs=*/false, /*upper_branch=*/7);
+  EXPECT_EQ(build_export_buffers(m, {.branch_ids = false}).positions.size(), m.positions.size());
+  const ExportBuffers b = build_export_buffers(m, {.branch_ids = true});
+  EXPECT_EQ(b.positions.size(), m.positions.size() + n);  // the ring between the two branches
+  std::size_t sevens = 0;
+  for (const auto id : b.branch) sevens += id == 7;
+  EXPECT_GT(sevens, 0u);
+}
+
+TEST(ExportBuffers, OptimizeKeepsTheMesh) {
+  const Mesh m = test::capped_tube();
+  const ExportBuffers plain = build_export_buffers(m, {.optimize = false});
+  const ExportBuffers opt = build_export_buffers(m, {.optimize = true});
+  ASSERT_EQ(plain.positions.size(), opt.positions.size());
+  ASSERT_EQ(plain.indices.size(), opt.indices.size());
+  // Same set of triangles (as position/uv triples, rotated to a canonical start).
+  auto triangles = [](const ExportBuffers& b) {
+    std::vector<std::array<double, 15>> out;
+    for (std::size_t i = 0; i < b.indices.size(); i += 3) {
+      std::array<std::array<double, 5>, 3> c{};
+      for (std::size_t k = 0; k < 3; ++k) {
+        const auto v = b.indices[i + k];
+        c[k] = {b.positions[v].x, b.positions[v].y, b.positions[v].z, b.uvs[v].x, b.uvs[v].y};
+      }
+      const auto first = std::min_element(c.begin(), c.end()) - c.begin();
+      std::rotate(c.begin(), c.begin() + first, c.end());
+      std::array<double, 15> flat{};
+      for (std::size_t k = 0; k < 3; ++k) std::copy(c[k].begin(), c[k].end(), flat.begin() + 5 * k);
+      out.push_back(flat);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(triangles(plain), triangles(opt));
+  EXPECT_NE(plain.indices, opt.indices);
+}
+
+TEST(ExportBuffers, RejectsInvalidMeshes) {
+  Mesh m = test::box();
+  m.triangles.push_back({0, 1, 42});
+  EXPECT_THROW(build_export_buffers(m), InvalidInputError);
+  Mesh n = test::box();
+  n.normals.resize(3);
+  EXPECT_THROW(build_export_buffers(n), InvalidInputError);
+}
+
+// ---------------------------------------------------------------- round trips
+
+TEST(Export, RoundTripEveryFormat) {
+  const fs::path dir = test::temp_dir("export_roundtrip");
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true, 7);
+  const MeshCheckReport before = check_mesh(m);
+  ASSERT_TRUE(before.ok()) << to_text(before);
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    const fs::path path = dir / ("tube." + ext);
+    write_mesh(m, path, {.optimize = false});
+    const Mesh back = read_mesh(path);
+    // Welded again: same vertices in the same order, same triangles.
+    ASSERT_EQ(back.positions.size(), m.positions.size());
+    ASSERT_EQ(back.triangles.size(), m.triangles.size());
+    EXPECT_EQ(back.triangles, m.triangles);
+    EXPECT_LT(max_position_error(back, m), ext == "ply" ? 0.0 + 1e-15 : 1e-6);
+    ASSERT_EQ(back.corner_uvs.size(), m.corner_uvs.size());
+    EXPECT_EQ(back.corner_uvs, m.corner_uvs);
+    ASSERT_EQ(back.normals.size(), m.positions.size());
+    const auto expected_normals = angle_weighted_normals(m);
+    for (std::size_t i = 0; i < back.normals.size(); ++i)
+      EXPECT_NEAR(glm::length(back.normals[i] - expected_normals[i]), 0, 1e-6);
+    if (ext == "glb" || ext == "gltf") {
+      EXPECT_EQ(back.triangle_branch, m.triangle_branch);
+    } else {
+      EXPECT_TRUE(back.triangle_branch.empty());
+    }
+    const MeshCheckReport after = check_mesh(back);
+    EXPECT_TRUE(after.ok()) << to_text(after);
+    EXPECT_EQ(after.edges, before.edges);
+    EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
+  }
+}
+
+TEST(Export, OptimizedRoundTripKeepsTopology) {
+  const fs::path dir = test::temp_dir("export_roundtrip_opt");
+  const Mesh m = test::icosphere(3);
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    write_mesh(m, dir / ("s." + ext));
+    const Mesh back = read_mesh(dir / ("s." + ext));
+    EXPECT_EQ(back.positions.size(), m.positions.size());
+    EXPECT_EQ(back.triangles.size(), m.triangles.size());
+    const MeshCheckReport r = check_mesh(back);
+    EXPECT_TRUE(r.ok()) << to_text(r);
+    EXPECT_NEAR(r.signed_volume, check_mesh(m).signed_volume, 1e-5);
+  }
+}
+
+TEST(Export, SameMeshSameBytes) {
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true, 3);
+  for (const MeshFormat f : {MeshFormat::glb, MeshFormat::gltf, MeshFormat::obj, MeshFormat::ply}) {
+    EXPECT_EQ(encode_mesh(m, f), encode_mesh(m, f));
+  }
+}
+
+TEST(Export, GltfIsYUpAndKeepsTheOrientation) {
+  // z-up input: the exported glTF, read without conversion, is (x, z, -y).
+  const Mesh m = test::translated(test::capped_tube({0, 0, 0}, {0.3, 0.2, 1}, 0.1), {1, 2, 3});
+  const std::string bytes = encode_mesh(m, MeshFormat::glb, {.up_axis = UpAxis::z, .optimize = false});
+  const Mesh raw = parse_mesh(bytes, MeshFormat::glb, "t.glb", {.up_axis = UpAxis::y});
+  ASSERT_EQ(raw.positions.size(), m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const dvec3 p = m.positions[i];
+    EXPECT_LT(glm::length(raw.positions[i] - dvec3(p.x, p.z, -p.y)), 1e-6);
+  }
+  EXPECT_GT(check_mesh(raw).signed_volume, 0);  // a rotation: still outward
+  // Read back as z-up: the original coordinates.
+  EXPECT_LT(max_position_error(parse_mesh(bytes, MeshFormat::glb, "t.glb", {.up_axis = UpAxis::z}), m), 1e-6);
+  // y-up input is written unchanged.
+  const std::string ybytes = encode_mesh(m, MeshFormat::glb, {.up_axis = UpAxis::y, .optimize = false});
+  EXPECT_LT(max_position_error(parse_mesh(ybytes, MeshFormat::glb, "t.glb", {.up_axis = UpAxis::y}), m), 1e-6);
+  // OBJ and PLY keep the input axes whatever the up axis.
+  const Mesh obj =
+      parse_mesh(encode_mesh(m, MeshFormat::obj, {.up_axis = UpAxis::z, .optimize = false}), MeshFormat::obj, "t.obj");
+  EXPECT_LT(max_position_error(obj, m), 1e-6);
+}
+
+TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
+  // A 5 mm twig in UTM-like coordinates, z ≈ 254 m.
+  const dvec3 far(512345.678, 5412345.678, 254.0);
+  const Mesh m = test::translated(test::capped_tube({0, 0, 0}, {0.05, 0, 0.3}, 0.005, 12, 6), far);
+  const Mesh back = parse_mesh(encode_mesh(m, MeshFormat::glb), MeshFormat::glb, "far.glb");
+  ASSERT_EQ(back.positions.size(), m.positions.size());
+  // Optimisation reorders vertices; compare each with its nearest original.
+  double worst = 0;
+  for (const auto& p : back.positions) {
+    double best = 1e300;
+    for (const auto& q : m.positions) best = std::min(best, glm::length(p - q));
+    worst = std::max(worst, best);
+  }
+  EXPECT_LT(worst, 1e-6);  // float offsets from the box centre: ~1e-8 m here
+  EXPECT_TRUE(check_mesh(back).ok());
+  // Without recentering float32 cannot even tell the vertices apart at 5,000 km.
+  const Mesh coarse = parse_mesh(encode_mesh(m, MeshFormat::glb, {.recenter = false}), MeshFormat::glb, "far.glb");
+  EXPECT_LT(coarse.positions.size(), m.positions.size());
+}
+
+TEST(Export, NoBranchIdsOrUvsWhenAbsentOrDisabled) {
+  Mesh m = test::icosphere(1);
+  const Mesh back = parse_mesh(encode_mesh(m, MeshFormat::glb), MeshFormat::glb, "a.glb");
+  EXPECT_TRUE(back.corner_uvs.empty());
+  EXPECT_TRUE(back.triangle_branch.empty());
+  const Mesh tube = test::capped_tube();
+  const Mesh bare =
+      parse_mesh(encode_mesh(tube, MeshFormat::glb, {.normals = false, .uvs = false, .branch_ids = false}),
+                 MeshFormat::glb, "b.glb");
+  EXPECT_TRUE(bare.corner_uvs.empty());
+  EXPECT_TRUE(bare.triangle_branch.empty());
+  EXPECT_TRUE(bare.normals.empty());
+  EXPECT_EQ(bare.positions.size(), tube.positions.size());
+}
+
+// ---------------------------------------------------------------- atomic writes
+
+TEST(Export, FailedWritesLeaveNoFile) {
+  const fs::path dir = test::temp_dir("export_atomic");
+  const Mesh m = test::box();
+  EXPECT_THROW(write_mesh(m, dir / "missing" / "a.glb"), IoError);
+  EXPECT_FALSE(fs::exists(dir / "missing"));
+  fs::create_directory(dir / "taken.glb");
+  EXPECT_THROW(write_mesh(m, dir / "taken.glb"), IoError);
+  EXPECT_TRUE(fs::is_directory(dir / "taken.glb"));
+  EXPECT_THROW(write_mesh(m, dir / "a.stl"), InvalidInputError);
+  EXPECT_THROW(write_mesh(m, dir / "noext"), InvalidInputError);
+  Mesh bad = m;
+  bad.triangles.push_back({0, 1, 99});
+  EXPECT_THROW(write_mesh(bad, dir / "bad.obj"), InvalidInputError);
+  // Only the directory we made is left: no partial or temporary files.
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(dir)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"taken.glb"});
+  // An existing file is replaced only by a complete one.
+  write_mesh(m, dir / "ok.ply");
+  const std::string first = read_file(dir / "ok.ply");
+  EXPECT_THROW(write_mesh(bad, dir / "ok.ply"), InvalidInputError);
+  EXPECT_EQ(read_file(dir / "ok.ply"), first);
+}
+
+TEST(Export, UnknownExtensionNamesTheAcceptedOnes) {
+  try {
+    mesh_format_from_path("tree.stl");
+    FAIL();
+  } catch (const InvalidInputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(".stl"), std::string::npos);
+    EXPECT_NE(what.find(".glb"), std::string::npos);
+    EXPECT_NE(what.find(".ply"), std::string::npos);
+  }
+  EXPECT_EQ(mesh_format_from_path("A.GLB"), MeshFormat::glb);
+  EXPECT_THROW(read_mesh("tree.stl"), InvalidInputError);
+  EXPECT_THROW(read_mesh("/nonexistent/tree.glb"), IoError);
+}
+
+// ---------------------------------------------------------------- readers: other tools' files
+
+TEST(MeshIo, ObjVariants) {
+  const std::string obj =
+      "# a unit square pyramid, quads and negative indices, CRLF\r\n"
+      "o pyramid\r\nmtllib x.mtl\r\n"
+      "v 0 0 0\r\nv 1 0 0 1.0\r\nv 1 1 0 0.5 0.5 0.5\r\nv 0 1 0\r\nv 0.5 0.5 1\r\n"
+      "vn 0 0 -1\r\n"
+      "usemtl bark\r\ns off\r\n"
+      "f 1//1 4//1 3//1 2//1\r\n"
+      "f -5 -4 -1\r\nf 2 3 5\r\nf 3 4 5\r\nf 4 1 5\r\n";
+  const Mesh m = parse_mesh(obj, MeshFormat::obj, "p.obj");
+  EXPECT_EQ(m.positions.size(), 5u);
+  EXPECT_EQ(m.triangles.size(), 6u);
+  EXPECT_TRUE(m.normals.empty());  // not every corner has one
+  EXPECT_TRUE(m.corner_uvs.empty());
+  const MeshCheckReport r = check_mesh(m);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+}
+
+TEST(MeshIo, ObjWeldsDuplicatePositions) {
+  // The same square twice over with separate vertices per triangle.
+  const std::string obj =
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+      "f 1/1 2/2 3/3\nf 4/1 5/3 6/4\n";
+  const Mesh m = parse_mesh(obj, MeshFormat::obj, "q.obj");
+  EXPECT_EQ(m.positions.size(), 4u);
+  EXPECT_EQ(m.triangles, (std::vector<Mesh::Triangle>{{0, 1, 2}, {0, 2, 3}}));
+  ASSERT_EQ(m.corner_uvs.size(), 2u);
+  EXPECT_EQ(m.corner_uvs[1][2], glm::vec2(0, 1));
+  EXPECT_EQ(check_mesh(m).boundary_edges, 4u);
+}
+
+TEST(MeshIo, AsciiAndBigEndianPly) {
+  const std::string ascii =
+      "ply\nformat ascii 1.0\ncomment from another tool\nelement vertex 8\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nelement face 6\nproperty list uchar int vertex_indices\n"
+      "element material 1\nproperty float shine\nend_header\n"
+      "0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n0 0 1 1\n1 0 1 1\n1 1 1 1\n0 1 1 1\n"
+      "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n0.5\n";
+  const Mesh m = parse_mesh(ascii, MeshFormat::ply, "cube.ply");
+  EXPECT_EQ(m.positions.size(), 8u);
+  EXPECT_EQ(m.triangles.size(), 12u);
+  const MeshCheckReport r = check_mesh(m);
+  EXPECT_TRUE(r.ok()) << to_text(r);
+
+  // The same tetrahedron-free check for big endian: one triangle with uv per vertex.
+  std::string be =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+      "property double z\nproperty float u\nproperty float v\nelement face 1\n"
+      "property list uchar uint vertex_indices\nend_header\n";
+  auto put = [&](auto value) {
+    char b[sizeof value];
+    std::memcpy(b, &value, sizeof value);
+    std::reverse(b, b + sizeof value);
+    be.append(b, sizeof value);
+  };
+  const double xyz[3][3] = {{0, 0, 0}, {2, 0, 0}, {0, 3, 0}};
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) put(xyz[i][k]);
+    put(float(i));
+    put(float(-i));
+  }
+  be.push_back(3);
+  for (std::uint32_t i = 0; i < 3; ++i) put(i);
+  const Mesh t = parse_mesh(be, MeshFormat::ply, "t.ply");
+  ASSERT_EQ(t.positions.size(), 3u);
+  EXPECT_EQ(t.positions[2], dvec3(0, 3, 0));
+  ASSERT_EQ(t.corner_uvs.size(), 1u);
+  EXPECT_EQ(t.corner_uvs[0][2], glm::vec2(2, -2));
+}
+
+// ---------------------------------------------------------------- readers: malformed files
+
+struct Malformed {
+  const char* name;
+  MeshFormat format;
+  std::string bytes;
+  const char* expect;  // a piece of the message
+};
+
+TEST(MeshIo, MalformedFilesAreRejectedWithAMessage) {
+  const std::string ply_head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::vector<Malformed> cases = {
+      {"short_v.obj", MeshFormat::obj, "v 1 2\n", "short_v.obj:1"},
+      {"nan_text.obj", MeshFormat::obj, "v 1 2 x\n", "expected a number"},
+      {"nonfinite.obj", MeshFormat::obj, "v 1 2 inf\n", "non-finite"},
+      {"range.obj", MeshFormat::obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
+      {"zero.obj", MeshFormat::obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "out of range"},
+      {"two.obj", MeshFormat::obj, "v 0 0 0\nv 1 0 0\nf 1 2\n", "three corners"},
+      {"vt.obj", MeshFormat::obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", "texture coordinate index"},
+      {"slash.obj", MeshFormat::obj, "v 0 0 0\nf 1/1/1/1 1 1\n", "too many"},
+      {"empty.ply", MeshFormat::ply, "", "not a PLY file"},
+      {"magic.ply", MeshFormat::ply, "plx\n", "not a PLY file"},
+      {"noend.ply", MeshFormat::ply, "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header"},
+      {"format.ply", MeshFormat::ply, "ply\nformat binary_middle_endian 1.0\nend_header\n", "unknown encoding"},
+      {"noformat.ply", MeshFormat::ply, "ply\nelement vertex 0\nend_header\n", "format"},
+      {"type.ply", MeshFormat::ply, "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n",
+       "property type"},
+      {"noxyz.ply", MeshFormat::ply, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+       "x, y or z"},
+      {"short.ply", MeshFormat::ply, ply_head + "0 0 0\n1 0 0\n", "truncated"},
+      {"huge.ply", MeshFormat::ply,
+       "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+       "property float z\nend_header\n",
+       "more than the data holds"},
+      {"index.ply", MeshFormat::ply, ply_head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "out of range"},
+      {"negidx.ply", MeshFormat::ply, ply_head + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", "out of range"},
+      {"text.ply", MeshFormat::ply, ply_head + "0 0 zero\n1 0 0\n0 1 0\n3 0 1 2\n", "expected a number"},
+      {"face2.ply", MeshFormat::ply, ply_head + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "at least three"},
+      {"empty.glb", MeshFormat::glb, "", "not a valid glTF"},
+      {"garbage.glb", MeshFormat::glb, "this is not a glb file at all", "not a valid glTF"},
+      {"empty.gltf", MeshFormat::gltf, "", "not a valid glTF"},
+      {"json.gltf", MeshFormat::gltf, "{\"asset\": {\"version\": \"2.0\"", "not a valid glTF"},
+      {"noasset.gltf", MeshFormat::gltf, "[1, 2, 3]", "not a valid glTF"},
+      {"accessor.gltf", MeshFormat::gltf,
+       R"({"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":5}}]}]})", ""},
+      {"bounds.gltf", MeshFormat::gltf,
+       R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAA"}],)"
+       R"("bufferViews":[{"buffer":0,"byteLength":12}],"accessors":[{"bufferView":0,"componentType":5126,"count":1000,"type":"VEC3"}],)"
+       R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]})",
+       ""},
+  };
+  for (const Malformed& c : cases) {
+    SCOPED_TRACE(c.name);
+    try {
+      (void)parse_mesh(c.bytes, c.format, c.name);
+      ADD_FAILURE() << "accepted";
+    } catch (const InvalidInputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(c.name), std::string::npos) << what;
+      EXPECT_NE(what.find(c.expect), std::string::npos) << what;
+    }
+  }
+}
+
+// Cutting a valid file anywhere must give an InvalidInputError (or, for text formats, a
+// smaller valid mesh), never a crash.
+TEST(MeshIo, TruncatedFilesNeverCrash) {
+  const Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 8, 2, true, 1);
+  for (const MeshFormat f : {MeshFormat::glb, MeshFormat::gltf, MeshFormat::obj, MeshFormat::ply}) {
+    const std::string bytes = encode_mesh(m, f);
+    std::size_t rejected = 0, cuts = 0;
+    for (std::size_t cut = 0; cut < bytes.size(); cut += 1 + bytes.size() / 300) {
+      ++cuts;
+      try {
+        const Mesh part = parse_mesh(std::string_view(bytes).substr(0, cut), f, "cut");
+        EXPECT_LE(part.triangles.size(), m.triangles.size());
+      } catch (const InvalidInputError&) {
+        ++rejected;
+      }
+    }
+    if (f != MeshFormat::obj) {
+      EXPECT_EQ(rejected, cuts) << int(f);  // binary and structured formats: every cut is an error
+    }
+  }
+}
+
+TEST(MeshIo, GarbageNeverCrashes) {
+  std::uint64_t state = 12345;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<char>(state >> 56);
+  };
+  const std::string good_glb = encode_mesh(test::box(), MeshFormat::glb);
+  const std::string good_ply = encode_mesh(test::box(), MeshFormat::ply);
+  for (int round = 0; round < 200; ++round) {
+    std::string noise(static_cast<std::size_t>(round * 7), ' ');
+    for (auto& ch : noise) ch = next();
+    // Flip bytes inside valid files too (headers intact, data corrupted).
+    std::string glb = good_glb, ply = good_ply;
+    for (int k = 0; k < 4; ++k) {
+      glb[static_cast<std::size_t>(static_cast<unsigned char>(next())) * glb.size() / 256] = next();
+      ply[static_cast<std::size_t>(static_cast<unsigned char>(next())) * ply.size() / 256] = next();
+    }
+    for (const auto& [bytes, f] : std::vector<std::pair<std::string, MeshFormat>>{
+             {noise, MeshFormat::glb},
+             {noise, MeshFormat::gltf},
+             {noise, MeshFormat::obj},
+             {noise, MeshFormat::ply},
+             {"ply\nformat binary_little_endian 1.0\n" + noise, MeshFormat::ply},
+             {glb, MeshFormat::glb},
+             {ply, MeshFormat::ply}}) {
+      try {
+        (void)parse_mesh(bytes, f, "noise");
+      } catch (const InvalidInputError&) {
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sm
