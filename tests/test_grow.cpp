@@ -250,6 +250,18 @@ TEST(Grow, SmallTreeIsClean) {
   expect_clean_tree(g, p, "self-organizing");
 }
 
+TEST(Grow, GoldenStatisticsForSeedOne) {
+  // Regression guard: any change to the growth rules shows up here first. Update the numbers
+  // only together with a note on what changed and why.
+  const GrowResult g = grow_tree(small_tree());
+  EXPECT_EQ(g.stats.nodes, 1795u);
+  EXPECT_EQ(g.stats.forks, 392u);
+  EXPECT_EQ(g.stats.tips, 393u);
+  EXPECT_EQ(g.stats.iterations, 18u);
+  EXPECT_EQ(g.stats.points_reached, 1499u);
+  EXPECT_NEAR(g.stats.height, 4.38, 0.005);
+}
+
 TEST(Grow, SameSeedSameBytesForAnyThreadCount) {
   const GrowerParams p = small_tree();
   const std::string a = grow_json(p);

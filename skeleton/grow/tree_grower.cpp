@@ -316,7 +316,7 @@ class TreeGrower {
       if (angle_between(w, e) < bmin) {
         w = clamp_angle(w, e, bmin, std::numbers::pi);
         const double a = angle_between(w, ref);
-        if (lateral ? (a < bmin - 1e-9 || a > bmax + 1e-9) : a > std::max(turn, bmax) + 1e-9) return false;
+        if (lateral ? (a < bmin - 1e-9 || a > bmax + 1e-9) : a > turn + 1e-9) return false;
       }
     }
     out = w;

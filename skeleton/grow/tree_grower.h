@@ -22,8 +22,10 @@
 ///  - every edge is longer than `internode_length` / 2 (no zero-length or short edges);
 ///  - radii are ≥ `tip_radius`, no child is thicker than its parent, and at every fork
 ///    r^n = r1^n + r2^n with n = `pipe_exponent` (to rounding);
-///  - branching angles stay within [min_branch_angle, max_branch_angle] of the parent's
-///    direction and a branch bends by at most `max_turn_degrees` per internode.
+///  - as grown, a lateral leaves its parent's direction at an angle in [min_branch_angle,
+///    max_branch_angle], the two children of a fork are at least min_branch_angle apart, and a
+///    branch bends by at most `max_turn_degrees` per internode (merged internodes average
+///    these directions); no child points backwards.
 ///
 /// Deterministic: the same parameters give the same skeleton bit for bit, for any thread
 /// count. Every node draws its random numbers from its own stream, derived from the tree seed
