@@ -126,12 +126,15 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   // A turn counts as concave (drop the middle point) when it turns right by more than the
   // threshold, or is straight / degenerate.
   auto drop = [&](std::uint32_t a, std::uint32_t b, std::uint32_t q) {
-    const dvec2 u = p[b] - p[a], v = p[q] - p[b];
-    const double cr = cross2(u, v);
-    const double scale = glm::length(u) * glm::length(v);
-    if (scale <= tol * tol || std::abs(cr) <= 1e-12 * scale) return true;  // duplicate or collinear
-    if (cr > 0) return false;                                               // left turn: convex
-    return -turn(p[a], p[b], p[q]) > max_concave || max_concave <= 0;
+    const dvec2 w = p[q] - p[a];
+    const double wl = glm::length(w);
+    if (wl <= tol) return true;  // a and q coincide: b is a spike or a duplicate
+    // Signed distance of b from the chord a -> q, positive inwards (to the left).
+    const double inward = cross2(w, p[b] - p[a]) / wl;
+    if (inward < -1e-7 * wl) return false;  // a convex vertex
+    if (inward <= 1e-7 * wl) return true;   // (nearly) collinear or duplicate: drop
+    if (max_concave <= 0) return true;
+    return -turn(p[a], p[b], p[q]) > max_concave;  // concave: keep only gentle turns
   };
   std::vector<std::uint32_t> stack;
   stack.reserve(n);

@@ -94,6 +94,102 @@ void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint
   }
 }
 
+/// The strip between two open chains P[0..m) and Q[0..n) from the edge (P0, Q0) to the edge
+/// (P[m-1], Q[n-1]), greedy shortest diagonal. Q may start and end at the same vertex (the
+/// crotch vertex of a fusion), so no P vertex may connect to both Q0 and Q[n-1]: Q enters
+/// its last vertex only once P has moved past the last P vertex connected to Q0, and P may
+/// not reach its end while Q is still at its start.
+void stitch_open(const std::vector<std::uint32_t>& P, const std::vector<std::uint32_t>& Q,
+                 const std::vector<glm::dvec3>& pos, std::vector<Mesh::Triangle>& out) {
+  const std::size_t m = P.size(), n = Q.size();
+  std::size_t i = 0, j = 0;
+  std::size_t last_on_q0 = 0;  // the last P index connected to Q[0]
+  while (i + 1 < m || j + 1 < n) {
+    const bool can_p = i + 1 < m && !(j == 0 && i + 1 == m - 1 && n > 1);
+    const bool can_q = j + 1 < n && !(j + 1 == n - 1 && i <= last_on_q0 && m > 1);
+    bool advance_p;
+    if (can_p && can_q) {
+      advance_p = glm::length(pos[P[i + 1]] - pos[Q[j]]) <= glm::length(pos[P[i]] - pos[Q[j + 1]]);
+    } else {
+      advance_p = can_p || (!can_q && i + 1 < m);
+    }
+    if (advance_p) {
+      out.push_back({P[i], P[i + 1], Q[j]});
+      ++i;
+      if (j == 0) last_on_q0 = i;
+    } else {
+      out.push_back({P[i], Q[j + 1], Q[j]});
+      ++j;
+    }
+  }
+}
+
+/// Branch fusion (seed 003 §2.5.2). `lower` is the union loop below the split, `a` and `b`
+/// the first loops of the two child tubes (all counter-clockwise seen from the tip side,
+/// `tangent` pointing up the parent branch). The crotch is the closest pair (a*, b*) between
+/// the upper loops. Two lower vertices anchor it: l_b, where the lower loop is nearest the
+/// direction tangent x (b* - a*) from the crotch, and l_f on the opposite side. Strip A joins
+/// the lower chain l_b..l_f (counter-clockwise, on A's side) to the whole loop A from a* back
+/// to a*; strip B joins l_f..l_b to B from b* back to b*; the two special triangles
+/// (l_f, b*, a*) and (l_b, a*, b*) close the crotch. Every edge is used exactly twice.
+void fuse_chains(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& a,
+                 const std::vector<std::uint32_t>& b, const std::vector<glm::dvec3>& pos, const glm::dvec3& tangent,
+                 std::vector<Mesh::Triangle>& out) {
+  std::size_t ia = 0, ib = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t x = 0; x < a.size(); ++x) {
+    for (std::size_t y = 0; y < b.size(); ++y) {
+      const glm::dvec3 d = pos[a[x]] - pos[b[y]];
+      if (glm::dot(d, d) < best) {
+        best = glm::dot(d, d);
+        ia = x;
+        ib = y;
+      }
+    }
+  }
+  const glm::dvec3 crotch = 0.5 * (pos[a[ia]] + pos[b[ib]]);
+  glm::dvec3 side = glm::cross(tangent, pos[b[ib]] - pos[a[ia]]);
+  if (glm::length(side) < 1e-300) side = any_perpendicular(tangent);
+  side = glm::normalize(side);
+  // Angles of the lower loop's vertices around the crotch, in the plane across `tangent`.
+  const glm::dvec3 x_axis = side, y_axis = glm::cross(tangent, side);
+  const std::size_t m = lower.size();
+  std::size_t lb = 0, lf = 0;
+  double best_b = -2, best_f = -2;
+  for (std::size_t k = 0; k < m; ++k) {
+    glm::dvec3 d = pos[lower[k]] - crotch;
+    d -= tangent * glm::dot(d, tangent);
+    const double len = glm::length(d);
+    if (len <= 0) continue;
+    const double c = glm::dot(d, x_axis) / len;  // cos of the angle to +side
+    if (c > best_b) {
+      best_b = c;
+      lb = k;
+    }
+    if (-c > best_f) {
+      best_f = -c;
+      lf = k;
+    }
+  }
+  (void)y_axis;
+  if (lb == lf) lf = (lb + m / 2) % m;  // degenerate: take the opposite vertex
+  std::vector<std::uint32_t> chain_a, chain_b, loop_a, loop_b;
+  for (std::size_t k = lb;; k = (k + 1) % m) {
+    chain_a.push_back(lower[k]);
+    if (k == lf) break;
+  }
+  for (std::size_t k = lf;; k = (k + 1) % m) {
+    chain_b.push_back(lower[k]);
+    if (k == lb) break;
+  }
+  for (std::size_t k = 0; k <= a.size(); ++k) loop_a.push_back(a[(ia + k) % a.size()]);
+  for (std::size_t k = 0; k <= b.size(); ++k) loop_b.push_back(b[(ib + k) % b.size()]);
+  stitch_open(chain_a, loop_a, pos, out);
+  out.push_back({lower[lf], b[ib], a[ia]});
+  stitch_open(chain_b, loop_b, pos, out);
+  out.push_back({lower[lb], a[ia], b[ib]});
+}
+
 class Builder {
  public:
   Builder(const Skeleton& s, const ContourSet& c, const MeshParams& p) : s_(s), c_(c), p_(p) {}
@@ -179,52 +275,9 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
 }
 
 void Builder::fuse(const Junction& j, std::uint32_t branch) {
-  // The crotch: the closest pair of vertices between the two upper loops.
-  const auto a = loop_ids(j.upper[0]);
-  const auto b = loop_ids(j.upper[1]);
-  std::size_t ia = 0, ib = 0;
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t x = 0; x < a.size(); ++x) {
-    for (std::size_t y = 0; y < b.size(); ++y) {
-      const double d = glm::dot(c_.point[a[x]] - c_.point[b[y]], c_.point[a[x]] - c_.point[b[y]]);
-      if (d < best) {
-        best = d;
-        ia = x;
-        ib = y;
-      }
-    }
-  }
-  // Keyhole loop: around A from the crotch back to it, across to B, around B, and back.
-  std::vector<std::uint32_t> keyhole;
-  keyhole.reserve(a.size() + b.size() + 2);
-  for (std::size_t k = 0; k <= a.size(); ++k) keyhole.push_back(a[(ia + k) % a.size()]);
-  for (std::size_t k = 0; k <= b.size(); ++k) keyhole.push_back(b[(ib + k) % b.size()]);
-  // Start the strip away from the crotch: at the keyhole vertex farthest from it, and the
-  // lower-loop vertex nearest to that one.
-  const glm::dvec3 crotch = 0.5 * (c_.point[a[ia]] + c_.point[b[ib]]);
-  std::size_t start = 0;
-  double far = -1;
-  for (std::size_t k = 0; k < keyhole.size(); ++k) {
-    const double d = glm::length(c_.point[keyhole[k]] - crotch);
-    if (d > far) {
-      far = d;
-      start = k;
-    }
-  }
-  std::rotate(keyhole.begin(), keyhole.begin() + static_cast<std::ptrdiff_t>(start), keyhole.end());
-  auto lower = loop_ids(j.lower);
-  std::size_t ls = 0;
-  double near = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < lower.size(); ++k) {
-    const double d = glm::length(c_.point[lower[k]] - c_.point[keyhole[0]]);
-    if (d < near) {
-      near = d;
-      ls = k;
-    }
-  }
-  std::rotate(lower.begin(), lower.begin() + static_cast<std::ptrdiff_t>(ls), lower.end());
   scratch_.clear();
-  stitch(lower, keyhole, c_.point, scratch_, nullptr);
+  fuse_chains(loop_ids(j.lower), loop_ids(j.upper[0]), loop_ids(j.upper[1]), c_.point,
+              c_.loop_frame[j.lower].tangent, scratch_);
   emit(scratch_, branch);
   ++stats_.junctions;
 }
@@ -389,6 +442,13 @@ void stitch_loops(const std::vector<std::uint32_t>& lower, const std::vector<std
                   const std::vector<glm::dvec3>& positions, std::vector<Mesh::Triangle>& out) {
   SM_CHECK(!lower.empty() && !upper.empty(), "stitch_loops: empty loop");
   stitch(lower, upper, positions, out, nullptr);
+}
+
+void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper_main,
+                const std::vector<std::uint32_t>& upper_lateral, const std::vector<glm::dvec3>& positions,
+                const glm::dvec3& tangent, std::vector<Mesh::Triangle>& out) {
+  SM_CHECK(lower.size() >= 3 && upper_main.size() >= 3 && upper_lateral.size() >= 3, "fuse_loops: loops need 3 vertices");
+  fuse_chains(lower, upper_main, upper_lateral, positions, tangent, out);
 }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,

@@ -5,11 +5,11 @@
 ///  - Consecutive loops of a tube are joined by the greedy shortest-diagonal strip (seed 003
 ///    §2.5.1), starting at a strand both loops share (or the closest pair), with a guard that
 ///    keeps the strip monotone around the branch axis.
-///  - Branch fusion (seed 003 §2.5.2): at a junction the two upper loops are joined at their
-///    closest pair (the crotch) into one "keyhole" loop that runs around the main child's
-///    loop, across the crotch, around the lateral's loop and back; the lower loop is stitched
-///    to it. The two triangles on the crotch edge are the special triangles of the seed; the
-///    result is a pair of pants: no holes, no overlaps, manifold by construction.
+///  - Branch fusion (seed 003 §2.5.2): at a junction the crotch is the closest pair of
+///    vertices between the two upper loops; the lower loop is cut at the two vertices on
+///    either side of the crotch, each half is stitched to one upper loop (opened at its crotch
+///    vertex), and two special triangles on the crotch edge close the gap: a pair of pants
+///    with no holes and no overlaps, manifold by construction (see fuse_loops).
 ///  - Caps: a dome on the last loop of every tube that ends at a tip, a flat base on the
 ///    root's loop.
 ///  - Normals are computed on the finished mesh (angle-weighted), UVs follow the strands:
@@ -63,10 +63,17 @@ MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, cons
 
 /// Triangulates the band between two closed loops of vertex ids (both counter-clockwise seen
 /// from the tip side; `lower` nearer the root) with the greedy shortest-diagonal rule, starting
-/// at the pair (lower[0], upper[0]). Appends outward-facing triangles to `out`. Never creates an
-/// edge twice (a vertex id may appear more than once in `upper`, as in the keyhole loop).
+/// at the pair (lower[0], upper[0]). Appends outward-facing triangles to `out`.
 /// Exposed for tests.
 void stitch_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
                   const std::vector<glm::dvec3>& positions, std::vector<Mesh::Triangle>& out);
+
+/// Branch fusion: triangulates the pair of pants between `lower` and the two upper loops
+/// (vertex ids, all counter-clockwise seen from the tip side; `tangent` points up the parent
+/// branch). Every loop edge is used once and every new edge twice, in opposite directions.
+/// Preconditions: each loop has at least 3 vertices; the loops share no vertex.
+void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper_main,
+                const std::vector<std::uint32_t>& upper_lateral, const std::vector<glm::dvec3>& positions,
+                const glm::dvec3& tangent, std::vector<Mesh::Triangle>& out);
 
 }  // namespace sm
