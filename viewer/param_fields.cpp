@@ -1,0 +1,285 @@
+// The parameter table behind the stage panels. Help texts repeat the one-line comments of the
+// Params headers (units included) so the panels explain each slider where it is used.
+
+#include "viewer/param_fields.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sm::viewer {
+
+namespace {
+
+template <class T>
+T clamp_to(double v) {
+  if (std::isnan(v)) return T{};
+  const double lo = static_cast<double>(std::numeric_limits<T>::min());
+  const double hi = static_cast<double>(std::numeric_limits<T>::max());
+  if (v <= lo) return std::numeric_limits<T>::min();
+  if (v >= hi) return std::numeric_limits<T>::max();
+  return static_cast<T>(std::llround(v));
+}
+
+std::vector<ParamField> skeleton_fields(SkeletonParams& p) {
+  return {
+      {.key = "max_nodes",
+       .help = "largest accepted node count (count)",
+       .value = SizeRef{&p.max_nodes},
+       .min = 1,
+       .max = 2e7,
+       .logarithmic = true},
+      {.key = "merge_edge_ratio",
+       .help = "edges shorter than this x the larger radius are merged (relative to the radius)",
+       .value = &p.merge_edge_ratio,
+       .min = 0,
+       .max = 1},
+      {.key = "radius_floor",
+       .help = "radius floor (metres; 0 = automatic)",
+       .value = &p.radius_floor,
+       .min = 0,
+       .max = 0.05},
+      {.key = "max_child_ratio",
+       .help = "a child may be this many times as thick as its parent before the policy applies",
+       .value = &p.max_child_ratio,
+       .min = 0.5,
+       .max = 3},
+      {.key = "thick_child_policy",
+       .help = "what to do with a child thicker than its parent",
+       .value = &p.thick_child_policy,
+       .min = 0,
+       .max = 2},
+      {.key = "max_edge_ratio",
+       .help = "edges longer than this x the radius are split (relative; 0 = off)",
+       .value = &p.max_edge_ratio,
+       .min = 0,
+       .max = 50},
+      {.key = "binarize_step_ratio",
+       .help = "step between the extra nodes of an n-ary node (relative to the radius)",
+       .value = &p.binarize_step_ratio,
+       .min = 0.001,
+       .max = 0.5,
+       .logarithmic = true},
+  };
+}
+
+std::vector<ParamField> particle_fields(ParticleParams& p) {
+  return {
+      {.key = "spacing",
+       .help = "particle spacing s (metres; 0 = derived)",
+       .value = &p.spacing,
+       .min = 0,
+       .max = 0.05},
+      {.key = "root_strands",
+       .help = "with spacing 0: choose s so the root has about this many strands (0 = rule)",
+       .value = &p.root_strands,
+       .min = 0,
+       .max = 20000},
+      {.key = "max_root_strands",
+       .help = "upper bound on the root's strands for the derived spacing (count)",
+       .value = &p.max_root_strands,
+       .min = 10,
+       .max = 100000,
+       .logarithmic = true},
+      {.key = "min_particles",
+       .help = "fewest particles in a tip cloud (count, >= 3)",
+       .value = &p.min_particles,
+       .min = 3,
+       .max = 50},
+      {.key = "new_strand_sparsity",
+       .help = "clouds sparser than this (relative to s) get new strands (>= 1)",
+       .value = &p.new_strand_sparsity,
+       .min = 1,
+       .max = 4},
+      {.key = "wall_margin",
+       .help = "gap between wall and node radius (relative to the cloud length)",
+       .value = &p.wall_margin,
+       .min = 0,
+       .max = 2},
+      {.key = "max_steps",
+       .help = "relaxation: largest number of steps per node (count)",
+       .value = &p.max_steps,
+       .min = 0,
+       .max = 400},
+      {.key = "move_tolerance",
+       .help = "relaxation stops below this largest move (relative to the cloud length)",
+       .value = &p.move_tolerance,
+       .min = 0.001,
+       .max = 0.5,
+       .logarithmic = true},
+      {.key = "max_velocity",
+       .help = "largest move per step (relative to the cloud length)",
+       .value = &p.max_velocity,
+       .min = 0.01,
+       .max = 1},
+      {.key = "damping",
+       .help = "fraction of the previous step's velocity kept, [0, 1)",
+       .value = &p.damping,
+       .min = 0,
+       .max = 0.95},
+      {.key = "step_size",
+       .help = "move per step per unit of repulsion (relative to the cloud length)",
+       .value = &p.step_size,
+       .min = 0.01,
+       .max = 1},
+      {.key = "repulsion_radius",
+       .help = "particles repel within this distance (relative to the cloud length)",
+       .value = &p.repulsion_radius,
+       .min = 1,
+       .max = 5},
+      {.key = "rebuild_every",
+       .help = "neighbour lists rebuilt every k steps (count)",
+       .value = &p.rebuild_every,
+       .min = 1,
+       .max = 20},
+      {.key = "fork_gap",
+       .help = "empty band between the two child bundles at a fork (relative to the cloud length)",
+       .value = &p.fork_gap,
+       .min = 0,
+       .max = 3},
+      {.key = "max_total_particles",
+       .help = "upper bound on the total particle count (count)",
+       .value = &p.max_total_particles,
+       .min = 1000,
+       .max = 5e8,
+       .logarithmic = true},
+      {.key = "seed", .help = "random seed (tip patterns, new strands)", .value = &p.seed, .min = 0, .max = 1000},
+  };
+}
+
+std::vector<ParamField> strand_fields(StrandParams& p) {
+  return {
+      {.key = "alpha",
+       .help = "Catmull-Rom exponent: 0 uniform, 0.5 centripetal, 1 chordal",
+       .value = &p.alpha,
+       .min = 0,
+       .max = 1},
+  };
+}
+
+std::vector<ParamField> contour_fields(ContourParams& p) {
+  return {
+      {.key = "slice_step",
+       .help = "distance between slices (relative to the local radius)",
+       .value = &p.slice_step,
+       .min = 0.05,
+       .max = 2},
+      {.key = "min_slice_step",
+       .help = "lower bound on the slice step (relative to the neighbour distance)",
+       .value = &p.min_slice_step,
+       .min = 0,
+       .max = 5},
+      {.key = "split_gap",
+       .help = "bundles split where they are this far apart (relative to the neighbour distance)",
+       .value = &p.split_gap,
+       .min = 0.1,
+       .max = 5},
+      {.key = "split_bisection_steps",
+       .help = "bisection steps refining a split (count)",
+       .value = &p.split_bisection_steps,
+       .min = 0,
+       .max = 30},
+      {.key = "concave_turn_degrees",
+       .help = "angular walk: sharper concave turns drop the point (degrees; 0 = hull)",
+       .value = &p.concave_turn_degrees,
+       .min = 0,
+       .max = 90},
+  };
+}
+
+std::vector<ParamField> mesh_fields(MeshParams& p) {
+  return {
+      {.key = "tip_dome",
+       .help = "height of the tip caps (relative to the tip loop's radius; 0 = flat)",
+       .value = &p.tip_dome,
+       .min = 0,
+       .max = 2},
+      {.key = "uv_repeat_u",
+       .help = "texture repeats around the branch",
+       .value = &p.uv_repeat_u,
+       .min = 0.25,
+       .max = 8},
+      {.key = "uvs", .help = "compute per-corner UVs", .value = &p.uvs, .min = 0, .max = 1},
+      {.key = "normals", .help = "compute smooth vertex normals", .value = &p.normals, .min = 0, .max = 1},
+  };
+}
+
+}  // namespace
+
+std::vector<ParamField> param_fields(PipelineParams& params, Stage stage) {
+  switch (stage) {
+    case Stage::skeleton:
+      return skeleton_fields(params.skeleton);
+    case Stage::particles:
+      return particle_fields(params.particles);
+    case Stage::strands:
+      return strand_fields(params.strands);
+    case Stage::contours:
+      return contour_fields(params.contours);
+    case Stage::meshing:
+      return mesh_fields(params.meshing);
+  }
+  return {};
+}
+
+double field_value(const ParamField& f) {
+  return std::visit(
+      [](auto p) -> double {
+        using P = decltype(p);
+        if constexpr (std::is_same_v<P, SizeRef>) {
+          return static_cast<double>(*p.p);
+        } else if constexpr (std::is_same_v<P, bool*>) {
+          return *p ? 1.0 : 0.0;
+        } else if constexpr (std::is_same_v<P, ThickChildPolicy*>) {
+          return static_cast<double>(static_cast<int>(*p));
+        } else {
+          return static_cast<double>(*p);
+        }
+      },
+      f.value);
+}
+
+void set_field_value(const ParamField& f, double v) {
+  std::visit(
+      [v](auto p) {
+        using P = decltype(p);
+        if constexpr (std::is_same_v<P, SizeRef>) {
+          *p.p = clamp_to<std::size_t>(v);
+        } else if constexpr (std::is_same_v<P, bool*>) {
+          *p = v != 0.0;
+        } else if constexpr (std::is_same_v<P, ThickChildPolicy*>) {
+          *p = static_cast<ThickChildPolicy>(std::clamp(static_cast<int>(std::lround(v)), 0, 2));
+        } else if constexpr (std::is_same_v<P, double*>) {
+          *p = v;
+        } else {
+          *p = clamp_to<std::remove_pointer_t<P>>(v);
+        }
+      },
+      f.value);
+}
+
+std::optional<Stage> first_changed_stage(const PipelineParams& a, const PipelineParams& b) {
+  // The table is the single list of fields, so comparing through it cannot forget one that
+  // the panels edit (and the tests check the table against params_to_json).
+  PipelineParams ca = a, cb = b;
+  for (Stage s : kStages) {
+    const auto fa = param_fields(ca, s);
+    const auto fb = param_fields(cb, s);
+    for (std::size_t i = 0; i < fa.size(); ++i) {
+      const bool differ = std::visit(
+          [&](auto pa) {
+            auto pb = std::get<decltype(pa)>(fb[i].value);
+            if constexpr (std::is_same_v<decltype(pa), SizeRef>) {
+              return *pa.p != *pb.p;
+            } else {
+              return *pa != *pb;
+            }
+          },
+          fa[i].value);
+      if (differ) return s;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace sm::viewer
