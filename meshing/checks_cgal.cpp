@@ -124,6 +124,7 @@ class SoupIntersector {
 CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed_polygon_mesh, bool self_intersections,
                                 const std::vector<glm::dvec3>& queries, std::size_t max_examples) {
   CgalCheckResult result;
+  Stopwatch watch;
   std::vector<Point> points;
   points.reserve(mesh.positions.size());
   for (const auto& p : mesh.positions) points.emplace_back(p.x, p.y, p.z);
@@ -137,6 +138,7 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     // Faces are created in polygon order, so face index == triangle index.
     PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
   }
+  result.timings.add("cgal_mesh", watch.lap());
 
   if (self_intersections) {
     std::vector<Pair> pairs;
@@ -158,6 +160,7 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     result.self_intersecting_pairs = pairs.size();
     pairs.resize(std::min(pairs.size(), max_examples));
     result.examples = std::move(pairs);
+    result.timings.add("self_intersections", watch.lap());
   }
 
   if (closed_polygon_mesh && !queries.empty() && !mesh.triangles.empty()) {
@@ -168,6 +171,7 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
       result.inside[i] = side(Point(queries[i].x, queries[i].y, queries[i].z)) != CGAL::ON_UNBOUNDED_SIDE ? 1 : 0;
     }
     result.inside_checked = true;
+    result.timings.add("inside", watch.lap());
   }
   return result;
 }

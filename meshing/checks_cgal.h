@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "core/report.h"
 
 namespace sm::detail {
 
@@ -18,6 +19,7 @@ struct CgalCheckResult {
   std::size_t self_intersecting_pairs = 0;             ///< pairs of distinct, non-degenerate triangles
   std::vector<std::array<std::uint32_t, 2>> examples;  ///< the smallest pairs (i < j), sorted
   bool inside_checked = false;                         ///< `inside` was computed
+  Timings timings;                                     ///< seconds per phase
   std::vector<std::uint8_t> inside;                    ///< #queries: 1 when inside the mesh or on its surface
 };
 
