@@ -338,6 +338,28 @@ TEST(MeshIo, AsciiAndBigEndianPly) {
   EXPECT_EQ(t.corner_uvs[0][2], glm::vec2(2, -2));
 }
 
+TEST(MeshIo, GltfWithAnExternalBufferAndNodeTransforms) {
+  // One triangle in tri.bin beside the .gltf; the node scales by 2 and moves by (1, 0, 0);
+  // read y-up (no axis change).
+  const fs::path dir = test::temp_dir("gltf_external");
+  const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  write_file_atomically(dir / "tri.bin", std::string_view(reinterpret_cast<const char*>(xyz), sizeof xyz));
+  const std::string json =
+      R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],)"
+      R"("nodes":[{"children":[1],"translation":[1,0,0]},{"mesh":0,"scale":[2,2,2]}],)"
+      R"("buffers":[{"byteLength":36,"uri":"tri.bin"}],"bufferViews":[{"buffer":0,"byteLength":36}],)"
+      R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],)"
+      R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]})";
+  write_file_atomically(dir / "tri.gltf", json);
+  const Mesh m = read_mesh(dir / "tri.gltf", {.up_axis = UpAxis::y});
+  ASSERT_EQ(m.positions.size(), 3u);
+  EXPECT_EQ(m.positions[1], dvec3(3, 0, 0));
+  EXPECT_EQ(m.positions[2], dvec3(1, 2, 0));
+  EXPECT_EQ(m.triangles, (std::vector<Mesh::Triangle>{{0, 1, 2}}));
+  fs::remove(dir / "tri.bin");
+  EXPECT_THROW(read_mesh(dir / "tri.gltf"), InvalidInputError);
+}
+
 // ---------------------------------------------------------------- readers: malformed files
 
 struct Malformed {
