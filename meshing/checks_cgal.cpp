@@ -137,6 +137,12 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     }
     // Faces are created in polygon order, so face index == triangle index.
     PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
+    // Should CGAL have refused a face after all, the indices would no longer match: use the
+    // soup path instead.
+    if (sm.number_of_faces() != polygons.size() || !sm.is_valid(false)) {
+      polygon_mesh = closed_polygon_mesh = false;
+      sm.clear();
+    }
   }
   result.timings.add("cgal_mesh", watch.lap());
 
