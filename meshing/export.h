@@ -14,8 +14,11 @@
 ///  Both: one scene, one node, one mesh with one triangle primitive and a default
 ///  metallic-roughness material (bark brown, double-sided false). Attributes: POSITION
 ///  (float, with min/max), NORMAL (float, unit), TEXCOORD_0 (float, when the mesh has UVs),
-///  `_BRANCH_ID` (unsigned short when every id is below 65536, else float, which is exact up
-///  to 2^24; when the mesh has branch ids and `branch_ids` is set), indices as unsigned int.
+///  `_BRANCH_ID` (float scalar, exact for ids up to 2^24; glTF forbids unsigned int vertex
+///  attributes; written when the mesh has branch ids and `branch_ids` is set; a larger id
+///  throws InvalidInputError), indices as unsigned int. The Khronos glTF Validator reports no
+///  errors or warnings on these files (one info: TEXCOORD_0 is unused by the untextured
+///  material); `scripts/validate_gltf.sh` runs it.
 ///  glTF is y-up: z-up input (x, y, z) is written as (x, z, -y) (a rotation, so triangles keep
 ///  their orientation). Precision: positions are stored relative to an origin (the centre of
 ///  the bounding box, in double precision) that becomes the node's translation, so a
