@@ -322,6 +322,8 @@ TEST(Grow, ShadowPropagationChangesGrowthAndStaysClean) {
   p.shadow = true;
   const GrowResult g = grow_tree(p);
   expect_clean_tree(g, p, "shadow");
+  // Shade slows growth but does not stall it with the default shadow parameters.
+  EXPECT_GT(g.stats.points_reached, p.attraction_points * 8 / 10);
   EXPECT_NE(raw_skeleton_to_json(g.skeleton), grow_json(small_tree()));
   EXPECT_EQ(raw_skeleton_to_json(g.skeleton), grow_json(p));
 }
@@ -440,6 +442,9 @@ TEST(GrowPresets, Bush) {
 }
 TEST(GrowPresets, Roots) {
   check_preset("roots");
+}
+TEST(GrowPresets, Oak) {
+  check_preset("oak");
 }
 
 TEST(GrowPresets, EveryPresetLoadsAndIsListed) {

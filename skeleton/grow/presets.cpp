@@ -75,6 +75,7 @@ void visit_params(Params& p, V& v) {
   v("shadow_a", p.shadow_a);
   v("shadow_b", p.shadow_b);
   v("shadow_full", p.shadow_full);
+  v("shadow_steering", p.shadow_steering);
   v("trunk_direction", p.trunk_direction);
   v("trunk_height", p.trunk_height);
   v("max_iterations", p.max_iterations);

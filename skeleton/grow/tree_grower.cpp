@@ -250,6 +250,34 @@ class TreeGrower {
     return std::clamp((p_.shadow_full - s + p_.shadow_a) / p_.shadow_full, 0.0, 1.0);
   }
 
+  /// Unit direction from q to the least shaded of the 26 neighbouring voxels inside the
+  /// perception cone around d (Pałubicki 2009: buds grow towards light); d when none is
+  /// inside the grid or the cone. Ties go to the first voxel in scan order.
+  [[nodiscard]] dvec3 lightest(const dvec3& q, const dvec3& d, double cos_half) const {
+    int i, j, k;
+    if (!cell_of(q, i, j, k)) return d;
+    double best = std::numeric_limits<double>::infinity();
+    dvec3 out = d;
+    for (int z = k - 1; z <= k + 1; ++z) {
+      for (int y = j - 1; y <= j + 1; ++y) {
+        for (int x = i - 1; x <= i + 1; ++x) {
+          if ((x == i && y == j && z == k) || x < 0 || y < 0 || z < 0 || x >= grid_dims_[0] || y >= grid_dims_[1] ||
+              z >= grid_dims_[2]) {
+            continue;
+          }
+          const dvec3 e = glm::normalize(dvec3(x - i, y - j, z - k));
+          if (glm::dot(e, d) < cos_half) continue;
+          const double s = shade_[cell_index(x, y, z)];
+          if (s < best) {
+            best = s;
+            out = e;
+          }
+        }
+      }
+    }
+    return out;
+  }
+
   // ---- nodes -------------------------------------------------------------------------------
   [[nodiscard]] bool sot() const { return p_.mode == GrowMode::self_organizing; }
 
@@ -426,7 +454,11 @@ class TreeGrower {
                               ++c;
                             }
                             count[k] = c;
-                            toward[k] = normalize_or(sum, bud_dir(active[k].node, active[k].slot));
+                            const dvec3 d = bud_dir(active[k].node, active[k].slot);
+                            toward[k] = normalize_or(sum, d);
+                            if (p_.shadow && p_.shadow_steering > 0 && c > 0) {
+                              toward[k] = normalize_or(toward[k] + p_.shadow_steering * lightest(o, d, cos_half), d);
+                            }
                           }
                         });
       // 3. Growth.
@@ -790,6 +822,7 @@ void validate_grower_params(const GrowerParams& p) {
   positive(p.shadow_a, "shadow_a");
   if (!(p.shadow_b > 1) || !std::isfinite(p.shadow_b)) fail("shadow_b", fmt(p.shadow_b) + " must be > 1");
   positive(p.shadow_full, "shadow_full");
+  range(p.shadow_steering, 0, 100, "shadow_steering");
   const double tl = glm::length(p.trunk_direction);
   if (!(tl > 1e-9) || !std::isfinite(tl)) fail("trunk_direction", "must be a non-zero finite vector");
   if (!(p.trunk_height >= 0) || !std::isfinite(p.trunk_height)) fail("trunk_height", "must be >= 0");

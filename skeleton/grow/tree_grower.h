@@ -5,16 +5,14 @@
 /// Attraction points are scattered in a crown volume (skeleton/grow/volume.h). Every
 /// iteration each bud perceives the points in its perception volume, each point going to the
 /// nearest bud that perceives it; buds that perceived points get light Q = 1 (times the
-/// shadow-propagation exposure when `shadow` is on). In self-organizing mode Q flows down to
-/// the root and the resource αΣQ flows back up, split at every node by the Borchert–Honda
-/// rule with apical control λ; a bud that receives v ≥ 1 grows a shoot of ⌊v⌋ internodes.
-/// In space-colonization mode every node with points grows one internode per iteration.
-/// Points closer than the occupancy radius to a node are removed. After growth, radii follow
-/// the pipe model d^n = d1^n + d2^n from a tip radius, and the skeleton is cleaned for the
-/// strand mesher: consecutive internodes on thick branches are merged so edges are at least
-/// `min_edge_ratio` × radius long where possible; a lateral crowded onto a thick axis (its fork
-/// too close to the next) is slid a few internodes up the axis, or pruned when it is thin and
-/// cannot be slid.
+/// shadow-propagation exposure when `shadow` is on, which also steers buds towards light). In self-organizing mode Q
+/// flows down to the root and the resource αΣQ flows back up, split at every node by the Borchert–Honda rule with
+/// apical control λ; a bud that receives v ≥ 1 grows a shoot of ⌊v⌋ internodes. In space-colonization mode every node
+/// with points grows one internode per iteration. Points closer than the occupancy radius to a node are removed. After
+/// growth, radii follow the pipe model d^n = d1^n + d2^n from a tip radius, and the skeleton is cleaned for the strand
+/// mesher: consecutive internodes on thick branches are merged so edges are at least `min_edge_ratio` × radius long
+/// where possible; a lateral crowded onto a thick axis (its fork too close to the next) is slid a few internodes up the
+/// axis, or pruned when it is thin and cannot be slid.
 ///
 /// Output guarantees (what build_skeleton() then finds, so it reports no repairs):
 ///  - a binary tree: every node has at most two children (a continuation and one lateral);
@@ -87,9 +85,11 @@ struct GrowerParams {
   bool shadow = false;  ///< when true, a bud's light is reduced by the shadow of the nodes above it; default false
   double shadow_voxel_size = 0.0;  ///< edge of a shadow voxel (metres; 0 = 2 × internode_length); default 0
   std::uint32_t shadow_depth = 6;  ///< q_max: voxel layers a node shades below itself (a count); default 6
-  double shadow_a = 1.0;           ///< a: shadow a node adds to its own layer (relative to full shade); default 1
-  double shadow_b = 2.0;           ///< b > 1: shadow falls off as a·b^(−q) with the layer q below; default 2
-  double shadow_full = 6.0;        ///< C: shadow at which a bud gets no light (same units as a); default 6
+  double shadow_a = 0.25;          ///< a: shadow a node adds to its own layer (same units as C); default 0.25
+  double shadow_b = 3.0;           ///< b > 1: shadow falls off as a·b^(−q) with the layer q below; default 3
+  double shadow_full = 4.0;        ///< C: shadow at which a bud gets no light (same units as a); default 4
+  double shadow_steering = 0.5;    ///< weight of the direction to the least shaded neighbouring voxel, added to the
+                                   ///< (unit) direction to the bud's points; default 0.5
 
   // Trunk and limits.
   dvec3 trunk_direction{0, 0, 1};      ///< initial growth direction of the root bud (unit vector); default +z
