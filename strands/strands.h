@@ -22,7 +22,8 @@
 namespace sm {
 
 struct StrandParams {
-  /// Catmull-Rom parameterization exponent: 0 uniform, 0.5 centripetal, 1 chordal.
+  /// Catmull-Rom parameterization exponent in [0, 1]: 0 uniform, 0.5 centripetal (default:
+  /// no cusps or self-loops), 1 chordal.
   double alpha = 0.5;
 };
 
@@ -50,11 +51,15 @@ struct StrandSet {
   [[nodiscard]] dvec3 derivative(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const;
 };
 
-/// Builds every strand's curve. Precondition: `field` was computed for `skeleton`.
+/// Builds every strand's curve (parallel over nodes; identical for any thread count).
+/// Precondition: `field` was computed for `skeleton`. Throws InvalidInputError when alpha is
+/// outside [0, 1]. A segment whose two end points coincide gets zero tangents (counted
+/// warning "degenerate_segment").
 StrandSet build_strands(const Skeleton& skeleton, const ParticleField& field, const StrandParams& params = {});
 
 /// The nodes a strand passes through, from its start node down to the root (#K), and its
 /// local particle index at each (#K).
+/// Throws InternalError when the strand id is out of range.
 struct StrandPath {
   std::vector<NodeId> nodes;
   std::vector<std::uint32_t> local;
