@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 #include "core/errors.h"
 
@@ -174,6 +175,22 @@ class Walker {
                                   const SliceGeometry& g, LoopKind kind, double distance, std::uint32_t tube);
 
   void walk(Task task);
+  /// Junction::lower_side for loop `loop` below fork `fork`: particle order at the fork is
+  /// [main child's strands | lateral's | new at the fork] (particles/particles.h).
+  std::vector<std::uint8_t> bundle_sides(NodeId fork, std::uint32_t loop) const {
+    const std::uint32_t base = f_.node_begin[fork.idx()];
+    const std::uint32_t n_main = f_.count(s_.children[fork.idx()][0]);
+    const std::uint32_t n_both = f_.new_begin[fork.idx()];
+    std::unordered_map<std::uint32_t, std::uint8_t> side;
+    side.reserve(2 * n_both);
+    for (std::uint32_t j = 0; j < n_both; ++j) side.emplace(f_.strand[base + j].value, j < n_main ? 0 : 1);
+    std::vector<std::uint8_t> out(out_.loop_size(loop), 2);
+    for (std::uint32_t k = 0; k < out.size(); ++k) {
+      const auto it = side.find(out_.strand[out_.loop_begin[loop] + k].value);
+      if (it != side.end()) out[k] = it->second;
+    }
+    return out;
+  }
   /// Distance (above the anchor) where fork `fork`'s bundles become farther apart than the
   /// threshold, by bisection between lo (not separated) and hi (separated).
   double bisect_split(NodeId fork, double fork_base, double lo, double hi);
@@ -428,6 +445,7 @@ void Walker::walk(Task task) {
         j.lower_tube = tube;
         j.split_distance = split - fork_base;
         j.forced = forced;
+        j.lower_side = bundle_sides(fork, j.lower);
         const auto junction = static_cast<std::uint32_t>(out_.junctions.size());
         out_.tubes[tube].end_junction = junction;
         std::array<Task, 2> next;

@@ -98,6 +98,9 @@ struct Junction {
   std::array<std::uint32_t, 2> upper_tubes{};
   double split_distance = 0;  ///< distance above the fork where the bundles split (metres)
   bool forced = false;        ///< the bundles never separated; the split was forced
+  /// #K (size of the lower loop): which bundle each lower-loop vertex's strand belongs to:
+  /// 0 the main child's, 1 the lateral's, 2 neither (a strand that starts at or below the fork).
+  std::vector<std::uint8_t> lower_side;
 };
 
 /// All loops (structure of arrays: #L loops, #V loop vertices in total).

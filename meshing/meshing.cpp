@@ -124,55 +124,94 @@ void stitch_open(const std::vector<std::uint32_t>& P, const std::vector<std::uin
   }
 }
 
-/// Branch fusion (seed 003 §2.5.2). `lower` is the union loop below the split, `a` and `b`
-/// the first loops of the two child tubes (all counter-clockwise seen from the tip side,
-/// `tangent` pointing up the parent branch). The crotch is the closest pair (a*, b*) between
-/// the upper loops. Two lower vertices anchor it: l_b, where the lower loop is nearest the
-/// direction tangent x (b* - a*) from the crotch, and l_f on the opposite side. Strip A joins
-/// the lower chain l_b..l_f (counter-clockwise, on A's side) to the whole loop A from a* back
-/// to a*; strip B joins l_f..l_b to B from b* back to b*; the two special triangles
-/// (l_f, b*, a*) and (l_b, a*, b*) close the crotch. Every edge is used exactly twice.
+/// Branch fusion (seed 003 §2.5.2). `lower` is the loop below the split, `a` and `b` the
+/// first loops of the two child tubes (all counter-clockwise seen from the tip side; `tangent`
+/// points up the parent branch); `side` says for each lower vertex whose bundle its strand
+/// belongs to (0 = a, 1 = b, 2 = neither; may be empty).
+///
+/// The crotch is the vertex a* of loop a nearest to b's centre and the vertex b* of b nearest
+/// to a's centre. The lower loop is cut at two vertices l_b and l_f into a chain on a's side
+/// and one on b's: where the strands change from one bundle to the other (the waist of the
+/// union), or, without that information, where the lower loop is crossed by the line through
+/// the crotch across the a-to-b direction. Strip A joins l_b..l_f (counter-clockwise) to the
+/// whole loop a from a* back to a*; strip B joins l_f..l_b to b from b* back to b*; the two
+/// special triangles (l_f, b*, a*) and (l_b, a*, b*) close the crotch. Every edge is used
+/// exactly twice.
 void fuse_chains(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& a,
-                 const std::vector<std::uint32_t>& b, const std::vector<glm::dvec3>& pos, const glm::dvec3& tangent,
-                 std::vector<Mesh::Triangle>& out) {
-  std::size_t ia = 0, ib = 0;
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t x = 0; x < a.size(); ++x) {
-    for (std::size_t y = 0; y < b.size(); ++y) {
-      const glm::dvec3 d = pos[a[x]] - pos[b[y]];
-      if (glm::dot(d, d) < best) {
-        best = glm::dot(d, d);
-        ia = x;
-        ib = y;
+                 const std::vector<std::uint32_t>& b, const std::vector<std::uint8_t>& side,
+                 const std::vector<glm::dvec3>& pos, const glm::dvec3& tangent, std::vector<Mesh::Triangle>& out) {
+  auto centroid = [&](const std::vector<std::uint32_t>& ids) {
+    glm::dvec3 c(0);
+    for (auto v : ids) c += pos[v];
+    return c / double(ids.size());
+  };
+  auto nearest = [&](const std::vector<std::uint32_t>& ids, const glm::dvec3& q) {
+    std::size_t best = 0;
+    double d = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      const double e = glm::dot(pos[ids[k]] - q, pos[ids[k]] - q);
+      if (e < d) {
+        d = e;
+        best = k;
       }
     }
-  }
-  const glm::dvec3 crotch = 0.5 * (pos[a[ia]] + pos[b[ib]]);
-  glm::dvec3 side = glm::cross(tangent, pos[b[ib]] - pos[a[ia]]);
-  if (glm::length(side) < 1e-300) side = any_perpendicular(tangent);
-  side = glm::normalize(side);
-  // Angles of the lower loop's vertices around the crotch, in the plane across `tangent`.
-  const glm::dvec3 x_axis = side, y_axis = glm::cross(tangent, side);
+    return best;
+  };
+  const glm::dvec3 ca = centroid(a), cb = centroid(b);
+  const std::size_t ia = nearest(a, cb), ib = nearest(b, ca);
   const std::size_t m = lower.size();
-  std::size_t lb = 0, lf = 0;
-  double best_b = -2, best_f = -2;
-  for (std::size_t k = 0; k < m; ++k) {
-    glm::dvec3 d = pos[lower[k]] - crotch;
-    d -= tangent * glm::dot(d, tangent);
-    const double len = glm::length(d);
-    if (len <= 0) continue;
-    const double c = glm::dot(d, x_axis) / len;  // cos of the angle to +side
-    if (c > best_b) {
-      best_b = c;
-      lb = k;
+
+  // Cut the lower loop: preferably where its strands change bundle.
+  std::size_t lb = m, lf = m;
+  if (side.size() == m) {
+    // Resolve "neither" vertices to the side of the previous labelled vertex.
+    std::vector<int> s(m, -1);
+    int last = -1;
+    for (std::size_t pass = 0; pass < 2; ++pass) {
+      for (std::size_t k = 0; k < m; ++k) {
+        if (side[k] < 2) last = side[k];
+        if (s[k] < 0 && last >= 0) s[k] = side[k] < 2 ? side[k] : last;
+      }
     }
-    if (-c > best_f) {
-      best_f = -c;
-      lf = k;
+    std::size_t a_to_b = 0, b_to_a = 0, changes = 0;
+    for (std::size_t k = 0; k < m && s[0] >= 0; ++k) {
+      const int x = s[k], y = s[(k + 1) % m];
+      if (x != y) {
+        ++changes;
+        if (x == 0) a_to_b = k;        // last vertex of the a-run
+        else b_to_a = (k + 1) % m;      // first vertex of the a-run
+      }
+    }
+    if (changes == 2) {
+      lb = b_to_a;
+      lf = a_to_b;
     }
   }
-  (void)y_axis;
-  if (lb == lf) lf = (lb + m / 2) % m;  // degenerate: take the opposite vertex
+  if (lb == m || lb == lf) {
+    // Geometric fallback: the lower vertices nearest the directions +/- tangent x (cb - ca)
+    // as seen from the crotch.
+    const glm::dvec3 crotch = 0.5 * (pos[a[ia]] + pos[b[ib]]);
+    glm::dvec3 across = glm::cross(tangent, cb - ca);
+    if (glm::length(across) < 1e-300) across = any_perpendicular(tangent);
+    across = glm::normalize(across);
+    double best_b = -2, best_f = -2;
+    for (std::size_t k = 0; k < m; ++k) {
+      glm::dvec3 d = pos[lower[k]] - crotch;
+      d -= tangent * glm::dot(d, tangent);
+      const double len = glm::length(d);
+      if (len <= 0) continue;
+      const double c = glm::dot(d, across) / len;
+      if (c > best_b) {
+        best_b = c;
+        lb = k;
+      }
+      if (-c > best_f) {
+        best_f = -c;
+        lf = k;
+      }
+    }
+    if (lb == lf) lf = (lb + m / 2) % m;
+  }
   std::vector<std::uint32_t> chain_a, chain_b, loop_a, loop_b;
   for (std::size_t k = lb;; k = (k + 1) % m) {
     chain_a.push_back(lower[k]);
@@ -214,9 +253,10 @@ class Builder {
   void fuse(const Junction& j, std::uint32_t branch);
   void tip_cap(std::uint32_t loop, std::uint32_t branch);
   void root_cap(std::uint32_t loop, std::uint32_t branch);
-  void emit(const std::vector<Mesh::Triangle>& tris, std::uint32_t branch) {
+  void emit(const std::vector<Mesh::Triangle>& tris, std::uint32_t branch, TriangleKind kind) {
     mesh_.triangles.insert(mesh_.triangles.end(), tris.begin(), tris.end());
     mesh_.triangle_branch.insert(mesh_.triangle_branch.end(), tris.size(), branch);
+    kind_.insert(kind_.end(), tris.size(), kind);
   }
   std::uint32_t add_vertex(const glm::dvec3& p, NodeId node, double u, double v) {
     mesh_.positions.push_back(p);
@@ -237,6 +277,7 @@ class Builder {
   std::vector<double> loop_v_;                  // per loop
   std::vector<double> vertex_u_, vertex_v_;     // per vertex
   std::vector<Mesh::Triangle> scratch_;
+  std::vector<TriangleKind> kind_;
 };
 
 void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const {
@@ -270,15 +311,15 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
   scratch_.clear();
   stitch(lower, upper, c_.point, scratch_, &guard);
-  emit(scratch_, branch);
+  emit(scratch_, branch, TriangleKind::strip);
   ++stats_.strips;
 }
 
 void Builder::fuse(const Junction& j, std::uint32_t branch) {
   scratch_.clear();
-  fuse_chains(loop_ids(j.lower), loop_ids(j.upper[0]), loop_ids(j.upper[1]), c_.point,
+  fuse_chains(loop_ids(j.lower), loop_ids(j.upper[0]), loop_ids(j.upper[1]), j.lower_side, c_.point,
               c_.loop_frame[j.lower].tangent, scratch_);
-  emit(scratch_, branch);
+  emit(scratch_, branch, TriangleKind::fusion);
   ++stats_.junctions;
 }
 
@@ -306,7 +347,7 @@ void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch) {
     scratch_.push_back({ids[k1], ring[k1], ring[k]});
     scratch_.push_back({ring[k], ring[k1], apex});
   }
-  emit(scratch_, branch);
+  emit(scratch_, branch, TriangleKind::tip_cap);
   ++stats_.tip_caps;
 }
 
@@ -319,7 +360,7 @@ void Builder::root_cap(std::uint32_t loop, std::uint32_t branch) {
   const std::uint32_t centre = add_vertex(c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
   scratch_.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) scratch_.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
-  emit(scratch_, branch);
+  emit(scratch_, branch, TriangleKind::root_cap);
 }
 
 void Builder::compute_uvs() {
@@ -433,7 +474,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("check", clock.lap());
   stats_.vertices = mesh_.positions.size();
   stats_.triangles = mesh_.triangles.size();
-  return MeshResult{std::move(mesh_), std::move(stats_)};
+  return MeshResult{std::move(mesh_), std::move(kind_), std::move(stats_)};
 }
 
 }  // namespace
@@ -448,7 +489,7 @@ void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::
                 const std::vector<std::uint32_t>& upper_lateral, const std::vector<glm::dvec3>& positions,
                 const glm::dvec3& tangent, std::vector<Mesh::Triangle>& out) {
   SM_CHECK(lower.size() >= 3 && upper_main.size() >= 3 && upper_lateral.size() >= 3, "fuse_loops: loops need 3 vertices");
-  fuse_chains(lower, upper_main, upper_lateral, positions, tangent, out);
+  fuse_chains(lower, upper_main, upper_lateral, {}, positions, tangent, out);
 }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,

@@ -51,8 +51,12 @@ struct MeshStats {
   Timings timings;
 };
 
+/// Which construction made a triangle (for debugging and the viewer).
+enum class TriangleKind : std::uint8_t { strip, fusion, tip_cap, root_cap };
+
 struct MeshResult {
   Mesh mesh;
+  std::vector<TriangleKind> triangle_kind;  ///< #F
   MeshStats stats;
 };
 

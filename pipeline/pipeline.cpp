@@ -5,6 +5,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "particles/dump.h"
+#include "strands/dump.h"
 #include "skeleton/io.h"
 
 namespace sm {
@@ -119,7 +120,8 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
   seconds["export"] = export_seconds;
   seconds["total"] = total_seconds > 0 ? total_seconds : r.timings.total() + export_seconds;
   json warnings = json::array();
-  for (const auto& w : r.warnings().list()) {
+  const Warnings all = r.warnings();
+  for (const auto& w : all.list()) {
     warnings.push_back({{"kind", w.kind}, {"message", w.message}, {"count", w.count}, {"examples", w.examples}});
   }
   const json j{{"nodes", r.skeleton.skeleton.size()},

@@ -72,7 +72,8 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         bar.update(phase, f);
       });
       bar.finish();
-      for (const auto& w : r.warnings().list()) {
+      const Warnings warnings = r.warnings();
+      for (const auto& w : warnings.list()) {
         std::string line = w.message + " (" + std::to_string(w.count) + "x";
         for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
         log::warn(line + ")");

@@ -6,9 +6,9 @@ void register_commands(CLI::App& app, const GlobalOptions& global) {
   add_info_command(app, global);
   add_grow_command(app, global);
   add_particles_command(app, global);
-  add_unavailable_command(app, "mesh", "Mesh a skeleton: strandmesh mesh SKELETON -o OUT.glb");
+  add_mesh_command(app, global);
   add_check_command(app, global);
-  add_unavailable_command(app, "bench", "Benchmark the pipeline on grown trees");
+  add_bench_command(app, global);
 }
 
 }  // namespace sm::cli

@@ -8,6 +8,8 @@ namespace sm::cli {
 void add_info_command(CLI::App& app, const GlobalOptions& global);
 void add_grow_command(CLI::App& app, const GlobalOptions& global);
 void add_check_command(CLI::App& app, const GlobalOptions& global);
+void add_mesh_command(CLI::App& app, const GlobalOptions& global);
+void add_bench_command(CLI::App& app, const GlobalOptions& global);
 void add_particles_command(CLI::App& app, const GlobalOptions& global);
 
 /// Adds every subcommand in the order shown by --help.
