@@ -433,7 +433,7 @@ TEST(ViewerParams, TableCoversEveryConfigKey) {
           std::find_if(qf.begin(), qf.end(), [&](const ParamField& x) { return std::string(x.key) == f.key; });
       ASSERT_NE(it, qf.end());
       const double old = field_value(*it);
-      set_field_value(*it, old == 0 ? 1 : (old == 1 ? 2 : old * 0.5 + 0.25));
+      set_field_value(*it, old == 0 ? 1 : (old == 1 ? 0 : old * 0.5 + 0.3));
       const auto changed = nlohmann::json::parse(params_to_json(q));
       for (Stage t : kStages) {
         if (t == s) {
@@ -663,12 +663,13 @@ TEST_F(ViewerAppTest, LoadsRendersSelectsAndReruns) {
 
   // Editing a contour parameter re-runs from the contours stage on.
   const std::size_t loops = app.run()->result.contours.loop_count();
-  app.edited_params().contours.slice_step = 0.15;
+  app.edited_params().contours.slice_step = 0.1;
+  app.edited_params().contours.min_slice_step = 0.1;
   EXPECT_EQ(app.apply_changes(), Stage::contours);
   app.wait_idle();
   EXPECT_TRUE(app.error().empty()) << app.error();
   EXPECT_GT(app.run()->result.contours.loop_count(), loops);
-  EXPECT_EQ(app.applied_params().contours.slice_step, 0.15);
+  EXPECT_EQ(app.applied_params().contours.slice_step, 0.1);
   EXPECT_FALSE(app.apply_changes());  // nothing left to apply
 
   // A failing re-run shows its error and keeps the previous run.

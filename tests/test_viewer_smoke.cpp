@@ -18,8 +18,19 @@
 namespace sm {
 namespace {
 
+// `p` in double quotes for sh (built with += : GCC 12 warns falsely on "literal" + string).
+std::string quoted(const std::filesystem::path& p) {
+  std::string s = "\"";
+  s += p.string();
+  s += '"';
+  return s;
+}
+
 bool on_path(const std::string& program) {
-  return std::system(("command -v " + program + " >/dev/null 2>&1").c_str()) == 0;
+  std::string cmd = "command -v ";
+  cmd += program;
+  cmd += " >/dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
 }
 
 std::string read_text(const std::filesystem::path& p) {
@@ -35,8 +46,13 @@ int run_under_xvfb(const std::filesystem::path& dir, const std::string& args) {
   const auto log_file = dir / "log.txt";
   std::filesystem::remove(rc_file);
   const std::string viewer = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh-view";
-  const std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' sh -c '\"" + viewer + "\" " + args +
-                          "; echo $? > \"" + rc_file.string() + "\"' > \"" + log_file.string() + "\" 2>&1";
+  std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' sh -c '";
+  cmd += quoted(viewer);
+  cmd += " " + args + "; echo $? > ";
+  cmd += quoted(rc_file);
+  cmd += "' > ";
+  cmd += quoted(log_file);
+  cmd += " 2>&1";
   std::system(cmd.c_str());
   if (!std::filesystem::exists(rc_file)) return -1;
   return std::atoi(read_text(rc_file).c_str());
@@ -48,9 +64,11 @@ TEST(ViewerSmoke, ScreenshotUnderXvfb) {
   const auto skeleton = dir / "y_fork.json";
   write_file_atomically(skeleton, raw_skeleton_to_json(test::y_fork()));
   const auto png = dir / "shot.png";
-  const int rc =
-      run_under_xvfb(dir, "\"" + skeleton.string() + "\" --screenshot \"" + png.string() +
-                              "\" --size 320x240 --layers mesh,wireframe,skeleton,legend --camera yaw=30,pitch=10");
+  std::string args = quoted(skeleton);
+  args += " --screenshot ";
+  args += quoted(png);
+  args += " --size 320x240 --layers mesh,wireframe,skeleton,legend --camera yaw=30,pitch=10";
+  const int rc = run_under_xvfb(dir, args);
   const std::string log = read_text(dir / "log.txt");
   if (rc == -1) GTEST_SKIP() << "Xvfb could not start; screenshot smoke test skipped:\n" << log;
   if (rc == 4) GTEST_SKIP() << "no OpenGL 3.3 under Xvfb (is libgl1-mesa-dri installed?); skipped:\n" << log;
@@ -75,8 +93,10 @@ TEST(ViewerSmoke, ScreenshotUnderXvfb) {
 
   // A bad input fails cleanly with exit code 1 and no picture.
   const auto missing_png = dir / "none.png";
-  const int bad =
-      run_under_xvfb(dir, "\"" + (dir / "missing.json").string() + "\" --screenshot \"" + missing_png.string() + "\"");
+  std::string bad_args = quoted(dir / "missing.json");
+  bad_args += " --screenshot ";
+  bad_args += quoted(missing_png);
+  const int bad = run_under_xvfb(dir, bad_args);
   EXPECT_EQ(bad, 1) << read_text(dir / "log.txt");
   EXPECT_FALSE(std::filesystem::exists(missing_png));
 }

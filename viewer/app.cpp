@@ -255,7 +255,8 @@ void ViewerApp::on_outcome(JobOutcome outcome) {
   run_ = std::move(outcome.run);
   applied_ = job_params_;
   check_.reset();
-  error_.clear();
+  // A successful re-run answers an earlier failed one; a load keeps the config's error.
+  if (outcome.kind == JobOutcome::Kind::rerun) error_.clear();
   last_run_seconds_ = outcome.seconds;
   if (first && !view_fixed_) view_ = default_view(*run_);
   rebuild_scene();
@@ -366,6 +367,11 @@ void ViewerApp::apply_camera_spec(const CameraSpec& spec, double aspect) {
   camera_.distance *= spec.distance_scale;
 }
 
+void ViewerApp::set_initial_view(std::optional<CameraSpec> camera, std::optional<std::uint32_t> select) {
+  initial_camera_ = std::move(camera);
+  initial_select_ = select;
+}
+
 void ViewerApp::on_drag(Drag kind, double dx, double dy, int /*width*/, int height) {
   if (kind == Drag::rotate) {
     camera_.rotate(dx, dy, height);
@@ -396,8 +402,31 @@ void ViewerApp::render(Renderer& renderer, int width, int height) {
     renderer.set_overlay(std::move(*pending_overlay_));
     pending_overlay_.reset();
   }
-  if (needs_framing_ && run_ && !bounds_.empty())
-    frame_all(static_cast<double>(std::max(width, 1)) / std::max(height, 1));
+  if (needs_framing_ && run_ && !bounds_.empty()) {
+    const double aspect = static_cast<double>(std::max(width, 1)) / std::max(height, 1);
+    frame_all(aspect);
+    try {
+      if (initial_select_) {
+        const std::uint32_t n = *initial_select_;
+        initial_select_.reset();
+        if (!run_->has_stage(Stage::skeleton) || n >= run_->result.skeleton.skeleton.size()) {
+          throw UsageError("--select " + std::to_string(n) + ": no such node");
+        }
+        select(NodeId(n));
+      }
+      if (initial_camera_) {
+        const CameraSpec spec = *initial_camera_;
+        initial_camera_.reset();
+        apply_camera_spec(spec, aspect);
+      }
+    } catch (const Error& e) {
+      error_ = e.what();
+    }
+    if (pending_overlay_) {
+      renderer.set_overlay(std::move(*pending_overlay_));
+      pending_overlay_.reset();
+    }
+  }
   RenderOptions ro;
   ro.visible = view_.visible;
   ro.shading = view_.shading;

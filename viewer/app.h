@@ -107,6 +107,9 @@ class ViewerApp {
   bool frame_selection(double aspect);
   /// Applies a --camera spec (selects and frames spec.node when given).
   void apply_camera_spec(const CameraSpec& spec, double aspect);
+  /// A camera spec and a node to select once the first run is shown (the window's --camera
+  /// and --select); problems are reported through error().
+  void set_initial_view(std::optional<CameraSpec> camera, std::optional<std::uint32_t> select);
 
   /// Selects a node (or clears the selection); the node panel's cloud is recomputed.
   void select(std::optional<NodeId> node);
@@ -156,6 +159,8 @@ class ViewerApp {
   bool view_fixed_ = false;  // set_view() called: keep the user's layers across runs
   OrbitCamera camera_;
   bool needs_framing_ = true;
+  std::optional<CameraSpec> initial_camera_;
+  std::optional<std::uint32_t> initial_select_;
   std::optional<NodeId> selection_;
   std::optional<NodeCloud> cloud_;
 

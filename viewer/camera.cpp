@@ -98,12 +98,27 @@ void OrbitCamera::zoom(double steps) {
 void OrbitCamera::frame(const Bounds& b, double aspect, double scale) {
   if (b.empty()) return;
   target = b.center();
-  const double r = std::max(b.radius(), 1e-6);
-  // The sphere fits when its radius subtends the smaller of the two half-angles.
-  const double half_v = 0.5 * fov_y;
-  const double half_h = std::atan(std::tan(half_v) * std::max(aspect, 1e-6));
-  const double half = std::min(half_v, half_h);
-  distance = std::max(r / std::sin(half), 1e-6) * (scale > 0 ? scale : 1.0);
+  // Fit the eight corners of the box for the current viewing direction rather than its
+  // bounding sphere: trees are tall and thin, and a sphere would leave them small in the
+  // middle of the picture. A corner at lateral offsets (x, y) and depth offset z from the
+  // centre is inside the frustum when |x| <= tan(half_h) (d + z) and likewise for y.
+  const double tan_v = std::tan(0.5 * fov_y);
+  const double tan_h = tan_v * std::max(aspect, 1e-6);
+  distance = 1.0;
+  const glm::dvec3 forward = glm::normalize(target - eye());
+  const glm::dvec3 right = glm::normalize(glm::cross(forward, up_vector()));
+  const glm::dvec3 cam_up = glm::cross(right, forward);
+  double d = 1e-6;
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z);
+    const glm::dvec3 q = corner - target;
+    const double z = glm::dot(q, forward);
+    d = std::max(d, std::fabs(glm::dot(q, right)) / tan_h - z);
+    d = std::max(d, std::fabs(glm::dot(q, cam_up)) / tan_v - z);
+  }
+  // A small margin, and never so close that the eye is inside the box.
+  d = std::max(1.06 * d, 1.01 * b.radius());
+  distance = d * (scale > 0 ? scale : 1.0);
 }
 
 CameraSpec parse_camera_spec(const std::string& text) {

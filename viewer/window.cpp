@@ -152,6 +152,7 @@ void take_screenshot(ViewerApp& app, const ScreenshotOptions& options) {
   app.wait_idle();
   if (!app.run()) throw InvalidInputError(app.error().empty() ? "nothing was loaded" : app.error());
   if (options.view) app.set_view(*options.view);
+  if (options.coloring) app.set_coloring(*options.coloring);
   const double aspect = static_cast<double>(w) / h;
   if (options.select) {
     const RunData* run = app.run();

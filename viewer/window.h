@@ -36,11 +36,12 @@ struct ScreenshotOptions {
   std::filesystem::path output;  ///< PNG file to write
   int width = 1280;              ///< image size in pixels
   int height = 800;
-  std::optional<ViewState> view;        ///< layers (--layers); the run's default view when absent
-  CameraSpec camera;                    ///< placement (--camera); frame all by default
-  std::optional<std::uint32_t> select;  ///< node to select (highlighted; shown in the node panel)
-  bool ui = false;                      ///< draw the panels too (else only the legend, when on)
-  int samples = 4;                      ///< multisampling (0 = off)
+  std::optional<ViewState> view;           ///< layers (--layers); the run's default view when absent
+  CameraSpec camera;                       ///< placement (--camera); frame all by default
+  std::optional<std::uint32_t> select;     ///< node to select (highlighted; shown in the node panel)
+  std::optional<StrandColoring> coloring;  ///< strand colouring (--color-by); as the view says when absent
+  bool ui = false;                         ///< draw the panels too (else only the legend, when on)
+  int samples = 4;                         ///< multisampling (0 = off)
 };
 
 /// Loads the app's input, renders one frame offscreen in a hidden window's context and writes

@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   CLI::App cli{"strandmesh-view: see what each stage of strandmesh did, layer by layer", "strandmesh-view"};
   cli.set_version_flag("--version", std::string("strandmesh-view ") + STRANDMESH_VERSION);
   ViewerOptions opts;
-  std::string input, config, mesh, screenshot, layers, size = "1280x800", camera;
+  std::string input, config, mesh, screenshot, layers, size = "1280x800", camera, color_by;
   std::uint64_t seed = 0;
   std::uint32_t select = 0;
   int threads = 0;
@@ -44,9 +44,11 @@ int main(int argc, char** argv) {
                  "wireframe, normals, uv (mesh with UV checker), legend, all");
   cli.add_option("--size", size, "Screenshot size (or initial window size) WIDTHxHEIGHT")->capture_default_str();
   cli.add_option("--camera", camera,
-                 "Camera for the screenshot: key=value list of yaw, pitch (degrees), dist (relative to frame "
+                 "Camera: key=value list of yaw, pitch (degrees), dist (relative to frame "
                  "all), node (frame that node's subtree), fov (degrees); e.g. yaw=30,pitch=15,dist=0.8");
-  auto* select_opt = cli.add_option("--select", select, "Select this node (highlight and node panel)");
+  cli.add_option("--color-by", color_by, "Colour strands and particles by 'strand' or by 'tip' (start node)")
+      ->check(CLI::IsMember({"strand", "tip"}));
+  auto* select_opt = cli.add_option("--select", select, "Select this node once loaded (highlight and node panel)");
   cli.add_flag("--ui", ui, "Screenshot: draw the panels too");
   cli.add_flag("--no-checks", no_checks, "Do not run the mesh checks after each run");
   cli.add_flag("--no-self-intersections", no_self_intersections, "Skip the (slowest) self-intersection check");
@@ -97,6 +99,7 @@ int main(int argc, char** argv) {
       so.view = view;
       so.camera = cam;
       so.ui = ui;
+      if (!color_by.empty()) so.coloring = color_by == "tip" ? StrandColoring::by_tip : StrandColoring::by_strand;
       if (select_opt->count() > 0) so.select = select;
       take_screenshot(app, so);
       if (!app.error().empty()) sm::log::warn(app.error());
@@ -107,14 +110,13 @@ int main(int argc, char** argv) {
     opts.self_intersections = !no_self_intersections;
     ViewerApp app(opts);
     if (view) app.set_view(*view);
+    if (color_by == "tip") app.set_coloring(StrandColoring::by_tip);
     WindowOptions wo;
     wo.width = wh[0];
     wo.height = wh[1];
     wo.title = "strandmesh-view: " + input;
-    if (select_opt->count() > 0) {
-      // Selected once the run is loaded: the node must exist first.
-      sm::log::warn("--select applies to screenshots only; click a node in the window instead");
-    }
+    app.set_initial_view(camera.empty() ? std::nullopt : std::optional<CameraSpec>(cam),
+                         select_opt->count() > 0 ? std::optional<std::uint32_t>(select) : std::nullopt);
     run_window(app, wo);
     return kOk;
   } catch (const DisplayError& e) {
