@@ -57,6 +57,46 @@ const fs::path kPresetDir = fs::path(STRANDMESH_SOURCE_DIR) / "configs" / "grow"
   return raw_skeleton_to_json(grow_tree(p).skeleton);
 }
 
+/// Brute-force count of edge pairs of unrelated branches (no common node within four steps
+/// towards the root) closer than the sum of their larger end radii: they would intersect in
+/// the mesh. Independent of the grower's own k-d tree check; quadratic, small trees only.
+[[maybe_unused]] std::size_t touching_pairs(const Skeleton& s) {
+  auto distance = [](dvec3 p1, dvec3 q1, dvec3 p2, dvec3 q2) {
+    // Sampled closest distance (fine enough: edges are a few radii long).
+    double best = 1e300;
+    for (int i = 0; i <= 16; ++i) {
+      for (int j = 0; j <= 16; ++j) {
+        best = std::min(best, glm::length(glm::mix(p1, q1, i / 16.0) - glm::mix(p2, q2, j / 16.0)));
+      }
+    }
+    return best;
+  };
+  auto near_ancestors = [&](std::size_t v) {
+    std::vector<std::size_t> up{v};
+    for (int k = 0; k < 4 && s.parent[v].valid(); ++k) up.push_back(v = s.parent[v].idx());
+    return up;
+  };
+  std::size_t count = 0;
+  for (std::size_t a = 1; a < s.size(); ++a) {
+    const std::size_t pa = s.parent[a].idx();
+    const double ra = s.radius[pa];
+    for (std::size_t b = a + 1; b < s.size(); ++b) {
+      const std::size_t pb = s.parent[b].idx();
+      const double rb = s.radius[pb];
+      const dvec3 lo = glm::min(s.position[pa], s.position[a]) - dvec3(ra + rb);
+      const dvec3 hi = glm::max(s.position[pa], s.position[a]) + dvec3(ra + rb);
+      const dvec3 blo = glm::min(s.position[pb], s.position[b]), bhi = glm::max(s.position[pb], s.position[b]);
+      if (glm::any(glm::lessThan(hi, blo)) || glm::any(glm::greaterThan(lo, bhi))) continue;
+      if (distance(s.position[pa], s.position[a], s.position[pb], s.position[b]) >= ra + rb) continue;
+      const auto ua = near_ancestors(a), ub = near_ancestors(b);
+      bool related = false;
+      for (auto x : ua) related = related || std::find(ub.begin(), ub.end(), x) != ub.end();
+      count += related ? 0 : 1;
+    }
+  }
+  return count;
+}
+
 [[maybe_unused]] double angle_deg(const dvec3& a, const dvec3& b) {
   return std::acos(std::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
@@ -117,6 +157,7 @@ void expect_clean_tree(const GrowResult& grown, const GrowerParams& p, const std
   EXPECT_EQ(forks, grown.stats.forks);
   EXPECT_EQ(tips, grown.stats.tips);
   EXPECT_EQ(short_edges, grown.stats.short_edges);
+  EXPECT_EQ(grown.stats.touching_edges, 0u);
   // Attraction points lie in the crown volume.
   const Volume volume(p.crown);
   EXPECT_EQ(grown.attraction_points.size(), p.attraction_points);
@@ -248,6 +289,7 @@ TEST(Grow, SmallTreeIsClean) {
   EXPECT_GT(g.stats.height, 3.0);
   EXPECT_TRUE(g.stats.warnings.empty()) << g.stats.warnings.to_string();
   expect_clean_tree(g, p, "self-organizing");
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton).skeleton), 0u);
 }
 
 TEST(Grow, GoldenStatisticsForSeedOne) {
@@ -411,6 +453,7 @@ void check_preset(const std::string& name, std::uint64_t seed = 0) {
   EXPECT_LE(g.stats.nodes, preset.expected_max_nodes) << name;
   EXPECT_TRUE(g.stats.warnings.empty()) << name << ": " << g.stats.warnings.to_string();
   expect_clean_tree(g, preset.params, name);
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton).skeleton), 0u) << name;
 }
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS

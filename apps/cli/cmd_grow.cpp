@@ -104,7 +104,9 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
                    std::to_string(s.grown_nodes) + " nodes, merged " + std::to_string(s.merged_nodes) + ", slid " +
                    std::to_string(s.slid_laterals) + " and pruned " + std::to_string(s.pruned_laterals) +
                    " laterals (" + std::to_string(s.pruned_nodes) + " nodes), short fork edges " +
-                   std::to_string(s.short_edges));
+                   std::to_string(s.short_edges) + ", touching twigs pruned " + std::to_string(s.collisions_pruned) +
+                   " (" + std::to_string(s.collision_pruned_nodes) + " nodes), touching edge pairs left " +
+                   std::to_string(s.touching_edges));
       for (const auto& t : s.timings.entries) log::verbose("  " + t.name + " " + fmt(3, t.seconds) + " s");
       log::verbose(describe_skeleton(result));
       return int(kOk);

@@ -80,6 +80,35 @@ double angle_between(const dvec3& a, const dvec3& b) {
   return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
 }
 
+/// Distance between segments [p1, q1] and [p2, q2] (closest points by clamped parameters,
+/// Ericson, Real-Time Collision Detection §5.1.9).
+double segment_distance(const dvec3& p1, const dvec3& q1, const dvec3& p2, const dvec3& q2) {
+  const dvec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
+  double s = 0, t = 0;
+  if (a <= 1e-300 && e <= 1e-300) return glm::length(r);
+  if (a <= 1e-300) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = glm::dot(d1, r);
+    if (e <= 1e-300) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = glm::dot(d1, d2), denom = a * e - b * b;
+      s = denom > 1e-300 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return glm::length((p1 + s * d1) - (p2 + t * d2));
+}
+
 /// The unit vector in the plane of `ref` and `w` (on w's side) whose angle from ref is
 /// angle(ref, w) clamped into [lo, hi] (radians).
 dvec3 clamp_angle(const dvec3& w, const dvec3& ref, double lo, double hi) {
@@ -134,8 +163,10 @@ class TreeGrower {
 
     report("cleanup", 0);
     cleanup();
-    result.skeleton = emit();
     stats_->timings.add("cleanup", clock.lap());
+    untangle();
+    stats_->timings.add("collisions", clock.lap());
+    result.skeleton = emit();
     report("cleanup", 1);
     result.attraction_points = std::move(points_);
     return result;
@@ -664,7 +695,7 @@ class TreeGrower {
       const std::uint32_t sibling = child_[p][0] == n ? child_[p][1] : child_[p][0];
       const std::uint32_t y = radius_[sibling] < radius_[x] ? sibling : x;
       if (radius_[y] > p_.prune_ratio * radius_[parent_[y]]) continue;
-      remove_subtree(y);
+      stats_->pruned_nodes += remove_subtree(y);
       ++pruned;
     }
     return slid;
@@ -695,18 +726,96 @@ class TreeGrower {
     if (child_[p][0] == kNone && child_[p][1] != kNone) std::swap(child_[p][0], child_[p][1]);
   }
 
-  void remove_subtree(std::uint32_t x) {
+  /// Removes x and everything above it; returns the number of nodes removed.
+  std::size_t remove_subtree(std::uint32_t x) {
     detach(x);
+    std::size_t count = 0;
     std::vector<std::uint32_t> stack{x};
     while (!stack.empty()) {
       const std::uint32_t v = stack.back();
       stack.pop_back();
       removed_[v] = 1;
-      ++stats_->pruned_nodes;
+      ++count;
       for (std::uint32_t c : child_[v]) {
         if (c != kNone) stack.push_back(c);
       }
     }
+    return count;
+  }
+
+  /// True when edges (parent(a), a) and (parent(b), b) share a node within kRelated steps
+  /// towards the root: such edges meet at a fork and are meant to be close there.
+  [[nodiscard]] bool related(std::uint32_t a, std::uint32_t b) const {
+    constexpr int kRelated = 4;
+    std::array<std::uint32_t, kRelated + 1> up{};
+    int n = 0;
+    for (std::uint32_t v = a; n <= kRelated; v = parent_[v]) {
+      up[static_cast<std::size_t>(n++)] = v;
+      if (v == 0) break;
+    }
+    for (int k = 0; k <= kRelated; ++k, b = parent_[b]) {
+      if (std::find(up.begin(), up.begin() + n, b) != up.begin() + n) return true;
+      if (b == 0) break;
+    }
+    return false;
+  }
+
+  /// Edges of unrelated branches that come closer than the sum of their radii would make the
+  /// mesh intersect itself. The attraction points keep branches apart almost always; the rare
+  /// touching pair (twigs grown into the same gap) is resolved, when `prune` is set, by
+  /// removing the thinner edge's subtree if it is small (≤ kMaxCollisionPrune nodes). Returns
+  /// the pairs left touching.
+  std::size_t resolve_collisions(bool prune) {
+    constexpr std::size_t kMaxCollisionPrune = 40;
+    const auto ord = order();
+    std::vector<std::uint32_t> size(pos_.size(), 0);  // subtree sizes
+    for (auto it = ord.rbegin(); it != ord.rend(); ++it) {
+      size[*it] += 1;
+      if (*it != 0) size[parent_[*it]] += size[*it];
+    }
+    Cloud mids;                          // edge midpoints
+    std::vector<std::uint32_t> edge_of;  // midpoint index -> the edge's child node
+    double max_half = 0;
+    for (const std::uint32_t v : ord) {
+      if (v == 0) continue;
+      mids.pts.push_back(0.5 * (pos_[v] + pos_[parent_[v]]));
+      edge_of.push_back(v);
+      max_half = std::max(max_half, 0.5 * edge(v));
+    }
+    if (edge_of.empty()) return 0;
+    const KdTree index(3, mids, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    std::size_t touching = 0;
+    std::vector<std::pair<std::uint32_t, double>> found;
+    for (std::uint32_t k = 0; k < edge_of.size(); ++k) {
+      const std::uint32_t a = edge_of[k];
+      if (removed_[a]) continue;
+      // Each pair is examined from its thicker edge (ties: the lower index), whose search then
+      // needs to reach only half_a + max_half + 2·ra.
+      const double ra = radius_[parent_[a]];  // the thicker end of the edge
+      const double reach = 0.5 * edge(a) + max_half + 2 * ra;
+      const double q[3] = {mids.pts[k].x, mids.pts[k].y, mids.pts[k].z};
+      found.clear();
+      index.radiusSearch(q, reach * reach, found, nanoflann::SearchParams(32, 0.f, false));
+      std::sort(found.begin(), found.end());
+      for (const auto& [j, d2] : found) {
+        const std::uint32_t b = edge_of[j];
+        if (j == k || removed_[b] || removed_[a]) continue;
+        const double rb = radius_[parent_[b]];
+        if (rb > ra || (rb == ra && j < k)) continue;  // examined from b
+        if (segment_distance(pos_[parent_[a]], pos_[a], pos_[parent_[b]], pos_[b]) >= ra + rb) continue;
+        if (related(a, b)) continue;
+        // The thinner edge's subtree goes (ties: the smaller subtree, then the later node).
+        const bool a_goes = ra != rb ? ra < rb : size[a] != size[b] ? size[a] < size[b] : a > b;
+        const std::uint32_t x = a_goes ? a : b;
+        if (prune && size[x] <= kMaxCollisionPrune) {
+          stats_->collision_pruned_nodes += remove_subtree(x);
+          ++stats_->collisions_pruned;
+        } else {
+          ++touching;
+        }
+      }
+    }
+    return touching;
   }
 
   void cleanup() {
@@ -723,8 +832,17 @@ class TreeGrower {
       stats_->pruned_laterals += pruned;
       compute_radii();
       stats_->merged_nodes += merge_chains();
-      report("cleanup", double(round + 1) / kRounds);
+      report("cleanup", double(round + 1) / (kRounds + 2));
     }
+  }
+
+  void untangle() {
+    if (p_.min_edge_ratio > 0) {  // the whole cleanup is off with min_edge_ratio = 0
+      resolve_collisions(true);
+      compute_radii();
+      stats_->merged_nodes += merge_chains();
+    }
+    stats_->touching_edges = resolve_collisions(false);
   }
 
   RawSkeleton emit() {

@@ -117,22 +117,25 @@ struct GrowerParams {
 
 /// What grow_tree() did: counts, sizes, timings, warnings.
 struct GrowStats {
-  std::size_t iterations = 0;         ///< growth iterations run
-  std::size_t attraction_points = 0;  ///< points scattered
-  std::size_t points_reached = 0;     ///< points removed by the occupancy radius
-  std::size_t grown_nodes = 0;        ///< nodes grown (before cleanup)
-  std::size_t merged_nodes = 0;       ///< chain nodes merged away on thick branches
-  std::size_t slid_laterals = 0;      ///< crowded laterals moved up their axis (subtree translated)
-  std::size_t pruned_laterals = 0;    ///< crowded lateral subtrees removed
-  std::size_t pruned_nodes = 0;       ///< nodes in those subtrees
-  std::size_t nodes = 0;              ///< nodes of the result
-  std::size_t tips = 0;               ///< tips of the result
-  std::size_t forks = 0;              ///< forks (nodes with two children) of the result
-  std::size_t short_edges = 0;        ///< edges still shorter than min_edge_ratio × radius (fork to fork)
-  double height = 0;                  ///< highest node above the root (metres)
-  double trunk_radius = 0;            ///< radius at the root (metres)
-  Warnings warnings;                  ///< e.g. "no_growth" when no bud ever reached the crown
-  Timings timings;                    ///< "scatter", "grow", "cleanup"
+  std::size_t iterations = 0;              ///< growth iterations run
+  std::size_t attraction_points = 0;       ///< points scattered
+  std::size_t points_reached = 0;          ///< points removed by the occupancy radius
+  std::size_t grown_nodes = 0;             ///< nodes grown (before cleanup)
+  std::size_t merged_nodes = 0;            ///< chain nodes merged away on thick branches
+  std::size_t slid_laterals = 0;           ///< crowded laterals moved up their axis (subtree translated)
+  std::size_t pruned_laterals = 0;         ///< crowded lateral subtrees removed
+  std::size_t pruned_nodes = 0;            ///< nodes in those subtrees
+  std::size_t nodes = 0;                   ///< nodes of the result
+  std::size_t tips = 0;                    ///< tips of the result
+  std::size_t forks = 0;                   ///< forks (nodes with two children) of the result
+  std::size_t collisions_pruned = 0;       ///< small subtrees removed because they touched an unrelated branch
+  std::size_t collision_pruned_nodes = 0;  ///< nodes in those subtrees
+  std::size_t short_edges = 0;             ///< edges at a fork still shorter than min_edge_ratio × the larger radius
+  std::size_t touching_edges = 0;          ///< pairs of edges of unrelated branches closer than their radii (left)
+  double height = 0;                       ///< highest node above the root (metres)
+  double trunk_radius = 0;                 ///< radius at the root (metres)
+  Warnings warnings;                       ///< e.g. "no_growth" when no bud ever reached the crown
+  Timings timings;                         ///< "scatter", "grow", "cleanup", "collisions"
 };
 
 struct GrowResult {
