@@ -14,8 +14,10 @@
 //    the flat arrays and every strand id before any geometry is computed. The parallel phase
 //    then writes each node's range by index and never allocates per node.
 //
-//  - Tips: a sunflower (Vogel) spiral, evenly spread in the disc by construction, rotated by a
-//    random angle from the node's own stream, then relaxed.
+//  - Tips: a sunflower (Vogel) spiral, evenly spread in the disc by construction, relaxed,
+//    and rotated by a random angle from the node's own stream. Tips of up to 256 particles
+//    take the relaxed pattern for their count from a per-thread cache (a pure function of the
+//    count and the parameters, so every thread computes the same bits), scaled by lambda.
 //
 //  - Carry (one child): the child's 2D coordinates are taken into the parent's frame by the
 //    minimal rotation between the two tangents (the frames are parallel-transported, so this is
@@ -30,8 +32,9 @@
 //    that the literal projection adds would be undone by the fit below) and placed on its
 //    child's side of the child-to-child direction D12: the disc is cut by a chord
 //    perpendicular to D12 into two parts whose areas are proportional to the two particle
-//    counts, with an empty band of fork_gap between them (the seed's "offset so that the two
-//    clouds are adjacent", and the authors' extra particle diameter). Each child's unit disc is
+//    counts, with an optional empty band of fork_gap between them (the seed's "offset so that
+//    the two clouds are adjacent"; the authors add a particle diameter, but a band is left as a
+//    hole when the relaxation settles early, so the default is 0). Each child's unit disc is
 //    mapped onto its part by the Knothe-Rosenblatt map: its coordinate along D12 by matching
 //    the cumulative area (disc -> circular segment), the other coordinate by the relative
 //    position along the chord. The map is continuous and monotone in both coordinates, so
@@ -44,14 +47,25 @@
 //    the candidates farthest from the carried particles take the new strands (they are the
 //    holes of the sparse cloud), then the whole cloud is relaxed.
 //
-//  - Relaxation (seed 003 §2.3.2): particles repel with force (1 - d/h) for d < h, integrate
+//  - Relaxation (seed 003 §2.3.2): particles repel with force kappa (h^2/d - d) for d < h
+//    (kappa = 1/2h: zero at h with the slope of the classic (1 - d/h), but unbounded as d -> 0,
+//    so close pairs always separate first; one division and no square root per pair), move
 //    with momentum `damping` and a velocity cap (the seed found the cap essential for an even
-//    density), and are clamped to the confining disc of radius r - wall_margin * lambda (a
-//    hard wall: the outer ring lies on a circle, which the contour stage wants). Neighbour
-//    pairs come from a uniform grid with cells of the list radius (counting sort, any
-//    occupancy), rebuilt every k steps with a skin of 2 k max_velocity, so that no interacting
-//    pair is missed between rebuilds (a Verlet list). The run stops when the largest move is
-//    below move_tolerance or after max_steps.
+//    density), in single precision and units of lambda. The boundary is a soft wall: a
+//    particle near it is repelled by its mirror image across a circle wall_offset outside the
+//    confining disc, and is clamped to the disc as a last resort. A hard wall alone (clamping)
+//    lets the bounded pressure of the interior pile particles up on the rim; the mirror keeps
+//    the density even up to an outer ring about half a lambda inside the radius.
+//    Neighbours come from Verlet lists: a uniform grid with cells of half the list radius
+//    (counting sort, any occupancy; the particles are re-sorted by cell so every row of cells
+//    is a contiguous slot range), lists of the pairs within h + skin, rebuilt when twice the
+//    summed largest moves since the last rebuild reach the skin (so no interacting pair is ever
+//    missed) and at least every rebuild_every steps. Late steps skip particles at rest: one
+//    that moved less than half the tolerance, with all its neighbours, keeps its place (the
+//    settling region of a fork is usually small). The run stops when the largest move is below
+//    move_tolerance or after max_steps. Clouds of 4096 particles or more run each step as a
+//    parallel loop over particles; every particle sums over its own list in a fixed order and
+//    the largest move is a maximum, so the split over threads does not change a bit.
 //
 //  - Parallelism: nodes are processed bottom-up with one atomic counter of unfinished
 //    children per node; tips are distributed over threads (oneTBB) and a thread that finishes
@@ -220,29 +234,32 @@ double disc_cdf(double a) {
 /// angle phi (u = cos phi), where the area phi - sin(phi) cos(phi) is smooth.
 class SegmentInverse {
  public:
-  explicit SegmentInverse(double xs) {
+  /// `steps` table entries (at most kMaxSteps): about one per particle mapped, so that small
+  /// forks do not pay for a fine table.
+  SegmentInverse(double xs, int steps) : steps_(std::clamp(steps, 8, kMaxSteps)) {
     phi_s_ = std::acos(std::clamp(xs, -1.0, 1.0));
-    for (int k = 0; k <= kSteps; ++k) {
-      const double phi = phi_s_ * k / kSteps;
-      area_[k] = phi - std::sin(phi) * std::cos(phi);
+    for (int k = 0; k <= steps_; ++k) {
+      const double phi = phi_s_ * k / steps_;
+      area_[k] = phi - 0.5 * std::sin(2.0 * phi);
     }
   }
   /// u in [xs, 1] such that the part of the segment with coordinate < u holds fraction f.
   [[nodiscard]] double operator()(double f) const {
     // Area beyond u is (1 - f) of the segment's area.
-    const double target = (1.0 - std::clamp(f, 0.0, 1.0)) * area_[kSteps];
-    const double* it = std::upper_bound(area_, area_ + kSteps + 1, target);
-    const int hi = std::clamp(int(it - area_), 1, kSteps);
+    const double target = (1.0 - std::clamp(f, 0.0, 1.0)) * area_[steps_];
+    const double* it = std::upper_bound(area_, area_ + steps_ + 1, target);
+    const int hi = std::clamp(int(it - area_), 1, steps_);
     const double a0 = area_[hi - 1], a1 = area_[hi];
     const double t = a1 > a0 ? (target - a0) / (a1 - a0) : 0.0;
-    const double phi = phi_s_ * (hi - 1 + std::clamp(t, 0.0, 1.0)) / kSteps;
+    const double phi = phi_s_ * (hi - 1 + std::clamp(t, 0.0, 1.0)) / steps_;
     return std::cos(phi);
   }
 
  private:
-  static constexpr int kSteps = 128;
+  static constexpr int kMaxSteps = 128;
+  int steps_;
   double phi_s_ = 0;
-  double area_[kSteps + 1] = {};
+  double area_[kMaxSteps + 1] = {};
 };
 
 /// Position of the cut x (in units of the disc radius, along D12) such that the part
@@ -250,7 +267,7 @@ class SegmentInverse {
 double fork_cut(double m0, double m1, double g) {
   const double f1 = m1 / (m0 + m1);
   double lo = -1.0 + g / 2, hi = 1.0 - g / 2;
-  for (int it = 0; it < 60; ++it) {
+  for (int it = 0; it < 40; ++it) {
     const double x = 0.5 * (lo + hi);
     const double a1 = segment_area(x + g / 2), a0 = segment_area(-x + g / 2);
     if (a1 / (a0 + a1) > f1) {
@@ -274,6 +291,7 @@ struct RelaxResultSlot {
 struct Scratch {
   // Relaxation state in cell order (structure of arrays), with the double buffers.
   std::vector<float> x, y, vx, vy, nx, ny, nvx, nvy, move2;
+  std::vector<std::uint8_t> active, nactive;  // moved at least half the tolerance last step
   std::vector<std::uint32_t> orig, norig;  // cell-order slot -> local particle index
   std::vector<std::uint32_t> nbr_begin, nbr_end, nbr;
   // Grids.
@@ -342,10 +360,12 @@ void for_particles(std::size_t m, F&& f) {
   }
 }
 
-/// Sorts the relaxation state by grid cell (cells of at least `radius`) and rebuilds every
-/// particle's neighbour list: all others within `radius`, in slot order.
+/// Sorts the relaxation state by grid cell and rebuilds every particle's neighbour list: all
+/// others within `radius`, in slot order. Cells are half the radius wide, so the candidates
+/// of a particle are the five rows of five cells around its own (contiguous slot ranges after
+/// the sort), 30% fewer than with cells of the full radius.
 void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) {
-  const Grid g = make_grid(extent, radius);
+  const Grid g = make_grid(extent, 0.5f * radius);
   sc.cell_of.resize(m);
   for (std::size_t a = 0; a < m; ++a) sc.cell_of[a] = g.cell(sc.x[a], sc.y[a]);
   counting_sort(g, m, sc);
@@ -357,6 +377,7 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
     sc.nvx[k] = sc.vx[a];
     sc.nvy[k] = sc.vy[a];
     sc.norig[k] = sc.orig[a];
+    sc.nactive[k] = sc.active[a];
     sc.slot_cell[k] = sc.cell_of[a];
   }
   sc.x.swap(sc.nx);
@@ -364,77 +385,52 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
   sc.vx.swap(sc.nvx);
   sc.vy.swap(sc.nvy);
   sc.orig.swap(sc.norig);
-  // The rows of three cells around a particle's cell are contiguous slot ranges.
+  sc.active.swap(sc.nactive);
   const float r2 = radius * radius;
   const int side = g.side;
-  auto visit = [&](std::size_t k, auto&& emit) {
-    const int c = int(sc.slot_cell[k]);
-    const int cx = c % side, cy = c / side;
-    const float px = sc.x[k], py = sc.y[k];
-    for (int y = std::max(cy - 1, 0); y <= std::min(cy + 1, side - 1); ++y) {
-      const std::uint32_t b = sc.cell_start[std::size_t(y) * side + std::max(cx - 1, 0)];
-      const std::uint32_t e = sc.cell_start[std::size_t(y) * side + std::min(cx + 1, side - 1) + 1];
-      for (std::uint32_t j = b; j < e; ++j) {
-        const float dx = px - sc.x[j], dy = py - sc.y[j];
-        emit(j, (dx * dx + dy * dy < r2) & (j != k));
-      }
-    }
+  auto row = [&](int y, int cx, std::uint32_t& b, std::uint32_t& e) {
+    b = sc.cell_start[std::size_t(y) * side + std::max(cx - 2, 0)];
+    e = sc.cell_start[std::size_t(y) * side + std::min(cx + 2, side - 1) + 1];
   };
-  // Branch-free list building: every candidate is written, the output advances only for
-  // neighbours (a mispredicted branch per candidate costs more than the store).
+  // Every list gets a fixed capacity: the most candidates any particle has (+1 spare slot),
+  // so the lists are written in one pass, in parallel for large clouds, without counting.
+  std::uint32_t capacity = 1;
+  for (int cy = 0; cy < side; ++cy) {
+    for (int cx = 0; cx < side; ++cx) {
+      const std::size_t c = std::size_t(cy) * side + cx;
+      if (sc.cell_start[c + 1] == sc.cell_start[c]) continue;
+      std::uint32_t block = 0;
+      for (int y = std::max(cy - 2, 0); y <= std::min(cy + 2, side - 1); ++y) {
+        std::uint32_t b, e;
+        row(y, cx, b, e);
+        block += e - b;
+      }
+      capacity = std::max(capacity, block + 1);
+    }
+  }
   sc.nbr_begin.resize(m);
   sc.nbr_end.resize(m);
-  if (m < kParallelCloud) {
-    // One pass into a buffer bounded by the candidate count (+1 for the last spare write).
-    std::size_t bound = 1;
-    for (int cy = 0; cy < side; ++cy) {
-      for (int cx = 0; cx < side; ++cx) {
-        const std::size_t c = std::size_t(cy) * side + cx;
-        const std::size_t occ = sc.cell_start[c + 1] - sc.cell_start[c];
-        if (occ == 0) continue;
-        std::size_t block = 0;
-        for (int y = std::max(cy - 1, 0); y <= std::min(cy + 1, side - 1); ++y) {
-          block += sc.cell_start[std::size_t(y) * side + std::min(cx + 1, side - 1) + 1] -
-                   sc.cell_start[std::size_t(y) * side + std::max(cx - 1, 0)];
+  sc.nbr.resize(m * std::size_t(capacity));
+  for_particles(m, [&](std::size_t kb, std::size_t ke) {
+    for (std::size_t k = kb; k < ke; ++k) {
+      const int c = int(sc.slot_cell[k]);
+      const int cx = c % side, cy = c / side;
+      const float px = sc.x[k], py = sc.y[k];
+      std::uint32_t* const first = sc.nbr.data() + k * capacity;
+      std::uint32_t* out = first;
+      for (int y = std::max(cy - 2, 0); y <= std::min(cy + 2, side - 1); ++y) {
+        std::uint32_t b, e;
+        row(y, cx, b, e);
+        // Branch-free: every candidate is written, the output advances only for neighbours
+        // (a mispredicted branch per candidate costs more than the store).
+        for (std::uint32_t j = b; j < e; ++j) {
+          const float dx = px - sc.x[j], dy = py - sc.y[j];
+          *out = j;
+          out += (dx * dx + dy * dy < r2) & (j != k);
         }
-        bound += occ * block;
       }
-    }
-    sc.nbr.resize(bound);
-    std::uint32_t* out = sc.nbr.data();
-    for (std::size_t k = 0; k < m; ++k) {
-      sc.nbr_begin[k] = std::uint32_t(out - sc.nbr.data());
-      visit(k, [&](std::uint32_t j, bool in) {
-        *out = j;
-        out += in;
-      });
+      sc.nbr_begin[k] = std::uint32_t(k * capacity);
       sc.nbr_end[k] = std::uint32_t(out - sc.nbr.data());
-    }
-    return;
-  }
-  // Large clouds: count, prefix sum, fill, in parallel; one spare slot per particle takes
-  // the writes after its last neighbour, so threads never write into each other's lists.
-  for_particles(m, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) {
-      std::uint32_t n = 0;
-      visit(k, [&](std::uint32_t, bool in) { n += in; });
-      sc.nbr_end[k] = n;
-    }
-  });
-  std::uint32_t total = 0;
-  for (std::size_t k = 0; k < m; ++k) {
-    sc.nbr_begin[k] = total;
-    total += sc.nbr_end[k] + 1;
-    sc.nbr_end[k] += sc.nbr_begin[k];
-  }
-  sc.nbr.resize(total);
-  for_particles(m, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) {
-      std::uint32_t* out = sc.nbr.data() + sc.nbr_begin[k];
-      visit(k, [&](std::uint32_t j, bool in) {
-        *out = j;
-        out += in;
-      });
     }
   });
 }
@@ -468,10 +464,14 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
   for (auto* v : {&sc.x, &sc.y, &sc.vx, &sc.vy, &sc.nx, &sc.ny, &sc.nvx, &sc.nvy, &sc.move2}) v->resize(m);
   sc.orig.resize(m);
   sc.norig.resize(m);
+  sc.active.resize(m);
+  sc.nactive.resize(m);
+  const real rest2 = real(0.25) * tol2;
   for (std::size_t a = 0; a < m; ++a) {
     sc.x[a] = real(pos[a].x * inv_lambda);
     sc.y[a] = real(pos[a].y * inv_lambda);
     sc.vx[a] = sc.vy[a] = 0;
+    sc.active[a] = 1;
     sc.orig[a] = std::uint32_t(a);
   }
   // Verlet lists of the pairs within repulsion_radius + skin, rebuilt when the particles may
@@ -491,6 +491,18 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
     for_particles(m, [&](std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
         const real px = xs[a], py = ys[a];
+        // A particle at rest (it and all its neighbours moved less than half the tolerance in
+        // the last step) stays put: late steps only touch the region still settling.
+        bool live = sc.active[a] != 0;
+        for (std::uint32_t k = sc.nbr_begin[a], ke = sc.nbr_end[a]; k < ke && !live; ++k) live = sc.active[sc.nbr[k]] != 0;
+        if (!live) {
+          sc.nx[a] = px;
+          sc.ny[a] = py;
+          sc.nvx[a] = sc.nvy[a] = 0;
+          sc.move2[a] = 0;
+          sc.nactive[a] = 0;
+          continue;
+        }
         // Repulsion kappa (h^2 / d - d) along each pair (kappa = 1 / 2h): zero at h, the slope
         // of (1 - d/h) near h, unbounded as d -> 0 so close pairs separate first; one division
         // and no square root, branch-free: (t + |t|) / 2 = max(t, 0).
@@ -551,12 +563,14 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
         sc.nvx[a] = vx;
         sc.nvy[a] = vy;
         sc.move2[a] = vx * vx + vy * vy;
+        sc.nactive[a] = sc.move2[a] >= rest2;
       }
     });
     sc.x.swap(sc.nx);
     sc.y.swap(sc.ny);
     sc.vx.swap(sc.nvx);
     sc.vy.swap(sc.nvy);
+    sc.active.swap(sc.nactive);
     const real max_move2 = *std::max_element(sc.move2.begin(), sc.move2.begin() + std::ptrdiff_t(m));
     moved += std::sqrt(max_move2);
     ++res.steps;
@@ -773,7 +787,7 @@ class CloudBuilder {
       const double sigma = side == 0 ? -1.0 : 1.0;
       // In mirrored coordinates (sigma * u) the child's part is {x > start}.
       const double start = sigma * cut + gap / 2;
-      const SegmentInverse seg(start);
+      const SegmentInverse seg(start, int(f_.count(c)));
       const Map2 map = carry_map(sk_.frame[c.idx()], fr);
       const double inv_r = 1.0 / f_.disc_radius[c.idx()];
       const std::uint32_t cb = f_.node_begin[c.idx()], cm = f_.count(c);

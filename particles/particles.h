@@ -81,14 +81,15 @@ struct ParticleParams {
   /// hexagonal neighbour distance is 1.905, so every particle feels its ring of neighbours).
   double repulsion_radius = 2.3;
   /// Neighbour lists hold the pairs within repulsion_radius + neighbour_skin (relative to
-  /// lambda, default 0.6) and are rebuilt as soon as the particles may have closed the skin
+  /// lambda, default 0.75) and are rebuilt as soon as the particles may have closed the skin
   /// (twice the summed largest moves since the last rebuild), so no pair is ever missed.
-  double neighbour_skin = 0.6;
-  /// ... and at the latest every k steps (a count, default 8).
-  std::uint32_t rebuild_every = 8;
+  double neighbour_skin = 0.75;
+  /// ... and at the latest every k steps (a count, default 16).
+  std::uint32_t rebuild_every = 16;
   /// Empty band between the two child bundles at a fork before relaxation (relative to the
-  /// parent's lambda, default 0.5).
-  double fork_gap = 0.5;
+  /// parent's lambda, default 0: the bundles are placed adjacent; a band is left as a hole
+  /// when the relaxation settles early).
+  double fork_gap = 0.0;
   /// Upper bound on the total particle count (sum over nodes) before anything is allocated;
   /// more throws InvalidInputError (a count, default 500 million).
   std::uint64_t max_total_particles = 500'000'000;
