@@ -19,7 +19,7 @@ namespace sm {
 namespace {
 
 // `p` in double quotes for sh (built with += : GCC 12 warns falsely on "literal" + string).
-std::string quoted(const std::filesystem::path& p) {
+std::string shell_quoted(const std::filesystem::path& p) {
   std::string s = "\"";
   s += p.string();
   s += '"';
@@ -47,11 +47,11 @@ int run_under_xvfb(const std::filesystem::path& dir, const std::string& args) {
   std::filesystem::remove(rc_file);
   const std::string viewer = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh-view";
   std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' sh -c '";
-  cmd += quoted(viewer);
+  cmd += shell_quoted(viewer);
   cmd += " " + args + "; echo $? > ";
-  cmd += quoted(rc_file);
+  cmd += shell_quoted(rc_file);
   cmd += "' > ";
-  cmd += quoted(log_file);
+  cmd += shell_quoted(log_file);
   cmd += " 2>&1";
   std::system(cmd.c_str());
   if (!std::filesystem::exists(rc_file)) return -1;
@@ -64,9 +64,9 @@ TEST(ViewerSmoke, ScreenshotUnderXvfb) {
   const auto skeleton = dir / "y_fork.json";
   write_file_atomically(skeleton, raw_skeleton_to_json(test::y_fork()));
   const auto png = dir / "shot.png";
-  std::string args = quoted(skeleton);
+  std::string args = shell_quoted(skeleton);
   args += " --screenshot ";
-  args += quoted(png);
+  args += shell_quoted(png);
   args += " --size 320x240 --layers mesh,wireframe,skeleton,legend --camera yaw=30,pitch=10";
   const int rc = run_under_xvfb(dir, args);
   const std::string log = read_text(dir / "log.txt");
@@ -93,9 +93,9 @@ TEST(ViewerSmoke, ScreenshotUnderXvfb) {
 
   // A bad input fails cleanly with exit code 1 and no picture.
   const auto missing_png = dir / "none.png";
-  std::string bad_args = quoted(dir / "missing.json");
+  std::string bad_args = shell_quoted(dir / "missing.json");
   bad_args += " --screenshot ";
-  bad_args += quoted(missing_png);
+  bad_args += shell_quoted(missing_png);
   const int bad = run_under_xvfb(dir, bad_args);
   EXPECT_EQ(bad, 1) << read_text(dir / "log.txt");
   EXPECT_FALSE(std::filesystem::exists(missing_png));

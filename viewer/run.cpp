@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <system_error>
+#include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
@@ -97,7 +98,8 @@ RunData run_skeleton_file(const std::filesystem::path& path, const PipelineParam
   return run;
 }
 
-ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name) {
+ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name,
+                              const ParticleField* field) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
@@ -202,6 +204,26 @@ ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton,
         jn.upper_tubes[0] = t;
     }
   }
+  if (field && field->node_count() == skeleton.size()) {
+    // Which bundle each lower-loop strand belongs to: particle order at the fork is
+    // [main child's strands | lateral's | new at the fork] (particles/particles.h).
+    for (Junction& jn : c.junctions) {
+      const NodeId fork = jn.fork;
+      if (!fork.valid() || fork.idx() >= skeleton.size() || !skeleton.is_fork(fork)) {
+        throw InvalidInputError(name + ": junction at node " + std::to_string(fork.value) + ", which is not a fork");
+      }
+      const std::uint32_t base = field->node_begin[fork.idx()];
+      const std::uint32_t n_main = field->count(skeleton.children[fork.idx()][0]);
+      const std::uint32_t n_both = std::min(field->new_begin[fork.idx()], field->count(fork));
+      std::unordered_map<std::uint32_t, std::uint8_t> side;
+      for (std::uint32_t q = 0; q < n_both; ++q) side.emplace(field->strand[base + q].value, q < n_main ? 0 : 1);
+      jn.lower_side.assign(c.loop_size(jn.lower), 2);
+      for (std::uint32_t k = 0; k < jn.lower_side.size(); ++k) {
+        const auto it = side.find(c.strand[c.loop_begin[jn.lower] + k].value);
+        if (it != side.end()) jn.lower_side[k] = it->second;
+      }
+    }
+  }
   c.stats.loops = c.loop_count();
   c.stats.loop_vertices = c.point.size();
   return c;
@@ -249,7 +271,8 @@ RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& 
   const auto contours_path = dir / "contours.json";
   if (std::filesystem::exists(contours_path, ec)) {
     report("contours", 0);
-    run.result.contours = contours_from_json(read_file(contours_path), s, contours_path.string());
+    run.result.contours = contours_from_json(read_file(contours_path), s, contours_path.string(),
+                                             run.has_stage(Stage::particles) ? &run.result.particles : nullptr);
     run.has[idx(Stage::contours)] = true;
     note += ", contours";
   }

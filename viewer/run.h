@@ -64,9 +64,12 @@ RunData run_skeleton_file(const std::filesystem::path& path, const PipelineParam
 RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& params,
                         const std::filesystem::path& mesh_file = {}, const ProgressFn& progress = {});
 
-/// Parses contours.json text (the format of pipeline.cpp's dump) for `skeleton`.
-/// Throws InvalidInputError naming the key on malformed input.
-ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name);
+/// Parses contours.json text (the format of pipeline.cpp's dump) for `skeleton`. What the
+/// file does not store is recomputed: the loop frames from the skeleton, and, when `field` is
+/// given, each junction's `lower_side` from the particle order at the fork (as the contours
+/// stage derives it). Throws InvalidInputError naming the key on malformed input.
+ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name,
+                              const ParticleField* field = nullptr);
 
 /// Reads a mesh file (meshing/mesh_io.h) into a run with only the mesh stage present.
 RunData load_mesh_file(const std::filesystem::path& path);
