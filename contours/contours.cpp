@@ -42,9 +42,16 @@ struct CutEdge {
 struct SlicePoints {
   std::vector<dvec3> point;
   std::vector<StrandId> strand;
+  std::vector<double> offset;  // how far the surface lies outside the strand (metres)
   void clear() {
     point.clear();
     strand.clear();
+    offset.clear();
+  }
+  void append(const SlicePoints& o) {
+    point.insert(point.end(), o.point.begin(), o.point.end());
+    strand.insert(strand.end(), o.strand.begin(), o.strand.end());
+    offset.insert(offset.end(), o.offset.begin(), o.offset.end());
   }
 };
 
@@ -71,6 +78,7 @@ class Walker {
       root_distance_[i] = root_distance_[s.parent[i].idx()] + s.edge_length(NodeId(i));
     }
     branch_ = s.branch_ids();
+    compute_node_offsets();
   }
 
   ContourSet run(const ProgressFn& progress);
@@ -112,20 +120,68 @@ class Walker {
     return std::max(p_.slice_step * radius, p_.min_slice_step * spacing_);
   }
 
+  /// How far the wood surface lies outside a node's boundary strands (metres): the skeleton
+  /// radius minus the mean distance of the cloud's convex-hull particles from the node centre
+  /// (relaxed clouds keep their outer ring somewhat inside the disc), at most half the radius.
+  [[nodiscard]] double surface_offset(NodeId n) const { return node_offset_[n.idx()]; }
+
+  void compute_node_offsets() {
+    node_offset_.assign(s_.size(), 0.0);
+    std::vector<dvec2> pts;
+    for (std::size_t i = 0; i < s_.size(); ++i) {
+      const std::uint32_t b = f_.node_begin[i], e = f_.node_begin[i + 1];
+      pts.assign(f_.position.begin() + b, f_.position.begin() + e);
+      const auto hull = boundary_loop(pts, 0.0);
+      if (hull.size() < 3) continue;
+      double mean = 0;
+      for (auto k : hull) mean += glm::length(pts[k]);
+      mean /= double(hull.size());
+      node_offset_[i] = std::clamp(s_.radius[i] - mean, 0.0, 0.5 * s_.radius[i]);
+    }
+  }
+
   /// Appends the strands of node n at t on its edge.
   void evaluate(NodeId n, double t, SlicePoints& out) {
     const std::uint32_t count = f_.count(n);
     const std::uint32_t base = f_.node_begin[n.idx()];
     stats_.evaluated_points += count;
+    const NodeId parent = s_.parent[n.idx()];
     if (t >= 1.0 || !s_.parent[n.idx()].valid()) {
+      out.offset.insert(out.offset.end(), count, surface_offset(n));
       for (std::uint32_t j = 0; j < count; ++j) {
         out.point.push_back(st_.point[base + j]);
         out.strand.push_back(f_.strand[base + j]);
       }
       return;
     }
+    // Each particle's cross-section coordinates are interpolated between its two nodes and
+    // placed with the slice's frame on the edge axis, so a section halfway along an edge has
+    // the interpolated radius of the skeleton's round cone. (The 3D Catmull-Rom strands sag
+    // inwards before a fork, where the continuation tangents diverge; sliced directly they
+    // pinch the branch by up to 15% of its radius.)
+    //
+    // Both ends are first scaled to the round cone's radius at t (the clouds are fitted to
+    // their own nodes' radii), so sections follow the skeleton as it tapers. Above a fork, a
+    // child's bundle starts squeezed beside its sibling's in the fork's section; interpolated
+    // over the whole edge it would stay thin and off its axis for the edge's length. Instead
+    // it takes its own round section within fork_transition x the fork's radius
+    // (smoothstep), the way wood leaves a fork.
+    const SliceGeometry g = edge_geometry(n, t);
+    const std::uint32_t pbase = f_.node_begin[parent.idx()] + parent_index(s_, f_, n, 0);
+    double w = t;
+    if (s_.is_fork(parent)) {
+      const double l = len(n);
+      const double ramp = std::min(l, p_.fork_transition * s_.radius[parent.idx()]);
+      const double x = ramp > 0 ? std::clamp(t * l / ramp, 0.0, 1.0) : 1.0;
+      w = x * x * (3.0 - 2.0 * x);
+    }
+    const double scale_p = g.radius / s_.radius[parent.idx()];
+    const double scale_n = g.radius / s_.radius[n.idx()];
+    out.offset.insert(out.offset.end(), count,
+                      glm::mix(surface_offset(parent) * scale_p, surface_offset(n) * scale_n, w));
     for (std::uint32_t j = 0; j < count; ++j) {
-      out.point.push_back(st_.evaluate(s_, f_, n, j, t));
+      const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
+      out.point.push_back(g.center + g.frame.to_world(q));
       out.strand.push_back(f_.strand[base + j]);
     }
   }
@@ -211,6 +267,7 @@ class Walker {
   double density_length_;  // the particle field's density length s (metres)
   std::vector<double> root_distance_;
   std::vector<std::uint32_t> branch_;
+  std::vector<double> node_offset_;  // #N surface offset of each node's cloud (metres)
   ContourSet out_;
   ContourStats& stats_ = out_.stats;
   std::vector<Task> tasks_;
@@ -276,6 +333,7 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
     const dvec2 q = c + 0.3 * g.radius * dvec2(std::cos(a), std::sin(a));
     extra.point.push_back(g.center + g.frame.to_world(q));
     extra.strand.push_back(pts.strand.empty() ? StrandId{} : pts.strand[std::min<std::size_t>(k, pts.strand.size() - 1)]);
+    extra.offset.push_back(0.0);
     loop.push_back(k);
   }
   flat_.assign({c + 0.3 * g.radius * dvec2(1, 0), c + 0.3 * g.radius * dvec2(-0.5, 0.8660254037844386),
@@ -286,41 +344,53 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
 std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vector<std::uint32_t>& loop,
                                         const SliceGeometry& g, LoopKind kind, double distance, std::uint32_t tube) {
   const std::size_t m = loop.size();
-  // The boundary strands are particle centres; the wood surface lies about half a particle
-  // spacing further out. Offset each vertex outwards in the slice plane (along its vertex
-  // normal) by delta: half the local spacing, but no further than the skeleton radius asks
-  // for, so thin twigs whose few particles sit well inside their disc reach their radius and
-  // thick branches are not inflated.
+  // The boundary strands are particle centres; the wood surface lies outside them, by the
+  // node's surface offset (see surface_offset) interpolated along the edge like the strands,
+  // so consecutive loops of any kind agree. Each vertex moves outwards in the slice plane
+  // along its vertex normal.
   dvec2 centroid(0);
   for (auto i : loop) centroid += flat_[i];
   centroid /= double(m);
-  double mean_r = 0;
-  for (auto i : loop) mean_r += glm::length(flat_[i] - centroid);
-  mean_r /= double(m);
-  // lambda = r / sqrt(n) is the cloud's density length (particles/particles.h); relaxed
-  // boundary particles sit about lambda / 2 inside the disc.
-  const double n = double(std::max<std::size_t>(pts.point.size(), 1));
-  const double lambda = g.radius / std::sqrt(n);
-  double delta = 0;
-  if (kind == LoopKind::fused) {
-    delta = std::min(0.5 * density_length_, 0.3 * g.radius);
-  } else {
-    delta = std::min(lambda, std::max(0.0, g.radius - mean_r));
-  }
-  const auto loop_index = static_cast<std::uint32_t>(out_.loop_kind.size());
+  auto outward = [](dvec2 e) {
+    const double l = glm::length(e);
+    return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);  // outward normal of a CCW loop's edge
+  };
+  std::vector<dvec2> moved(m);
+  std::vector<dvec3> lift(m);  // each point's component off the slice plane, kept as is
   for (std::size_t k = 0; k < m; ++k) {
     const dvec2& a = flat_[loop[(k + m - 1) % m]];
     const dvec2& b = flat_[loop[k]];
     const dvec2& c = flat_[loop[(k + 1) % m]];
-    // Outward normals of the two edges of a CCW loop: (e.y, -e.x).
-    auto outward = [](dvec2 e) {
-      const double l = glm::length(e);
-      return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);
-    };
     dvec2 nrm = outward(b - a) + outward(c - b);
     const double l = glm::length(nrm);
     nrm = l > 1e-12 ? nrm / l : (glm::length(b - centroid) > 0 ? glm::normalize(b - centroid) : dvec2(1, 0));
-    out_.point.push_back(pts.point[loop[k]] + g.frame.to_world(delta * nrm));
+    moved[k] = b + pts.offset[loop[k]] * nrm;
+    const dvec3 rel = pts.point[loop[k]] - g.center;
+    lift[k] = g.frame.tangent * glm::dot(rel, g.frame.tangent);
+  }
+  // A single bundle centred on its branch is a round section: small clouds leave some hull
+  // vertices on their inner ring, which would dent the surface. Such vertices move out along
+  // their ray from the centroid to 90% of the mean radius (the loop stays star-shaped around
+  // the centroid, so it stays simple). Off-centre bundles (next to a sibling at a fork) and
+  // fused unions keep their shape.
+  if (kind == LoopKind::plain || kind == LoopKind::tip) {
+    dvec2 c2(0);
+    for (const auto& q : moved) c2 += q;
+    c2 /= double(m);
+    double mean = 0;
+    for (const auto& q : moved) mean += glm::length(q - c2);
+    mean /= double(m);
+    if (glm::length(c2) < 0.25 * g.radius) {
+      const double floor = 0.9 * mean;
+      for (auto& q : moved) {
+        const double d = glm::length(q - c2);
+        if (d > 0 && d < floor) q = c2 + (q - c2) * (floor / d);
+      }
+    }
+  }
+  const auto loop_index = static_cast<std::uint32_t>(out_.loop_kind.size());
+  for (std::size_t k = 0; k < m; ++k) {
+    out_.point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
     out_.strand.push_back(pts.strand[loop[k]]);
   }
   out_.loop_begin.push_back(static_cast<std::uint32_t>(out_.point.size()));
@@ -469,10 +539,8 @@ void Walker::walk(Task task) {
       }
       // Still together: one loop around both bundles.
       pts_.clear();
-      pts_.point = pts_a_.point;
-      pts_.strand = pts_a_.strand;
-      pts_.point.insert(pts_.point.end(), pts_b_.point.begin(), pts_b_.point.end());
-      pts_.strand.insert(pts_.strand.end(), pts_b_.strand.begin(), pts_b_.strand.end());
+      pts_.append(pts_a_);
+      pts_.append(pts_b_);
       const SliceGeometry g = cut_geometry(cut_a_);
       add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
       last = d;

@@ -13,7 +13,9 @@
 /// Slicing (seed 003 §2.4.3): each edge is sliced at steps of `slice_step` x the local radius
 /// measured along the edge; the leftover distance carries into the next edge(s), so slices
 /// stay evenly spaced across nodes. A slice at distance d on the edge of node n (length L)
-/// evaluates every strand of n at t = d / L (strands/strands.h parameterization).
+/// takes every strand of n at t = d / L: its cross-section coordinates interpolated between
+/// the particle at parent(n) and at n, placed in the slice's frame on the edge axis (so
+/// sections follow the skeleton's round cones; see contours.cpp for why not the 3D curves).
 ///
 /// Split detection (seed 003 §2.4.1): above a fork F with children A (main) and B (lateral),
 /// slices are taken on both child edges at the same distance above F. While the closest
@@ -53,6 +55,10 @@ struct ContourParams {
   /// Two bundles above a fork split where their closest points are farther apart than this,
   /// relative to the neighbour distance of the particles (1.0 = one empty particle slot).
   double split_gap = 1.5;
+  /// Above a fork, each child's bundle goes from its place beside its sibling in the fork's
+  /// section to its own round section within this distance, relative to the fork's radius
+  /// (or the child edge's length, if shorter).
+  double fork_transition = 1.5;
   /// Bisection steps refining the split position between two slices (a count).
   std::uint32_t split_bisection_steps = 8;
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives

@@ -53,6 +53,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("slice_step", p.slice_step);
   v("min_slice_step", p.min_slice_step);
   v("split_gap", p.split_gap);
+  v("fork_transition", p.fork_transition);
   v("split_bisection_steps", p.split_bisection_steps);
   v("concave_turn_degrees", p.concave_turn_degrees);
 }
