@@ -121,6 +121,7 @@ void validate_params(const ParticleParams& p) {
           "new_strand_sparsity must be >= 1, got " + std::to_string(p.new_strand_sparsity));
   require(std::isfinite(p.wall_margin) && p.wall_margin >= 0 && p.wall_margin < 1.5,
           "wall_margin must be in [0, 1.5), got " + std::to_string(p.wall_margin));
+  require(std::isfinite(p.wall_offset) && p.wall_offset >= 0, "wall_offset must be >= 0");
   require(std::isfinite(p.move_tolerance) && p.move_tolerance >= 0, "move_tolerance must be >= 0");
   require(std::isfinite(p.max_velocity) && p.max_velocity > 0, "max_velocity must be > 0");
   require(std::isfinite(p.damping) && p.damping >= 0 && p.damping < 1, "damping must be in [0, 1)");
@@ -292,6 +293,7 @@ struct Scratch {
   // Relaxation state in cell order (structure of arrays), with the double buffers.
   std::vector<float> x, y, vx, vy, nx, ny, nvx, nvy, move2;
   std::vector<std::uint8_t> active, nactive;  // moved at least half the tolerance last step
+  std::vector<std::uint8_t> live;             // active or next to an active particle
   std::vector<std::uint32_t> orig, norig;  // cell-order slot -> local particle index
   std::vector<std::uint32_t> nbr_begin, nbr_end, nbr;
   // Grids.
@@ -486,16 +488,26 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
       since = 0;
     }
     ++since;
+    // A particle at rest (it and all its neighbours moved less than half the tolerance in the
+    // last step) stays put: late steps only touch the region still settling. The lists are
+    // symmetric, so marking the neighbours of the active particles marks exactly the
+    // particles with an active neighbour (the same byte may be set by several threads).
+    sc.live.assign(m, 0);
+    for_particles(m, [&](std::size_t b, std::size_t e) {
+      for (std::size_t a = b; a < e; ++a) {
+        if (!sc.active[a]) continue;
+        std::atomic_ref<std::uint8_t>(sc.live[a]).store(1, std::memory_order_relaxed);
+        for (std::uint32_t k = sc.nbr_begin[a], ke = sc.nbr_end[a]; k < ke; ++k) {
+          std::atomic_ref<std::uint8_t>(sc.live[sc.nbr[k]]).store(1, std::memory_order_relaxed);
+        }
+      }
+    });
     const real* xs = sc.x.data();
     const real* ys = sc.y.data();
     for_particles(m, [&](std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
         const real px = xs[a], py = ys[a];
-        // A particle at rest (it and all its neighbours moved less than half the tolerance in
-        // the last step) stays put: late steps only touch the region still settling.
-        bool live = sc.active[a] != 0;
-        for (std::uint32_t k = sc.nbr_begin[a], ke = sc.nbr_end[a]; k < ke && !live; ++k) live = sc.active[sc.nbr[k]] != 0;
-        if (!live) {
+        if (!sc.live[a]) {
           sc.nx[a] = px;
           sc.ny[a] = py;
           sc.nvx[a] = sc.nvy[a] = 0;

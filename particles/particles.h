@@ -58,16 +58,18 @@ struct ParticleParams {
   /// s) gets new strands up to its nominal count max(min_particles, round((r / s)^2))
   /// (default 1.15; must be >= 1; keeps the largest empty circle of any cloud near 2 s).
   double new_strand_sparsity = 1.15;
-  /// Gap between the confining wall and the node radius, relative to the cloud length lambda
-  /// (default 0.5): particles stay within r - wall_margin * lambda of the node centre.
+  /// Gap between the confining disc and the node radius, relative to the cloud length lambda
+  /// (default 0): no particle is ever farther than r - wall_margin * lambda from the node
+  /// centre (disc_radius).
   double wall_margin = 0.0;
-  /// The wall repels a particle like its mirror image across a circle this far outside the
-  /// confining disc (relative to lambda, default 0.5).
+  /// Soft wall: a particle is repelled by its mirror image across a circle this far outside
+  /// the confining disc (relative to lambda, default 0.5); the outer ring of a relaxed cloud
+  /// then settles about 0.5 lambda inside the confining disc.
   double wall_offset = 0.5;
   /// Relaxation: largest number of steps per node (a count, default 40).
   std::uint32_t max_steps = 40;
   /// Relaxation stops when the largest move of a step is below this (relative to lambda,
-  /// default 0.02).
+  /// default 0.05).
   double move_tolerance = 0.05;
   /// Largest distance a particle moves in one step (relative to lambda): the velocity cap
   /// (default 0.15).
@@ -75,7 +77,9 @@ struct ParticleParams {
   /// Velocity damping per step in [0, 1): the fraction of the previous step's velocity that
   /// is kept; 0 = no memory of the previous step (default 0.3).
   double damping = 0.3;
-  /// Displacement per step per unit of repulsion force (relative to lambda, default 0.3).
+  /// Displacement per step per unit of repulsion force (relative to lambda, default 0.3). The
+  /// pair force is (h^2 / d - d) / 2h for d < h (h = repulsion_radius): zero at h, about
+  /// (1 - d/h) near it, unbounded as d -> 0.
   double step_size = 0.3;
   /// Particles repel each other within this distance (relative to lambda, default 2.3; the
   /// hexagonal neighbour distance is 1.905, so every particle feels its ring of neighbours).
