@@ -114,7 +114,8 @@ TEST(ViewerParse, LayersSizeCamera) {
   EXPECT_THROW(parse_size("640"), UsageError);
   EXPECT_THROW(parse_size("0x480"), UsageError);
   EXPECT_THROW(parse_size("640x480px"), UsageError);
-  const CameraSpec c = parse_camera_spec("yaw=30,pitch=-10,dist=0.5,node=4,fov=40");
+  const CameraSpec c = parse_camera_spec("yaw=30,pitch=-10,dist=0.5,node=4,fov=40,around=3");
+  EXPECT_DOUBLE_EQ(*c.around, 3);
   EXPECT_DOUBLE_EQ(*c.yaw_degrees, 30);
   EXPECT_DOUBLE_EQ(*c.pitch_degrees, -10);
   EXPECT_DOUBLE_EQ(c.distance_scale, 0.5);
@@ -707,7 +708,7 @@ TEST_F(ViewerAppTest, BadInputsShowErrorsInsteadOfCrashing) {
   EXPECT_NE(app2.error().find("no_such_key"), std::string::npos);
 }
 
-TEST_F(ViewerAppTest, CameraSpecSelectsAndFramesNode) {
+TEST_F(ViewerAppTest, CameraSpecFramesNode) {
   ViewerApp app(options_for(skeleton_, false));
   app.start();
   app.wait_idle();
@@ -716,8 +717,13 @@ TEST_F(ViewerAppTest, CameraSpecSelectsAndFramesNode) {
   EXPECT_NEAR(app.camera().yaw, std::numbers::pi / 2, 1e-12);
   const double d_all = app.camera().distance;
   app.apply_camera_spec(parse_camera_spec("node=3"), 1.0);
-  EXPECT_EQ(app.selection(), NodeId(3u));
   EXPECT_LT(app.camera().distance, d_all);
+  const double d_subtree = app.camera().distance;
+  app.apply_camera_spec(parse_camera_spec("node=3,around=2"), 1.0);
+  EXPECT_LT(app.camera().distance, d_subtree);
+  const Skeleton& s = app.run()->result.skeleton.skeleton;
+  EXPECT_LT(glm::length(app.camera().target - (s.position[3] - app.scene_origin())), 1e-9);
+  EXPECT_THROW(app.apply_camera_spec(parse_camera_spec("around=2"), 1.0), UsageError);
   EXPECT_THROW(app.apply_camera_spec(parse_camera_spec("node=100000"), 1.0), UsageError);
 }
 

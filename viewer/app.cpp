@@ -360,9 +360,24 @@ void ViewerApp::apply_camera_spec(const CameraSpec& spec, double aspect) {
       throw UsageError("--camera: node=" + std::to_string(*spec.node) + " does not exist (the skeleton has " +
                        std::to_string(s ? s->size() : 0) + " nodes)");
     }
-    select(NodeId(*spec.node));
-    framed = frame_selection(aspect);
+    if (spec.around) {
+      const std::size_t n = *spec.node;
+      Bounds b;
+      b.add_sphere(s->position[n] - origin_, *spec.around * s->radius[n]);
+      camera_.frame(b, aspect);
+      needs_framing_ = false;
+      framed = true;
+    } else {
+      const Bounds wb = subtree_bounds(*s, NodeId(*spec.node));
+      Bounds b;
+      b.lo = wb.lo - origin_;
+      b.hi = wb.hi - origin_;
+      camera_.frame(b, aspect);
+      needs_framing_ = false;
+      framed = true;
+    }
   }
+  if (spec.around && !spec.node) throw UsageError("--camera: around= needs node=");
   if (!framed) frame_all(aspect);
   camera_.distance *= spec.distance_scale;
 }

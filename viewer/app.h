@@ -105,7 +105,7 @@ class ViewerApp {
   void frame_all(double aspect);
   /// Frames the selected node's subtree; false when nothing is selected.
   bool frame_selection(double aspect);
-  /// Applies a --camera spec (selects and frames spec.node when given).
+  /// Applies a --camera spec (frames spec.node's subtree, or a ball around it, when given).
   void apply_camera_spec(const CameraSpec& spec, double aspect);
   /// A camera spec and a node to select once the first run is shown (the window's --camera
   /// and --select); problems are reported through error().

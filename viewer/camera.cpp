@@ -134,7 +134,7 @@ CameraSpec parse_camera_spec(const std::string& text) {
     }
     const std::size_t eq = item.find('=');
     if (eq == std::string::npos) {
-      throw UsageError("--camera: '" + item + "' is not key=value (keys: yaw, pitch, dist, node, fov)");
+      throw UsageError("--camera: '" + item + "' is not key=value (keys: yaw, pitch, dist, node, around, fov)");
     }
     const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
     const double v = parse_number(key, value);
@@ -149,11 +149,14 @@ CameraSpec parse_camera_spec(const std::string& text) {
     } else if (key == "fov") {
       if (v <= 1 || v >= 170) throw UsageError("--camera: fov=" + value + " must be between 1 and 170 degrees");
       spec.fov_degrees = v;
+    } else if (key == "around") {
+      if (v <= 0) throw UsageError("--camera: around=" + value + " must be > 0");
+      spec.around = v;
     } else if (key == "node") {
       if (v < 0 || v != std::floor(v) || v > 4e9) throw UsageError("--camera: node=" + value + " is not a node index");
       spec.node = static_cast<std::uint32_t>(v);
     } else {
-      throw UsageError("--camera: unknown key '" + key + "' (keys: yaw, pitch, dist, node, fov)");
+      throw UsageError("--camera: unknown key '" + key + "' (keys: yaw, pitch, dist, node, around, fov)");
     }
   }
   return spec;

@@ -47,17 +47,19 @@ class OrbitCamera {
   void frame(const Bounds& b, double aspect, double scale = 1.0);
 };
 
-/// A camera placement for screenshots, parsed from `--camera`: comma-separated key=value
-/// pairs, all optional: `yaw=DEG` (azimuth, degrees), `pitch=DEG` (elevation, degrees),
-/// `dist=F` (distance relative to the frame-all distance; 0.5 = twice as close), `node=N`
-/// (frame node N's subtree instead of everything, and select it), `fov=DEG`.
-/// Example: `--camera yaw=30,pitch=15,dist=0.8`.
+/// A camera placement, parsed from `--camera`: comma-separated key=value pairs, all optional:
+/// `yaw=DEG` (azimuth, degrees), `pitch=DEG` (elevation, degrees), `dist=F` (distance
+/// relative to the framed distance; 0.5 = twice as close), `node=N` (frame node N's subtree
+/// instead of everything), `around=K` (with node: frame a ball of K times the node's radius
+/// around it instead of its subtree, for close-ups of a fork), `fov=DEG`.
+/// Example: `--camera yaw=30,pitch=15,node=12,around=6`.
 struct CameraSpec {
   std::optional<double> yaw_degrees;
   std::optional<double> pitch_degrees;
   std::optional<double> fov_degrees;
   double distance_scale = 1.0;
   std::optional<std::uint32_t> node;
+  std::optional<double> around;  ///< radius multiple (> 0)
 };
 /// Parses the spec above; throws UsageError naming the bad key or value.
 CameraSpec parse_camera_spec(const std::string& text);

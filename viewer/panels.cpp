@@ -152,7 +152,7 @@ void stage_stats(const RunData& run, Stage s) {
 
 void main_panel(ViewerApp& app, PanelState& state, PanelActions& actions) {
   ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(300, 430), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(330, 330), ImGuiCond_FirstUseEver);
   if (!ImGui::Begin("strandmesh", &state.show_main)) {
     ImGui::End();
     return;
@@ -216,7 +216,7 @@ void main_panel(ViewerApp& app, PanelState& state, PanelActions& actions) {
 
 void stages_panel(ViewerApp& app, PanelState& state, int width) {
   ImGui::SetNextWindowPos(ImVec2(static_cast<float>(width) - 430.0f, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(420, 520), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 250), ImGuiCond_FirstUseEver);
   if (!ImGui::Begin("Stages", &state.show_stages)) {
     ImGui::End();
     return;
@@ -238,7 +238,7 @@ void stages_panel(ViewerApp& app, PanelState& state, int width) {
     char title[64];
     const double seconds = run ? run->result.timings.get(stage_name(s)) : 0.0;
     std::snprintf(title, sizeof title, "%s  (%.3f s)###%s", stage_name(s), seconds, stage_name(s));
-    if (ImGui::CollapsingHeader(title, s == Stage::particles ? ImGuiTreeNodeFlags_DefaultOpen : 0)) {
+    if (ImGui::CollapsingHeader(title, 0)) {
       if (run && run->has_stage(s)) stage_stats(*run, s);
       const auto fields = param_fields(app.edited_params(), s);
       const auto applied_fields = param_fields(applied, s);
@@ -257,8 +257,8 @@ void stages_panel(ViewerApp& app, PanelState& state, int width) {
 }
 
 void status_panel(ViewerApp& app, PanelState& state, int height) {
-  ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 330.0f), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(360, 320), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(10, 350), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(360, std::max(200.0f, static_cast<float>(height) - 360.0f)), ImGuiCond_FirstUseEver);
   if (!ImGui::Begin("Status", &state.show_status)) {
     ImGui::End();
     return;
@@ -359,9 +359,8 @@ void status_panel(ViewerApp& app, PanelState& state, int height) {
 
 void node_panel(ViewerApp& app, PanelState& state, PanelActions& actions, int width, int height) {
   if (!app.selection()) return;
-  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(width) - 370.0f, static_cast<float>(height) - 470.0f),
-                          ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(360, 460), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(width) - 430.0f, 270), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, std::max(240.0f, static_cast<float>(height) - 280.0f)), ImGuiCond_FirstUseEver);
   if (!ImGui::Begin("Node", &state.show_node)) {
     ImGui::End();
     return;

@@ -174,6 +174,12 @@ std::vector<ParamField> contour_fields(ContourParams& p) {
        .value = &p.split_gap,
        .min = 0.1,
        .max = 5},
+      {.key = "fork_transition",
+       .help =
+           "above a fork, a bundle reaches its own round section within this distance (relative to the fork radius)",
+       .value = &p.fork_transition,
+       .min = 0.1,
+       .max = 5},
       {.key = "split_bisection_steps",
        .help = "bisection steps refining a split (count)",
        .value = &p.split_bisection_steps,

@@ -94,7 +94,7 @@ void run_window(ViewerApp& app, const WindowOptions& options) {
   ImGuiIO& io = ImGui::GetIO();
   while (!glfwWindowShouldClose(win)) {
     // Wait for input, but wake up often while a job runs so its progress shows.
-    glfwWaitEventsTimeout(app.busy() ? 1.0 / 30.0 : 0.25);
+    glfwWaitEventsTimeout(app.busy() ? 1.0 / 30.0 : 0.5);
     app.update();
     int fb_w = 0, fb_h = 0, win_w = 0, win_h = 0;
     glfwGetFramebufferSize(win, &fb_w, &fb_h);

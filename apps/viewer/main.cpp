@@ -44,8 +44,9 @@ int main(int argc, char** argv) {
                  "wireframe, normals, uv (mesh with UV checker), legend, all");
   cli.add_option("--size", size, "Screenshot size (or initial window size) WIDTHxHEIGHT")->capture_default_str();
   cli.add_option("--camera", camera,
-                 "Camera: key=value list of yaw, pitch (degrees), dist (relative to frame "
-                 "all), node (frame that node's subtree), fov (degrees); e.g. yaw=30,pitch=15,dist=0.8");
+                 "Camera: key=value list of yaw, pitch (degrees), dist (relative to the framed distance), "
+                 "node (frame that node's subtree), around (with node: a ball of that many radii around it), "
+                 "fov (degrees); e.g. yaw=30,pitch=15,node=12,around=6");
   cli.add_option("--color-by", color_by, "Colour strands and particles by 'strand' or by 'tip' (start node)")
       ->check(CLI::IsMember({"strand", "tip"}));
   auto* select_opt = cli.add_option("--select", select, "Select this node once loaded (highlight and node panel)");
