@@ -13,6 +13,7 @@
 
 #include "core/errors.h"
 #include "skeleton/frames.h"
+#include "skeleton/separate.h"
 
 namespace sm {
 namespace {
@@ -388,6 +389,25 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.emplace_back(*it, id);
   }
   // add_node fills child slots in visiting order, which is main first (pushed last above).
+  if (params.separate_branches) {
+    SeparateParams sp;
+    sp.clearance = params.branch_clearance;
+    const SeparateReport sep = separate_branches(s, sp);
+    rep.branch_collisions = sep.collisions;
+    rep.unresolved_collisions = sep.unresolved;
+    rep.max_separation = sep.max_displacement;
+    if (sep.collisions > 0) {
+      rep.warnings.add_count("separated_branches",
+                             "branches intersecting away from their common fork swung apart (largest move " +
+                                 fmt(sep.max_displacement) + " m)",
+                             sep.collisions);
+    }
+    if (sep.unresolved > 0) {
+      rep.warnings.add_count("unresolved_collisions",
+                             "branch pairs still intersecting after separation; the mesh will self-intersect there",
+                             sep.unresolved);
+    }
+  }
   compute_frames(s);
   rep.output_nodes = s.size();
   validate_binary_skeleton(s);

@@ -13,8 +13,9 @@
 ///  4. optionally, edges longer than `max_edge_ratio` × radius are resampled;
 ///  5. nodes with more than two children become a chain of extra nodes a tiny step apart,
 ///     each with one lateral child (thickest laterals first, nearest the parent);
-///  6. nodes are renumbered root-first (depth-first, main child first) and framed by
-///     parallel transport.
+///  6. nodes are renumbered root-first (depth-first, main child first);
+///  7. branches that run into each other away from their common fork are swung apart
+///     (skeleton/separate.h), and the nodes are framed by parallel transport.
 
 #include <cstddef>
 #include <cstdint>
@@ -48,6 +49,11 @@ struct SkeletonParams {
   double max_edge_ratio = 0.0;
   /// Step between the extra nodes of a binarized n-ary node, relative to the node's radius.
   double binarize_step_ratio = 0.02;
+  /// Swing apart branches whose round cones intersect away from their common fork (no mesh
+  /// can be free of self-intersections and genus 0 otherwise).
+  bool separate_branches = true;
+  /// Gap the separation leaves between two such branches, relative to the sum of their radii.
+  double branch_clearance = 0.15;
 };
 
 /// The counted repairs of one build_skeleton() run, for `strandmesh info` and the viewer.
@@ -60,6 +66,9 @@ struct SkeletonReport {
   std::size_t resampled_edges = 0;       ///< long edges split
   std::size_t binarized_nodes = 0;       ///< nodes with more than two children
   std::size_t inserted_nodes = 0;        ///< extra nodes created by binarizing or resampling
+  std::size_t branch_collisions = 0;     ///< pairs of branches that ran into each other
+  std::size_t unresolved_collisions = 0; ///< of those, pairs still touching after separation
+  double max_separation = 0;             ///< largest distance a node was moved to separate (metres)
   double radius_floor = 0;               ///< the floor used (metres)
   Warnings warnings;                     ///< one counted warning per kind of repair
   Timings timings;

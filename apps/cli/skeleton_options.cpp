@@ -30,6 +30,7 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub.add_flag("!--no-separate", p.separate_branches, "Do not swing apart branches that run into each other");
 }
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params) {
@@ -80,9 +81,10 @@ std::string describe_skeleton(const SkeletonResult& result) {
                 "  clamped children %zu\n"
                 "  resampled edges  %zu\n"
                 "  binarized nodes  %zu\n"
-                "  inserted nodes   %zu\n",
+                "  inserted nodes   %zu\n"
+                "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n",
                 r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
-                r.binarized_nodes, r.inserted_nodes);
+                r.binarized_nodes, r.inserted_nodes, r.branch_collisions, r.max_separation, r.unresolved_collisions);
   out += buf;
   return out;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/rng.h"
+#include "skeleton/build.h"
 
 namespace sm {
 namespace {
@@ -88,7 +89,17 @@ RawSkeleton grow_random(const RandomGrowParams& p) {
     }
     stack.push_back({main_id, dm, bud.depth + 1});
   }
-  return raw;
+  // Random directions let branches run into one another; swing those apart here (the same
+  // repair build_skeleton applies to imported skeletons), so the grown tree is clean.
+  const Skeleton clean = build_skeleton(raw).skeleton;
+  RawSkeleton out;
+  out.up_axis = raw.up_axis;
+  out.source = raw.source;
+  for (std::size_t i = 0; i < clean.size(); ++i) {
+    out.add(static_cast<std::int64_t>(i), clean.parent[i].valid() ? std::int64_t(clean.parent[i].value) : -1,
+            clean.position[i], clean.radius[i]);
+  }
+  return out;
 }
 
 }  // namespace sm

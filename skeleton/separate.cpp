@@ -1,0 +1,273 @@
+// Branch collision repair: see separate.h.
+
+#include "skeleton/separate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "core/errors.h"
+
+namespace sm {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+/// Closest points between segments [p0, p1] and [q0, q1]: parameters s, t in [0, 1].
+void closest_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t) {
+  const dvec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
+  if (a <= 1e-300 && e <= 1e-300) {
+    s = t = 0;
+    return;
+  }
+  if (a <= 1e-300) {
+    s = 0;
+    t = std::clamp(f / e, 0.0, 1.0);
+    return;
+  }
+  const double c = glm::dot(d1, r);
+  if (e <= 1e-300) {
+    t = 0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+    return;
+  }
+  const double b = glm::dot(d1, d2), denom = a * e - b * b;
+  s = denom > 1e-300 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+  t = (b * s + f) / e;
+  if (t < 0) {
+    t = 0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+  } else if (t > 1) {
+    t = 1;
+    s = std::clamp((b - c) / a, 0.0, 1.0);
+  }
+}
+
+class Separator {
+ public:
+  Separator(Skeleton& s, const SeparateParams& p) : s_(s), p_(p) {
+    const std::size_t n = s.size();
+    depth_ = s.depths();
+    size_.assign(n, 1);
+    for (std::size_t i = n; i-- > 1;) size_[s.parent[i].idx()] += size_[i];
+    // Subtrees must be contiguous index ranges (depth-first numbering, as build_skeleton makes).
+    for (std::size_t i = 1; i < n; ++i) {
+      const std::size_t par = s.parent[i].idx();
+      SM_CHECK(i > par && i < par + size_[par], "separate_branches needs depth-first node numbering");
+    }
+  }
+
+  /// Colliding pairs that are real collisions (not the overlap of two bundles leaving a fork).
+  std::vector<Collision> collisions(double clearance) const;
+  SeparateReport run();
+
+ private:
+  struct PathPoint {
+    dvec3 pos;
+    double radius;
+  };
+  [[nodiscard]] bool in_subtree(std::size_t v, std::size_t root) const { return v >= root && v < root + size_[root]; }
+  [[nodiscard]] std::size_t lca(std::size_t a, std::size_t b) const {
+    while (depth_[a] > depth_[b]) a = s_.parent[a].idx();
+    while (depth_[b] > depth_[a]) b = s_.parent[b].idx();
+    while (a != b) {
+      a = s_.parent[a].idx();
+      b = s_.parent[b].idx();
+    }
+    return a;
+  }
+  /// Polyline from node c to the point at parameter t on edge k (k in c's subtree, or k == c
+  /// for the edge below c), with radii.
+  std::vector<PathPoint> path(std::size_t c, std::size_t k, double t) const {
+    std::vector<PathPoint> pts;
+    const std::size_t pk = s_.parent[k].idx();
+    const PathPoint end{glm::mix(s_.position[pk], s_.position[k], t), glm::mix(s_.radius[pk], s_.radius[k], t)};
+    if (k == c) {
+      pts.push_back({s_.position[c], s_.radius[c]});
+      pts.push_back(end);
+      return pts;
+    }
+    for (std::size_t v = pk;; v = s_.parent[v].idx()) {
+      pts.push_back({s_.position[v], s_.radius[v]});
+      if (v == c) break;
+    }
+    std::reverse(pts.begin(), pts.end());
+    pts.push_back(end);
+    return pts;
+  }
+  static double length(const std::vector<PathPoint>& p) {
+    double l = 0;
+    for (std::size_t k = 1; k < p.size(); ++k) l += glm::length(p[k].pos - p[k - 1].pos);
+    return l;
+  }
+  static PathPoint at(const std::vector<PathPoint>& p, double d) {
+    for (std::size_t k = 1; k < p.size(); ++k) {
+      const double l = glm::length(p[k].pos - p[k - 1].pos);
+      if (d <= l || k + 1 == p.size()) {
+        const double f = l > 0 ? std::clamp(d / l, 0.0, 1.0) : 1.0;
+        return {glm::mix(p[k - 1].pos, p[k].pos, f), glm::mix(p[k - 1].radius, p[k].radius, f)};
+      }
+      d -= l;
+    }
+    return p.back();
+  }
+  /// True when the two edges overlap only because they leave their common ancestor together:
+  /// walking both paths from the ancestor at equal distances, the cones never come apart
+  /// before the collision.
+  bool fork_overlap(std::size_t c, std::size_t i, double si, std::size_t j, double tj) const {
+    const auto a = path(c, i, si), b = path(c, j, tj);
+    const double la = length(a), lb = length(b), l = std::min(la, lb);
+    const int samples = 24;
+    for (int k = 1; k < samples; ++k) {
+      const double d = l * k / samples;
+      const PathPoint pa = at(a, d), pb = at(b, d);
+      if (glm::length(pa.pos - pb.pos) > pa.radius + pb.radius) return false;
+    }
+    return true;
+  }
+  void rotate_subtree(std::size_t root, const dvec3& pivot, const dvec3& axis, double angle) {
+    const double c = std::cos(angle), sn = std::sin(angle);
+    for (std::size_t v = root; v < root + size_[root]; ++v) {
+      const dvec3 x = s_.position[v] - pivot;
+      s_.position[v] = pivot + x * c + glm::cross(axis, x) * sn + axis * glm::dot(axis, x) * (1 - c);
+    }
+  }
+
+  Skeleton& s_;
+  const SeparateParams& p_;
+  std::vector<std::uint32_t> depth_;
+  std::vector<std::size_t> size_;
+};
+
+std::vector<Collision> Separator::collisions(double clearance) const {
+  const std::size_t n = s_.size();
+  struct Box {
+    double lo_x, hi_x;
+    dvec3 lo, hi;
+    std::size_t e;
+  };
+  std::vector<Box> boxes;
+  boxes.reserve(n);
+  for (std::size_t i = 1; i < n; ++i) {
+    const dvec3& a = s_.position[s_.parent[i].idx()];
+    const dvec3& b = s_.position[i];
+    const double r = std::max(s_.radius[i], s_.radius[s_.parent[i].idx()]) * (1 + clearance);
+    const dvec3 lo = glm::min(a, b) - dvec3(r), hi = glm::max(a, b) + dvec3(r);
+    boxes.push_back({lo.x, hi.x, lo, hi, i});
+  }
+  std::sort(boxes.begin(), boxes.end(), [](const Box& x, const Box& y) { return x.lo_x != y.lo_x ? x.lo_x < y.lo_x : x.e < y.e; });
+  std::vector<Collision> out;
+  for (std::size_t u = 0; u < boxes.size(); ++u) {
+    for (std::size_t v = u + 1; v < boxes.size() && boxes[v].lo_x <= boxes[u].hi_x; ++v) {
+      const Box& A = boxes[u];
+      const Box& B = boxes[v];
+      if (A.lo.y > B.hi.y || B.lo.y > A.hi.y || A.lo.z > B.hi.z || B.lo.z > A.hi.z) continue;
+      std::size_t i = std::min(A.e, B.e), j = std::max(A.e, B.e);
+      const std::size_t pi = s_.parent[i].idx(), pj = s_.parent[j].idx();
+      if (pi == pj || pj == i || pi == j) continue;  // edges sharing a node
+      double si = 0, tj = 0;
+      closest_params(s_.position[pi], s_.position[i], s_.position[pj], s_.position[j], si, tj);
+      const dvec3 x = glm::mix(s_.position[pi], s_.position[i], si);
+      const dvec3 y = glm::mix(s_.position[pj], s_.position[j], tj);
+      const double need =
+          (glm::mix(s_.radius[pi], s_.radius[i], si) + glm::mix(s_.radius[pj], s_.radius[j], tj)) * (1 + clearance);
+      const double dist = glm::length(x - y);
+      if (dist >= need) continue;
+      const std::size_t c = lca(i, j);
+      if (fork_overlap(c, i, si, j, tj)) continue;
+      out.push_back({NodeId(i), NodeId(j), need - dist});
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const Collision& a, const Collision& b) {
+    return a.penetration != b.penetration ? a.penetration > b.penetration : std::pair(a.a, a.b) < std::pair(b.a, b.b);
+  });
+  return out;
+}
+
+SeparateReport Separator::run() {
+  SeparateReport rep;
+  const std::vector<dvec3> original = s_.position;
+  const double detect = 0.5 * p_.clearance;  // detect below half the target gap: the result is stable
+  for (std::size_t round = 0; round < p_.max_rounds; ++round) {
+    const auto found = collisions(detect);
+    if (round == 0) rep.collisions = found.size();
+    if (found.empty()) break;
+    std::vector<std::pair<std::size_t, std::size_t>> moved;  // subtree ranges rotated this round
+    for (const Collision& col : found) {
+      const std::size_t i = col.a.idx(), j = col.b.idx();
+      const std::size_t c = lca(i, j);
+      // The subtree to swing: below c on one side, preferably the smaller one; j == c means
+      // edge j lies below the ancestor, so only i's side can move.
+      auto child_towards = [&](std::size_t k) {
+        std::size_t v = k;
+        while (s_.parent[v].idx() != c) v = s_.parent[v].idx();
+        return v;
+      };
+      const std::size_t ci = i == c ? SIZE_MAX : child_towards(i);
+      const std::size_t cj = j == c ? SIZE_MAX : child_towards(j);
+      bool move_i = cj == SIZE_MAX || (ci != SIZE_MAX && size_[ci] <= size_[cj]);
+      const std::size_t mover = move_i ? i : j, other = move_i ? j : i;
+      std::size_t root = move_i ? ci : cj;
+      if (root == SIZE_MAX) continue;
+      // Prefer the nearest branch start (a child of a fork) on the way, if it gives a lever
+      // long enough for a modest rotation.
+      double s_m = 0, t_o = 0;
+      const std::size_t pm = s_.parent[mover].idx(), po = s_.parent[other].idx();
+      closest_params(s_.position[pm], s_.position[mover], s_.position[po], s_.position[other], s_m, t_o);
+      const dvec3 x = glm::mix(s_.position[pm], s_.position[mover], s_m);
+      const dvec3 y = glm::mix(s_.position[po], s_.position[other], t_o);
+      const double gap_need = glm::mix(s_.radius[pm], s_.radius[mover], s_m) + glm::mix(s_.radius[po], s_.radius[other], t_o);
+      for (std::size_t v = mover; v != root; v = s_.parent[v].idx()) {
+        const std::size_t pv = s_.parent[v].idx();
+        if (s_.is_fork(NodeId(pv)) && glm::length(x - s_.position[pv]) > 3 * gap_need && !in_subtree(other, v)) {
+          root = v;
+          break;
+        }
+      }
+      const std::size_t lo = root, hi = root + size_[root];
+      bool overlaps = false;
+      for (const auto& [a, b] : moved) overlaps |= lo < b && a < hi;
+      if (overlaps) continue;
+      const dvec3 pivot = s_.position[s_.parent[root].idx()];
+      dvec3 sep = x - y;
+      if (glm::length(sep) < 1e-12 * (1 + glm::length(x))) sep = any_perpendicular(normalize_or(x - pivot, dvec3(0, 0, 1)));
+      sep = glm::normalize(sep);
+      const dvec3 lever = x - pivot;
+      dvec3 axis = glm::cross(lever, sep);
+      if (glm::length(axis) < 1e-12 * (1 + glm::length(lever))) continue;
+      axis = glm::normalize(axis);
+      const dvec3 motion = glm::cross(axis, lever);  // displacement of x per radian
+      const double gain = glm::dot(motion, sep);
+      if (gain <= 1e-12) continue;
+      const double want = gap_need * (1 + p_.clearance) - glm::length(x - y);
+      const double angle = std::min(want / gain, p_.max_step_degrees * kDeg);
+      rotate_subtree(root, pivot, axis, angle);
+      moved.emplace_back(lo, hi);
+      ++rep.rotations;
+    }
+  }
+  rep.unresolved = collisions(detect).size();
+  for (std::size_t v = 0; v < s_.size(); ++v) {
+    rep.max_displacement = std::max(rep.max_displacement, glm::length(s_.position[v] - original[v]));
+  }
+  return rep;
+}
+
+}  // namespace
+
+SeparateReport separate_branches(Skeleton& skeleton, const SeparateParams& params) {
+  if (skeleton.size() < 3) return {};
+  Separator sep(skeleton, params);
+  return sep.run();
+}
+
+std::vector<Collision> find_collisions(const Skeleton& skeleton, double clearance) {
+  if (skeleton.size() < 3) return {};
+  Skeleton copy = skeleton;  // Separator keeps a mutable reference
+  SeparateParams p;
+  Separator sep(copy, p);
+  return sep.collisions(clearance);
+}
+
+}  // namespace sm
