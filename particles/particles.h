@@ -77,13 +77,14 @@ struct ParticleParams {
   /// Velocity damping per step in [0, 1): the fraction of the previous step's velocity that
   /// is kept; 0 = no memory of the previous step (default 0.3).
   double damping = 0.3;
-  /// Displacement per step per unit of repulsion force (relative to lambda, default 0.3). The
+  /// Displacement per step per unit of repulsion force (relative to lambda, default 0.2). The
   /// pair force is (h^2 / d - d) / 2h for d < h (h = repulsion_radius): zero at h, about
   /// (1 - d/h) near it, unbounded as d -> 0.
-  double step_size = 0.3;
-  /// Particles repel each other within this distance (relative to lambda, default 2.3; the
-  /// hexagonal neighbour distance is 1.905, so every particle feels its ring of neighbours).
-  double repulsion_radius = 2.3;
+  double step_size = 0.2;
+  /// Particles repel each other within this distance (relative to lambda, default 2.7; the
+  /// hexagonal neighbour distance is 1.905, so every particle feels its ring of neighbours
+  /// firmly, and a hole is never wide enough to go unnoticed).
+  double repulsion_radius = 2.7;
   /// Neighbour lists hold the pairs within repulsion_radius + neighbour_skin (relative to
   /// lambda, default 0.75) and are rebuilt as soon as the particles may have closed the skin
   /// (twice the summed largest moves since the last rebuild), so no pair is ever missed.

@@ -105,8 +105,6 @@ void expect_quality(const Skeleton& sk, const ParticleField& f, const std::strin
   EXPECT_GT(q.neighbour_events, 0u) << what;
 }
 
-Skeleton grown(std::uint64_t seed) { return built(test::grown_tree(seed)); }
-
 void expect_identical(const ParticleField& a, const ParticleField& b) {
   ASSERT_EQ(a.position.size(), b.position.size());
   EXPECT_EQ(0, std::memcmp(a.position.data(), b.position.data(), a.position.size() * sizeof(dvec2)));
@@ -118,6 +116,8 @@ void expect_identical(const ParticleField& a, const ParticleField& b) {
 }
 
 #ifndef STRANDMESH_PARTICLES_SLOW_TESTS
+
+Skeleton grown(std::uint64_t seed) { return built(test::grown_tree(seed)); }
 
 // ---------------------------------------------------------------------------------------------
 // Contract on the fixtures
