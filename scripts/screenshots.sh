@@ -21,6 +21,7 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
   FORK="$3"
   CAM="yaw=35,pitch=12,dist=0.9"
   CLOSE="yaw=35,pitch=12,node=$FORK,around=${STRANDMESH_SCREENSHOT_AROUND:-5}"
+  ACROSS="yaw=120,pitch=40,node=$FORK,around=3"  # looking into the cross-sections
   shot() {  # shot NAME LAYERS CAMERA [extra args]
     local name="$1" layers="$2" camera="$3"
     shift 3
@@ -29,13 +30,13 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
     printf '  %-24s %7d bytes\n' "$name.png" "$(stat -c %s "$OUT/$name.png")" >&2
   }
   shot stage_skeleton    skeleton,discs,legend          "$CAM"
-  shot stage_frames      skeleton,discs,frames,legend   "$CLOSE"
-  shot stage_particles   skeleton,particles,legend      "$CLOSE"
+  shot stage_frames      skeleton,discs,frames,legend   "$ACROSS"
+  shot stage_particles   skeleton,discs,particles,legend "$ACROSS"
   shot stage_strands     strands,legend                 "$CAM"
   shot stage_strands_tip strands,legend                 "$CLOSE" --color-by tip
   shot stage_contours    contours,skeleton,legend       "$CLOSE"
   shot stage_mesh        mesh,legend                    "$CAM"
-  shot stage_wireframe   mesh,wireframe,contours,legend "$CLOSE"
+  shot stage_wireframe   mesh,wireframe,legend          "$CLOSE"
   shot stage_uv          uv,legend                      "$CLOSE"
   SHOT_SIZE=1024x640 shot viewer_ui mesh,legend "yaw=35,pitch=12,dist=0.9" --ui --select "$FORK"
   exit 0

@@ -87,6 +87,8 @@ class ViewerApp {
   /// The last error (load, re-run, checks, config); empty when none. Shown in the window.
   [[nodiscard]] const std::string& error() const { return error_; }
   void clear_error() { error_.clear(); }
+  /// Shows a message as the current error (the panels' invalid edits).
+  void show_error(std::string message) { error_ = std::move(message); }
   /// Seconds the last load or re-run took (wall clock, including reading files).
   [[nodiscard]] double last_run_seconds() const { return last_run_seconds_; }
 

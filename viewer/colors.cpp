@@ -85,7 +85,10 @@ std::vector<LegendEntry> legend_entries(const std::array<bool, kLayerCount>& vis
     out.push_back({palette::loop_split, "split slice (first loop of a child tube)"});
     out.push_back({palette::loop_tip, "tip loop"});
   }
-  if (on(Layer::mesh)) out.push_back({palette::bark, uv_checker ? "mesh: UV checker" : "mesh: smooth normals"});
+  if (on(Layer::mesh)) {
+    out.push_back({palette::bark, uv_checker ? "mesh: UV checker" : "mesh: smooth normals"});
+    out.push_back({palette::back_face, "back faces seen (inside out, or through a hole)"});
+  }
   if (on(Layer::wireframe)) out.push_back({palette::wireframe, "mesh edges"});
   if (on(Layer::normals)) out.push_back({palette::normal_line, "vertex normals"});
   return out;

@@ -28,6 +28,7 @@ inline constexpr Rgba8 axis_normal{220, 50, 40, 255};
 inline constexpr Rgba8 axis_binormal{40, 170, 60, 255};
 inline constexpr Rgba8 bark{176, 148, 118, 255};
 inline constexpr Rgba8 wireframe{45, 40, 35, 255};
+inline constexpr Rgba8 back_face{200, 80, 70, 255};  ///< the mesh shader's tint of back faces
 inline constexpr Rgba8 normal_line{30, 120, 220, 255};
 inline constexpr Rgba8 selection{255, 0, 200, 255};
 inline constexpr Rgba8 loop_plain{20, 140, 150, 255};

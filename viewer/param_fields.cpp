@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include <nlohmann/json.hpp>
+
 namespace sm::viewer {
 
 namespace {
@@ -114,8 +116,14 @@ std::vector<ParamField> particle_fields(ParticleParams& p) {
        .min = 1,
        .max = 4},
       {.key = "wall_margin",
-       .help = "gap between wall and node radius (relative to the cloud length)",
+       .help = "gap between the confining disc and the node radius (relative to the cloud length)",
        .value = &p.wall_margin,
+       .min = 0,
+       .max = 2},
+      {.key = "wall_offset",
+       .help = "soft wall: particles are repelled by mirror images this far outside the disc (relative to the "
+               "cloud length)",
+       .value = &p.wall_offset,
        .min = 0,
        .max = 2},
       {.key = "max_steps",
@@ -234,7 +242,9 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
 
 }  // namespace
 
-std::vector<ParamField> param_fields(PipelineParams& params, Stage stage) {
+namespace {
+
+std::vector<ParamField> typed_fields(PipelineParams& params, Stage stage) {
   switch (stage) {
     case Stage::skeleton:
       return skeleton_fields(params.skeleton);
@@ -250,12 +260,76 @@ std::vector<ParamField> param_fields(PipelineParams& params, Stage stage) {
   return {};
 }
 
+nlohmann::json config_value(const PipelineParams& params, Stage stage, const std::string& key) {
+  const auto j = nlohmann::json::parse(params_to_json(params));
+  const auto& section = j.at(stage_name(stage));
+  return section.contains(key) ? section.at(key) : nlohmann::json();
+}
+
+double config_number(const ConfigRef& r, const std::string& key) {
+  const auto v = config_value(*r.params, r.stage, key);
+  if (v.is_boolean()) return v.get<bool>() ? 1.0 : 0.0;
+  if (v.is_number()) return v.get<double>();
+  return 0.0;
+}
+
+void set_config_number(const ConfigRef& r, const std::string& key, double v) {
+  const auto old = config_value(*r.params, r.stage, key);
+  nlohmann::json value;
+  if (old.is_boolean()) {
+    value = v != 0.0;
+  } else if (old.is_number_unsigned()) {
+    value = clamp_to<std::uint64_t>(v);
+  } else if (old.is_number_integer()) {
+    value = clamp_to<std::int64_t>(v);
+  } else if (old.is_number()) {
+    value = v;
+  } else {
+    return;  // text values are not edited as numbers
+  }
+  nlohmann::json doc;
+  doc[stage_name(r.stage)][key] = value;
+  *r.params = parse_params_json(doc.dump(), "viewer", *r.params);
+}
+
+}  // namespace
+
+std::vector<ParamField> param_fields(PipelineParams& params, Stage stage) {
+  std::vector<ParamField> out = typed_fields(params, stage);
+  const auto j = nlohmann::json::parse(params_to_json(params));
+  const auto& section = j.at(stage_name(stage));
+  for (const auto& [key, value] : section.items()) {
+    const bool known = std::any_of(out.begin(), out.end(), [&](const ParamField& f) { return f.key == key; });
+    if (known) continue;
+    ParamField f;
+    f.key = key;
+    f.help = "(not yet described in the viewer; see the stage's Params header)";
+    f.value = ConfigRef{&params, stage};
+    f.min = 0;
+    f.max = value.is_number() ? std::max(1.0, 4.0 * std::fabs(value.get<double>())) : 1.0;
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+ConfigKind config_kind(const ParamField& f) {
+  const auto* r = std::get_if<ConfigRef>(&f.value);
+  if (!r) return ConfigKind::number;
+  const auto v = config_value(*r->params, r->stage, f.key);
+  if (v.is_boolean()) return ConfigKind::boolean;
+  if (v.is_number_integer()) return ConfigKind::integer;
+  if (v.is_number()) return ConfigKind::number;
+  return ConfigKind::text;
+}
+
 double field_value(const ParamField& f) {
   return std::visit(
-      [](auto p) -> double {
+      [&f](auto p) -> double {
         using P = decltype(p);
         if constexpr (std::is_same_v<P, SizeRef>) {
           return static_cast<double>(*p.p);
+        } else if constexpr (std::is_same_v<P, ConfigRef>) {
+          return config_number(p, f.key);
         } else if constexpr (std::is_same_v<P, bool*>) {
           return *p ? 1.0 : 0.0;
         } else if constexpr (std::is_same_v<P, ThickChildPolicy*>) {
@@ -269,10 +343,12 @@ double field_value(const ParamField& f) {
 
 void set_field_value(const ParamField& f, double v) {
   std::visit(
-      [v](auto p) {
+      [v, &f](auto p) {
         using P = decltype(p);
         if constexpr (std::is_same_v<P, SizeRef>) {
           *p.p = clamp_to<std::size_t>(v);
+        } else if constexpr (std::is_same_v<P, ConfigRef>) {
+          set_config_number(p, f.key, v);
         } else if constexpr (std::is_same_v<P, bool*>) {
           *p = v != 0.0;
         } else if constexpr (std::is_same_v<P, ThickChildPolicy*>) {
@@ -287,24 +363,17 @@ void set_field_value(const ParamField& f, double v) {
 }
 
 std::optional<Stage> first_changed_stage(const PipelineParams& a, const PipelineParams& b) {
-  // The table is the single list of fields, so comparing through it cannot forget one that
-  // the panels edit (and the tests check the table against params_to_json).
+  // Compared in the config-file form, so that no field is forgotten, whatever the table
+  // knows; fields the config file does not carry are compared through the typed table.
+  const auto ja = nlohmann::json::parse(params_to_json(a));
+  const auto jb = nlohmann::json::parse(params_to_json(b));
   PipelineParams ca = a, cb = b;
   for (Stage s : kStages) {
-    const auto fa = param_fields(ca, s);
-    const auto fb = param_fields(cb, s);
+    if (ja.at(stage_name(s)) != jb.at(stage_name(s))) return s;
+    const auto fa = typed_fields(ca, s);
+    const auto fb = typed_fields(cb, s);
     for (std::size_t i = 0; i < fa.size(); ++i) {
-      const bool differ = std::visit(
-          [&](auto pa) {
-            auto pb = std::get<decltype(pa)>(fb[i].value);
-            if constexpr (std::is_same_v<decltype(pa), SizeRef>) {
-              return *pa.p != *pb.p;
-            } else {
-              return *pa != *pb;
-            }
-          },
-          fa[i].value);
-      if (differ) return s;
+      if (field_value(fa[i]) != field_value(fb[i])) return s;
     }
   }
   return std::nullopt;

@@ -123,8 +123,8 @@ struct SceneOptions {
   double frame_length = 1.6;
   /// Length of the drawn normals relative to the mesh's mean edge length (default 0.8).
   double normal_length = 0.8;
-  /// Particle point size in pixels (default 3).
-  float particle_size = 3.0f;
+  /// Particle point size in pixels (default 4.5).
+  float particle_size = 4.5f;
 };
 
 /// Everything the viewer draws, grouped by layer.
