@@ -909,7 +909,7 @@ SpacingChoice choose_spacing(const Skeleton& sk, const ParticleParams& p) {
   target = std::max(target, floor_count);
   double lo = hi;
   for (int it = 0; it < 2000 && root_count(sk, lo, p, count) <= target; ++it) lo *= 0.5;
-  for (int it = 0; it < 64; ++it) {
+  for (int it = 0; it < 40; ++it) {
     const double mid = std::sqrt(lo * hi);
     if (root_count(sk, mid, p, count) > target) {
       lo = mid;
