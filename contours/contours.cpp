@@ -116,8 +116,19 @@ class Walker {
     return g;
   }
 
-  [[nodiscard]] double step_at(double radius) const {
-    return std::max(p_.slice_step * radius, p_.min_slice_step * spacing_);
+  /// Distance to the next slice from a slice with geometry g: slice_step x the local radius,
+  /// but no more than max_slices_per_edge slices on one edge (a long thin twig is a straight
+  /// round cone between its nodes and needs no more), except where a bundle is still leaving
+  /// its fork.
+  [[nodiscard]] double step_at(const SliceGeometry& g) const {
+    double step = std::max(p_.slice_step * g.radius, p_.min_slice_step * spacing_);
+    const NodeId parent = s_.parent[g.node.idx()];
+    if (parent.valid() && p_.max_slices_per_edge > 0) {
+      const double l = len(g.node);
+      const bool in_transition = s_.is_fork(parent) && g.t * l < p_.fork_transition * s_.radius[parent.idx()];
+      if (!in_transition) step = std::max(step, l / double(p_.max_slices_per_edge));
+    }
+    return step;
   }
 
   /// How far the wood surface lies outside a node's boundary strands (metres): the skeleton
@@ -253,6 +264,14 @@ class Walker {
   /// Gap between the bundles of fork's two children at distance u above the anchor (the
   /// fork sits at distance fork_base). Leaves the points in pts_a_ / pts_b_.
   double split_gap_at(NodeId fork, double fork_base, double u);
+  /// Smallest distance from the surface points `pts` (strand point + offset) to the round cones
+  /// of the subtree rooted at x (x's edge starting at `base` above the anchor), over the edges
+  /// starting below `reach`. Negative when a point is inside a cone.
+  double cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach) const;
+  /// After split_gap_at: are the bundles apart (points and cones)?
+  [[nodiscard]] bool separated_now() const {
+    return last_gap_ > threshold() && last_clearance_ > 0.5 * p_.split_gap * spacing_;
+  }
   /// Geometry of a slice through a cut: the first (main-chain) edge of the cut.
   SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
     return edge_geometry(edges.front().node, edges.front().t);
@@ -268,6 +287,7 @@ class Walker {
   std::vector<double> root_distance_;
   std::vector<std::uint32_t> branch_;
   std::vector<double> node_offset_;  // #N surface offset of each node's cloud (metres)
+  double last_gap_ = 0, last_clearance_ = 0;  // of the last split_gap_at
   ContourSet out_;
   ContourStats& stats_ = out_.stats;
   std::vector<Task> tasks_;
@@ -416,14 +436,48 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   pts_b_.clear();
   evaluate_cut(cut_a_, pts_a_);
   evaluate_cut(cut_b_, pts_b_);
-  return gap(pts_a_.point, pts_b_.point);
+  last_gap_ = gap(pts_a_.point, pts_b_.point);
+  // Bundles can also run into the other branch at a different distance from the fork (a
+  // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
+  // distance): each bundle's surface must also clear the other subtree's round cones.
+  const double reach = u + 2.0 * s_.radius[fork.idx()];
+  last_clearance_ = std::min(cone_clearance(pts_b_, c[0], fork_base, reach), cone_clearance(pts_a_, c[1], fork_base, reach));
+  return last_gap_;
+}
+
+double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach) const {
+  // Edges of x's subtree starting within `reach` above the anchor (x's edge starts at base).
+  std::vector<std::pair<NodeId, double>> stack{{x, base}};
+  double best = std::numeric_limits<double>::infinity();
+  while (!stack.empty()) {
+    const auto [y, start] = stack.back();
+    stack.pop_back();
+    const NodeId py = s_.parent[y.idx()];
+    const dvec3 a = s_.position[py.idx()], b = s_.position[y.idx()];
+    const double ra = s_.radius[py.idx()], rb = s_.radius[y.idx()];
+    const dvec3 ab = b - a;
+    const double l2 = glm::dot(ab, ab);
+    for (std::size_t k = 0; k < pts.point.size(); ++k) {
+      const double t = l2 > 0 ? std::clamp(glm::dot(pts.point[k] - a, ab) / l2, 0.0, 1.0) : 0.0;
+      const double d = glm::length(pts.point[k] - (a + t * ab)) - glm::mix(ra, rb, t) - pts.offset[k];
+      best = std::min(best, d);
+    }
+    const double l = len(y);
+    if (start + l < reach) {
+      for (const NodeId c : s_.children[y.idx()]) {
+        if (c.valid()) stack.emplace_back(c, start + l);
+      }
+    }
+  }
+  return best;
 }
 
 double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi) {
-  const double thr = threshold();
+
   for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
     const double mid = 0.5 * (lo + hi);
-    if (split_gap_at(fork, fork_base, mid) > thr) {
+    split_gap_at(fork, fork_base, mid);
+    if (separated_now()) {
       hi = mid;
     } else {
       lo = mid;
@@ -447,7 +501,7 @@ void Walker::walk(Task task) {
     if (d < end) {
       const double t = (d - cur_base) / len(cur);
       const SliceGeometry g = edge_geometry(cur, t);
-      const double step = step_at(g.radius);
+      const double step = step_at(g);
       if (s_.is_tip(cur) && end - d < 0.35 * step) {
         d = end;  // close enough: the tip's own section comes next
         continue;
@@ -493,10 +547,10 @@ void Walker::walk(Task task) {
         absorbed = true;
         break;
       }
-      const bool separated = g_ab > threshold();
+      const bool separated = separated_now();
       const bool forced = !separated && d >= shorter_end && g_ab > 0.5 * spacing_;
       if (separated || forced) {
-        const double step = step_at(cut_geometry(cut_a_).radius);
+        const double step = step_at(cut_geometry(cut_a_));
         const double min_sep = 0.25 * step;
         double split = d;
         if (separated) {
@@ -529,7 +583,7 @@ void Walker::walk(Task task) {
           const SliceGeometry g = cut_geometry(edges);
           j.upper[std::size_t(k)] = add_loop(pts_, g, LoopKind::split, anchor_distance + split, t);
           j.upper_tubes[std::size_t(k)] = t;
-          next[std::size_t(k)] = Task{fork, child, split - fork_base + step_at(g.radius), split - fork_base, t};
+          next[std::size_t(k)] = Task{fork, child, split - fork_base + step_at(g), split - fork_base, t};
         }
         out_.junctions.push_back(j);
         // Lateral first onto the stack so the main child's tube is walked next.
@@ -544,7 +598,7 @@ void Walker::walk(Task task) {
       const SliceGeometry g = cut_geometry(cut_a_);
       add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
       last = d;
-      d += step_at(g.radius);
+      d += step_at(g);
     }
     if (absorbed) continue;
   }
@@ -560,7 +614,7 @@ ContourSet Walker::run(const ProgressFn& progress) {
   evaluate(root, 1.0, pts_);
   const SliceGeometry g = edge_geometry(root, 1.0);
   add_loop(pts_, g, LoopKind::plain, 0.0, tube);
-  tasks_.push_back(Task{NodeId{}, root, step_at(g.radius), 0.0, tube});
+  tasks_.push_back(Task{NodeId{}, root, step_at(g), 0.0, tube});
   std::size_t forks = 0;
   for (std::size_t i = 0; i < s_.size(); ++i) forks += s_.is_fork(NodeId(i));
   std::size_t done = 0;

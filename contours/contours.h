@@ -49,6 +49,9 @@ namespace sm {
 struct ContourParams {
   /// Distance between consecutive slices along a branch, relative to the local radius.
   double slice_step = 0.4;
+  /// Most slices on one edge away from forks (a count; 0 = no limit): a long thin twig is a
+  /// straight round cone between its nodes and needs no more.
+  std::uint32_t max_slices_per_edge = 4;
   /// Lower bound on the slice step, relative to the neighbour distance of the particles
   /// (ParticleField::neighbour_distance; keeps thin twigs from being sliced ever more finely).
   double min_slice_step = 1.0;

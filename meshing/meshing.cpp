@@ -301,13 +301,19 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   const auto lower = loop_ids(lower_loop);
   auto upper = loop_ids(upper_loop);
   align(upper, lower);
-  const Frame& f = c_.loop_frame[lower_loop];
-  const glm::dvec3 center = 0.5 * (loop_centroid(lower_loop) + loop_centroid(upper_loop));
-  const dvec2 q0 = f.to_local(c_.point[lower[0]] - center);
+  // Angles of each loop's vertices in its own slice plane, around its own centroid: the two
+  // loops may be far apart along a thin branch and their planes tilted against each other,
+  // so projecting one onto the other's plane would scramble the angles. Frames are
+  // parallel-transported along the branch, so their normals share the angle origin.
+  auto angles = [&](std::uint32_t l, const std::vector<std::uint32_t>& ids, double ref) {
+    return unwrapped_angles(ids, c_.point, c_.loop_frame[l], loop_centroid(l), ref);
+  };
+  const Frame& fl = c_.loop_frame[lower_loop];
+  const dvec2 q0 = fl.to_local(c_.point[lower[0]] - loop_centroid(lower_loop));
   const double ref = std::atan2(q0.y, q0.x);
   AngleGuard guard;
-  guard.lower = unwrapped_angles(lower, c_.point, f, center, ref);
-  guard.upper = unwrapped_angles(upper, c_.point, f, center, ref);
+  guard.lower = angles(lower_loop, lower, ref);
+  guard.upper = angles(upper_loop, upper, ref);
   guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
   scratch_.clear();
   stitch(lower, upper, c_.point, scratch_, &guard);

@@ -54,6 +54,7 @@ template <class V>
 void visit_fields(ContourParams& p, V&& v) {
   v("slice_step", p.slice_step);
   v("min_slice_step", p.min_slice_step);
+  v("max_slices_per_edge", p.max_slices_per_edge);
   v("split_gap", p.split_gap);
   v("fork_transition", p.fork_transition);
   v("split_bisection_steps", p.split_bisection_steps);
