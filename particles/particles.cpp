@@ -314,6 +314,7 @@ struct Scratch {
   std::vector<float> x, y, vx, vy, nx, ny, nvx, nvy, move2;
   std::vector<std::uint8_t> active, nactive;  // moved at least half the tolerance last step
   std::vector<std::uint8_t> live;             // active or next to an active particle
+  std::vector<std::uint8_t> coincident;       // shares its position with a neighbour
   std::vector<std::uint32_t> orig, norig;  // cell-order slot -> local particle index
   std::vector<std::uint32_t> nbr_begin, nbr_end, nbr;
   // Grids.
@@ -369,6 +370,8 @@ Grid build_grid(std::span<const dvec2> pts, double extent, double cell, Scratch&
 /// force is summed over its own neighbour list in a fixed order, so the result does not
 /// depend on how the particles are split over threads.
 constexpr std::size_t kParallelCloud = 4096;
+/// Squared distance (in lambda^2) below which two particles count as coincident.
+constexpr float kCoincident2 = 1e-12f;
 /// Tips with at most this many particles take a cached relaxed pattern.
 constexpr std::uint32_t kTipCache = 256;
 
@@ -432,14 +435,15 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
   }
   sc.nbr_begin.resize(m);
   sc.nbr_end.resize(m);
+  sc.coincident.resize(m);
   sc.nbr.resize(m * std::size_t(capacity));
   for_particles(m, [&](std::size_t kb, std::size_t ke) {
     for (std::size_t k = kb; k < ke; ++k) {
       const int c = int(sc.slot_cell[k]);
       const int cx = c % side, cy = c / side;
       const float px = sc.x[k], py = sc.y[k];
-      std::uint32_t* const first = sc.nbr.data() + k * capacity;
-      std::uint32_t* out = first;
+      std::uint32_t* out = sc.nbr.data() + k * capacity;
+      bool coincident = false;
       for (int y = std::max(cy - 2, 0); y <= std::min(cy + 2, side - 1); ++y) {
         std::uint32_t b, e;
         row(y, cx, b, e);
@@ -447,10 +451,13 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
         // (a mispredicted branch per candidate costs more than the store).
         for (std::uint32_t j = b; j < e; ++j) {
           const float dx = px - sc.x[j], dy = py - sc.y[j];
+          const float d2 = dx * dx + dy * dy;
           *out = j;
-          out += (dx * dx + dy * dy < r2) & (j != k);
+          out += (d2 < r2) & (j != k);
+          coincident |= (d2 <= kCoincident2) & (j != k);
         }
       }
+      sc.coincident[k] = coincident;
       sc.nbr_begin[k] = std::uint32_t(k * capacity);
       sc.nbr_end[k] = std::uint32_t(out - sc.nbr.data());
     }
@@ -472,7 +479,7 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
   // particles; the result is stored back in double).
   using real = float;
   const real h = real(p.repulsion_radius);
-  const real h2 = h * h, half_kappa = real(0.25) / h;
+  const real h2 = h * h, kappa = real(0.5) / h;
   const real vmax = real(p.max_velocity), vmax2 = vmax * vmax;
   const real gain = real(p.step_size);
   const real tol2 = real(p.move_tolerance * p.move_tolerance);
@@ -537,26 +544,26 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
         }
         // Repulsion kappa (h^2 / d - d) along each pair (kappa = 1 / 2h): zero at h, the slope
         // of (1 - d/h) near h, unbounded as d -> 0 so close pairs separate first; one division
-        // and no square root, branch-free: (t + |t|) / 2 = max(t, 0).
+        // and no square root, branch-free (the select compiles to maxss).
         real fx = 0, fy = 0;
-        bool close = false;
         const std::uint32_t* nb = sc.nbr.data();
         for (std::uint32_t k = sc.nbr_begin[a], ke = sc.nbr_end[a]; k < ke; ++k) {
           const std::uint32_t j = nb[k];
           const real dx = px - xs[j], dy = py - ys[j];
           const real d2 = dx * dx + dy * dy;
-          close |= d2 <= tiny2;
           const real t = h2 / (d2 + tiny2) - real(1);
-          const real w = half_kappa * (t + std::fabs(t));
+          const real w = kappa * (t > 0 ? t : real(0));
           fx += dx * w;
           fy += dy * w;
         }
-        if (close) {
-          // Coincident particles: push apart along a direction fixed by their indices.
+        if (sc.coincident[a]) {
+          // Coincident particles (found when the lists are built: placements never produce
+          // them, degenerate input might): push apart along a direction fixed by their
+          // indices, as long as they stay coincident.
           for (std::uint32_t k = sc.nbr_begin[a], ke = sc.nbr_end[a]; k < ke; ++k) {
             const std::uint32_t j = nb[k];
             const real dx = px - xs[j], dy = py - ys[j];
-            if (dx * dx + dy * dy > tiny2) continue;
+            if (dx * dx + dy * dy > kCoincident2) continue;
             const std::uint32_t lo = std::min(sc.orig[a], sc.orig[j]), hi = std::max(sc.orig[a], sc.orig[j]);
             const double ang = kGoldenAngle * double(lo + 3 * hi);
             const real sgn = sc.orig[a] == lo ? real(1) : real(-1);
@@ -570,7 +577,7 @@ RelaxResult relax(std::span<dvec2> pos, double wall_m, double lambda, const Part
         if (r2 > inner2 && r2 > 0) {
           const real rho = std::sqrt(r2);
           const real gap = std::max(real(2) * (mirror - rho), real(1e-3));
-          const real w = real(2) * half_kappa * std::max(real(0), h2 / gap - gap) / rho;
+          const real w = kappa * std::max(real(0), h2 / gap - gap) / rho;
           fx -= px * w;
           fy -= py * w;
         }
