@@ -243,10 +243,10 @@ class StarMap {
     c_ = 0.5 * (1.0 + xs_);
     // Cumulative area fraction T(psi) on psi_k = -pi + 2 pi k / steps (trapezoids of B^2 / 2).
     cum_[0] = 0;
-    double prev = boundary(-kPi);
+    double prev = boundary(-1.0);
     prev *= prev;
     for (int k = 1; k <= steps_; ++k) {
-      double b = boundary(-kPi + 2.0 * kPi * k / steps_);
+      double b = boundary(std::cos(-kPi + 2.0 * kPi * k / steps_));
       b *= b;
       cum_[k] = cum_[k - 1] + 0.5 * (prev + b);
       prev = b;
@@ -263,14 +263,15 @@ class StarMap {
     const double c0 = cum_[hi - 1], c1 = cum_[hi];
     const double t = c1 > c0 ? std::clamp((frac - c0) / (c1 - c0), 0.0, 1.0) : 0.0;
     const double psi = -kPi + 2.0 * kPi * (hi - 1 + t) / steps_;
-    const double r = rho * boundary(psi);
-    return {c_ + r * std::cos(psi), r * std::sin(psi)};
+    const double cs = std::cos(psi), sn = std::sin(psi);
+    const double r = rho * boundary(cs);
+    return {c_ + r * cs, r * sn};
   }
 
  private:
-  /// Distance from the inscribed centre (c, 0) to the segment's boundary in direction psi.
-  [[nodiscard]] double boundary(double psi) const {
-    const double cs = std::cos(psi);
+  /// Distance from the inscribed centre (c, 0) to the segment's boundary in the direction
+  /// with cosine cs (the boundary is symmetric about the axis).
+  [[nodiscard]] double boundary(double cs) const {
     const double disc = std::sqrt(std::max(0.0, c_ * c_ * cs * cs - c_ * c_ + 1.0));
     double t = -c_ * cs + disc;  // to the circle
     if (cs < 0) t = std::min(t, (xs_ - c_) / cs);  // to the cut
@@ -443,7 +444,7 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
       const int cx = c % side, cy = c / side;
       const float px = sc.x[k], py = sc.y[k];
       std::uint32_t* out = sc.nbr.data() + k * capacity;
-      bool coincident = false;
+      std::uint32_t at_same_place = 0;  // counts the particle itself
       for (int y = std::max(cy - 2, 0); y <= std::min(cy + 2, side - 1); ++y) {
         std::uint32_t b, e;
         row(y, cx, b, e);
@@ -454,10 +455,10 @@ void rebuild_neighbours(std::size_t m, float extent, float radius, Scratch& sc) 
           const float d2 = dx * dx + dy * dy;
           *out = j;
           out += (d2 < r2) & (j != k);
-          coincident |= (d2 <= kCoincident2) & (j != k);
+          at_same_place += d2 <= kCoincident2;
         }
       }
-      sc.coincident[k] = coincident;
+      sc.coincident[k] = at_same_place > 1;
       sc.nbr_begin[k] = std::uint32_t(k * capacity);
       sc.nbr_end[k] = std::uint32_t(out - sc.nbr.data());
     }
