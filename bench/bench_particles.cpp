@@ -66,7 +66,8 @@ void BM_Particles(benchmark::State& state) {
 }
 BENCHMARK(BM_Particles)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
-/// The same tree with a finer spacing: the root carries 60,000 strands (about 3 M particles).
+/// The same tree with a finer spacing: the root carries 60,000 strands (new strands start
+/// along the trunk and the big branches; about 1.1 M particles).
 void BM_ParticlesFine(benchmark::State& state) {
   const Skeleton& sk = tree();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
