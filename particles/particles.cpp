@@ -92,6 +92,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/spin_mutex.h>
+#include <tbb/task_arena.h>
 
 #include "core/errors.h"
 #include "core/rng.h"
@@ -381,8 +382,12 @@ void for_particles(std::size_t m, F&& f) {
   if (m < kParallelCloud) {
     f(std::size_t(0), m);
   } else {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 1024),
-                      [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
+    // Isolated: while it waits, this thread must not pick up another node of the outer loop,
+    // which would reuse (and overwrite) this thread's scratch memory.
+    tbb::this_task_arena::isolate([&] {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 1024),
+                        [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
+    });
   }
 }
 
