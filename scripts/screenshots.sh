@@ -25,7 +25,7 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
   shot() {  # shot NAME LAYERS CAMERA [extra args]
     local name="$1" layers="$2" camera="$3"
     shift 3
-    "$VIEW" "$DUMP" --quiet --no-self-intersections --screenshot "$OUT/$name.png" --size "${SHOT_SIZE:-$SIZE}" --layers "$layers" \
+    "$VIEW" "$DUMP" --quiet --screenshot "$OUT/$name.png" --size "${SHOT_SIZE:-$SIZE}" --layers "$layers" \
       --camera "$camera" "$@"
     printf '  %-24s %7d bytes\n' "$name.png" "$(stat -c %s "$OUT/$name.png")" >&2
   }
@@ -38,7 +38,7 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
   shot stage_mesh        mesh,legend                    "$CAM"
   shot stage_wireframe   mesh,wireframe,legend          "$CLOSE"
   shot stage_uv          uv,legend                      "$CLOSE"
-  SHOT_SIZE=1024x640 shot viewer_ui mesh,legend "yaw=35,pitch=12,dist=0.9" --ui --select "$FORK"
+  SHOT_SIZE=1200x720 shot viewer_ui mesh,legend "yaw=35,pitch=12,dist=0.9" --ui --select "$FORK"
   exit 0
 fi
 
@@ -50,7 +50,7 @@ fi
 SKELETON="${1:-$STRANDMESH_ROOT/../shared/skeletons/sapling_quaking_aspen.json}"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
-mkdir -p "$OUT" "$WORK/dump"
+mkdir -p "$OUT"
 
 if [ ! -f "$SKELETON" ]; then
   log "$SKELETON not found; growing a tree instead"
@@ -58,15 +58,18 @@ if [ ! -f "$SKELETON" ]; then
   "$BUILD_DIR/strandmesh" grow --seed 1 -o "$SKELETON"
 fi
 
-log "meshing $(basename "$SKELETON") and dumping its stages"
-"$BUILD_DIR/strandmesh" --quiet mesh "$SKELETON" -o "$WORK/dump/tree.glb" --dump-stages "$WORK/dump"
+NAME="$(basename "${SKELETON%.*}")"
+DUMP="$WORK/$NAME"  # the panels show the dump's name as given, so it is relative below
+mkdir -p "$DUMP"
+log "meshing $NAME and dumping its stages"
+"$BUILD_DIR/strandmesh" --quiet mesh "$SKELETON" -o "$DUMP/$NAME.glb" --dump-stages "$DUMP"
 
 # The node the close-ups frame: a plain binary fork (neither its parent nor its children are
 # forks, so not part of a whorl split into a chain of forks) whose thinner child is thickest;
 # else any fork with the thickest thinner child. Read from the dumped, sanitized skeleton.
 FORK="${STRANDMESH_SCREENSHOT_NODE:-}"
 if [ -z "$FORK" ]; then
-  FORK=$(python3 - "$WORK/dump/skeleton.json" <<'EOF' 2>/dev/null || echo 0
+  FORK=$(python3 - "$DUMP/skeleton.json" <<'EOF' 2>/dev/null || echo 0
 import json, sys
 nodes = json.load(open(sys.argv[1]))["nodes"]
 radius = {n["id"]: n["radius"] for n in nodes}
@@ -82,5 +85,6 @@ EOF
 )
 fi
 log "rendering under xvfb-run (close-ups frame node $FORK)"
-xvfb-run -a -s '-screen 0 1280x1024x24' "$0" --inside-xvfb "$WORK/dump" "$FORK"
+SELF="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"
+(cd "$WORK" && xvfb-run -a -s '-screen 0 1280x1024x24' "$SELF" --inside-xvfb "$NAME" "$FORK")
 log "done: $OUT"

@@ -87,7 +87,7 @@ std::vector<LegendEntry> legend_entries(const std::array<bool, kLayerCount>& vis
   }
   if (on(Layer::mesh)) {
     out.push_back({palette::bark, uv_checker ? "mesh: UV checker" : "mesh: smooth normals"});
-    out.push_back({palette::back_face, "back faces seen (inside out, or through a hole)"});
+    out.push_back({palette::back_face, "back faces (inside out, or seen through a hole)"});
   }
   if (on(Layer::wireframe)) out.push_back({palette::wireframe, "mesh edges"});
   if (on(Layer::normals)) out.push_back({palette::normal_line, "vertex normals"});
