@@ -864,7 +864,8 @@ void add_warnings(const Skeleton& sk, const std::vector<std::uint8_t>& flags, Wa
       {kThinTip, "thin_tip",
        "tip thinner than one particle spacing: its disc is packed with min_particles particles, denser than s"},
       {kBackwardChild, "child_points_backwards",
-       "child edge points back into its parent's half space: its cloud is carried by the minimal rotation"},
+       "child edge points back into its parent's half space: its bundle is turned into the parent's plane by the "
+       "minimal rotation (no oblique projection)"},
       {kForkChildrenCoincide, "fork_children_coincide",
        "fork children at the same position: bundles placed side by side along the difference of their directions"},
       {kForkChildrenColinear, "fork_children_colinear",
