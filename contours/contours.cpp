@@ -531,6 +531,21 @@ void Walker::walk(Task task) {
     // A fork: fused slices until the two bundles split.
     const NodeId fork = cur;
     const double fork_base = end;
+    {
+      // Keep the last loop below the split close to the fork (the pants stay short even when
+      // the edge below was sliced coarsely): a loop at the fork's own section.
+      const SliceGeometry g = edge_geometry(fork, 1.0);
+      const double near = p_.slice_step * g.radius;
+      if (end - last > 0.5 * near && !out_.tubes[tube].loops.empty()) {
+        pts_.clear();
+        evaluate(fork, 1.0, pts_);
+        add_loop(pts_, g, LoopKind::plain, anchor_distance + end, tube);
+        last = end;
+      }
+      // Slices above the fork start at the fine, radius-based step, however coarsely the edge
+      // below was sliced.
+      d = std::clamp(d, last + 0.5 * near, end + near);
+    }
     const NodeId a = s_.children[fork.idx()][0];
     const NodeId b = s_.children[fork.idx()][1];
     const double shorter_end = fork_base + std::min(len(a), len(b));

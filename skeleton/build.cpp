@@ -355,6 +355,84 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
   }
 }
 
+/// Branches running inside a sibling: some skeletons (Sapling output among them) start a
+/// branch on the parent's axis and run it up inside the parent's next long edge for several
+/// nodes before it turns away; its sub-branches then leave from inside the parent. Such a
+/// node X (a child of v lying inside the round cone of v's edge to its sibling Y, with Y's edge
+/// the longer) is merged into that edge: a node M is inserted on v->Y at X's projection, and
+/// X's children move to M. Repeated from M, so whole inner chains fold into the parent.
+bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
+  const std::size_t before = rep.merged_inner;
+  std::vector<std::uint32_t> queue = t.bfs();
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const std::uint32_t v = queue[q];
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      // Copy: t.add() below may reallocate t.children.
+      const std::vector<std::uint32_t> ch = t.children[v];
+      for (std::size_t xi = 0; !changed && xi < ch.size(); ++xi) {
+        for (std::size_t yi = 0; !changed && yi < ch.size(); ++yi) {
+          if (xi == yi) continue;
+          const std::uint32_t x = ch[xi], y = ch[yi];
+          const dvec3 a = t.pos[v], b = t.pos[y];
+          const dvec3 ab = b - a;
+          const double l2 = glm::dot(ab, ab);
+          if (l2 <= glm::dot(t.pos[x] - a, t.pos[x] - a)) continue;  // y's edge must be the longer
+          const double tt = glm::dot(t.pos[x] - a, ab) / l2;
+          // Only nodes well beyond the fork's own sphere: near the fork every pair of
+          // children overlaps, which the contour stage handles.
+          if (tt >= 0.98 || tt * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
+          const double r = glm::mix(t.radius[v], t.radius[y], tt);
+          if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
+          const std::uint32_t m = t.add(a + tt * ab, r, v, -1);
+          t.children[m].push_back(y);
+          t.parent[y] = m;
+          for (std::uint32_t g : t.children[x]) {
+            t.children[m].push_back(g);
+            t.parent[g] = m;
+          }
+          t.children[x].clear();
+          t.removed[x] = true;
+          auto& cv = t.children[v];
+          cv.erase(std::find(cv.begin(), cv.end(), x));
+          *std::find(cv.begin(), cv.end(), y) = m;
+          ++rep.merged_inner;
+          rep.warnings.add("inner_branch", "branch running inside its sibling's edge merged into it",
+                           x < raw.size() ? raw.place(x) : std::string("inserted node"));
+          queue.push_back(m);
+          changed = true;
+        }
+      }
+    }
+  }
+  return rep.merged_inner > before;
+}
+
+/// Lateral collars: a lateral edge from a fork of radius r to a much thinner child is, as a
+/// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
+/// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
+/// the fork) with about the child's radius (a quarter of the way to the fork's) keeps the
+/// flare inside the parent and the lateral thin.
+void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep) {
+  if (params.collar_ratio <= 0) return;
+  const auto order = t.bfs();
+  for (std::uint32_t v : order) {
+    if (t.children[v].size() != 2) continue;
+    const std::uint32_t c = t.children[v][1];  // children are sorted main first by binarize()
+    const double rv = t.radius[v], rc = t.radius[c];
+    const double len = glm::length(t.pos[c] - t.pos[v]);
+    const double at = params.collar_ratio * rv;
+    if (rc >= params.collar_max_child_ratio * rv || len < at + 2.0 * rc) continue;
+    const dvec3 dir = (t.pos[c] - t.pos[v]) / len;
+    const std::uint32_t m = t.add(t.pos[v] + dir * at, rc + 0.25 * (rv - rc), v, -1);
+    t.children[v][1] = m;
+    t.children[m].push_back(c);
+    t.parent[c] = m;
+    ++rep.collars;  // a refinement, not a repair: counted, not warned about
+  }
+}
+
 }  // namespace
 
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
@@ -372,8 +450,12 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   raise_radii(t, rep.radius_floor, rep, raw);
   merge_short_edges(t, params, rep, raw);
   fix_thick_children(t, params, rep, raw);
+  if (params.merge_inner_branches && merge_inner_branches(t, rep, raw)) {
+    merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
+  }
   resample_long_edges(t, params, rep);
   binarize(t, params, rep, raw);
+  add_collars(t, params, rep);
   rep.timings.add("repair", clock.lap());
 
   // Renumber depth-first from the root, main child first, so main chains are contiguous and

@@ -49,6 +49,15 @@ struct SkeletonParams {
   double max_edge_ratio = 0.0;
   /// Step between the extra nodes of a binarized n-ary node, relative to the node's radius.
   double binarize_step_ratio = 0.02;
+  /// Merge a branch that runs inside its sibling's round cone into the sibling's edge (see
+  /// build.cpp, merge_inner_branches); Sapling output needs it.
+  bool merge_inner_branches = true;
+  /// Where a lateral much thinner than its fork leaves, insert a node at this distance from
+  /// the fork (relative to the fork's radius: 1 = on the parent's surface) so the lateral's
+  /// round cone does not flare from the fork's full radius; 0 disables.
+  double collar_ratio = 1.0;
+  /// Only laterals thinner than this fraction of the fork's radius get a collar node.
+  double collar_max_child_ratio = 0.7;
   /// Swing apart branches whose round cones intersect away from their common fork (no mesh
   /// can be free of self-intersections and genus 0 otherwise).
   bool separate_branches = true;
@@ -66,6 +75,8 @@ struct SkeletonReport {
   std::size_t resampled_edges = 0;       ///< long edges split
   std::size_t binarized_nodes = 0;       ///< nodes with more than two children
   std::size_t inserted_nodes = 0;        ///< extra nodes created by binarizing or resampling
+  std::size_t merged_inner = 0;          ///< nodes of branches running inside a sibling, merged into it
+  std::size_t collars = 0;               ///< collar nodes inserted at thin laterals (not a repair)
   std::size_t branch_collisions = 0;     ///< pairs of branches that ran into each other
   std::size_t unresolved_collisions = 0; ///< of those, pairs still touching after separation
   double max_separation = 0;             ///< largest distance a node was moved to separate (metres)

@@ -82,7 +82,7 @@ TEST(Skeleton, StraightBranch) {
 }
 
 TEST(Skeleton, YForkMainChildIsThicker) {
-  const Skeleton s = built(test::y_fork());
+  const Skeleton s = built(test::y_fork(), {.collar_ratio = 0});
   expect_valid(s);
   ASSERT_EQ(s.size(), 7u);
   const NodeId fork(2u);
@@ -105,7 +105,7 @@ TEST(Skeleton, MainChildTieBrokenByInputOrder) {
 }
 
 TEST(Skeleton, TrifurcationIsBinarized) {
-  const auto r = build_skeleton(test::trifurcation());
+  const auto r = build_skeleton(test::trifurcation(), {.collar_ratio = 0});
   expect_valid(r.skeleton);
   EXPECT_EQ(r.report.binarized_nodes, 1u);
   EXPECT_EQ(r.report.inserted_nodes, 1u);
@@ -116,7 +116,7 @@ TEST(Skeleton, TrifurcationIsBinarized) {
 }
 
 TEST(Skeleton, SixChildrenBecomeAChainOfForks) {
-  const auto r = build_skeleton(test::six_children());
+  const auto r = build_skeleton(test::six_children(), {.collar_ratio = 0});
   const Skeleton& s = r.skeleton;
   expect_valid(s);
   EXPECT_EQ(r.report.inserted_nodes, 4u);
@@ -143,12 +143,53 @@ TEST(Skeleton, SixChildrenBecomeAChainOfForks) {
 }
 
 TEST(Skeleton, ZeroLengthEdgesMergedZeroRadiusRaised) {
-  const auto r = build_skeleton(test::zero_length_edges());
+  const auto r = build_skeleton(test::zero_length_edges(), {.collar_ratio = 0});
   expect_valid(r.skeleton);
   EXPECT_EQ(r.report.merged_edges, 2u);
   EXPECT_EQ(r.report.raised_radii, 1u);
   EXPECT_EQ(r.skeleton.size(), 4u);
   EXPECT_EQ(count_forks(r.skeleton), 1u);
+}
+
+TEST(Skeleton, CollarsAtThinLaterals) {
+  // The y fork's lateral (radius 0.055) is thinner than 0.7 x its fork (0.09): a collar node
+  // at one fork radius along it, with about the lateral's radius, keeps the lateral's round
+  // cone from flaring from the fork's full radius.
+  const auto r = build_skeleton(test::y_fork());
+  EXPECT_EQ(r.report.collars, 1u);
+  ASSERT_EQ(r.skeleton.size(), 8u);
+  const Skeleton& s = r.skeleton;
+  const NodeId collar = s.children[2][1];
+  EXPECT_EQ(s.source_id[collar.idx()], -1);
+  EXPECT_NEAR(s.edge_length(collar), 0.09, 1e-12);
+  EXPECT_NEAR(s.radius[collar.idx()], 0.055 + 0.25 * (0.09 - 0.055), 1e-12);
+  EXPECT_EQ(r.report.warnings.total(), 0u);  // a refinement, not a repair
+  // Sanitizing the result again changes nothing.
+  EXPECT_EQ(build_skeleton(parse_skeleton_json(skeleton_to_json(s))).skeleton.size(), 8u);
+}
+
+TEST(Skeleton, BranchRunningInsideItsSiblingIsMerged) {
+  // A "lateral" that starts on the trunk's axis and runs up inside the trunk's long edge for
+  // two nodes before turning away (as Sapling writes whorls) is folded into the trunk.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.2);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.18);
+  raw.add(2, 1, dvec3(0, 0, 3), 0.15);     // trunk, one long edge
+  raw.add(3, 1, dvec3(0, 0.01, 1.6), 0.05);  // inside the trunk
+  raw.add(4, 3, dvec3(0, 0.01, 2.2), 0.05);  // still inside
+  raw.add(5, 4, dvec3(0.8, 0, 2.6), 0.04);   // turns away
+  const auto r = build_skeleton(raw);
+  EXPECT_EQ(r.report.merged_inner, 2u);
+  // Node 5's branch now leaves from a trunk node near height 2.2.
+  const Skeleton& s = r.skeleton;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.source_id[i] == 5) {
+      NodeId p = s.parent[i];
+      while (s.source_id[p.idx()] < 0 && !s.is_fork(p)) p = s.parent[p.idx()];
+      EXPECT_NEAR(s.position[p.idx()].z, 2.2, 1e-9);
+      EXPECT_NEAR(s.position[p.idx()].x, 0.0, 1e-9);
+    }
+  }
 }
 
 TEST(Skeleton, ThickChildPolicies) {
@@ -223,7 +264,7 @@ TEST(Skeleton, SwcImport) {
       "\n"
       "3 3 1 0 3 0.2 2   # lateral\n"
       "4 3 0 0 4.0 0.3 2\n";
-  const Skeleton s = built(parse_swc(swc, "test.swc"));
+  const Skeleton s = built(parse_swc(swc, "test.swc"), {.collar_ratio = 0});
   EXPECT_EQ(s.size(), 4u);
   EXPECT_EQ(count_forks(s), 1u);
   EXPECT_EQ(s.source_id[s.children[1][0].idx()], 4);
