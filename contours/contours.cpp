@@ -544,7 +544,7 @@ void Walker::walk(Task task) {
       }
       // Slices above the fork start at the fine, radius-based step, however coarsely the edge
       // below was sliced.
-      d = std::clamp(d, last + 0.5 * near, end + near);
+      d = std::max(last + 0.5 * near, std::min(d, end + near));  // (the fork may lie below `last`)
     }
     const NodeId a = s_.children[fork.idx()][0];
     const NodeId b = s_.children[fork.idx()][1];
