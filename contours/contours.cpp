@@ -548,7 +548,17 @@ void Walker::walk(Task task) {
     }
     const NodeId a = s_.children[fork.idx()][0];
     const NodeId b = s_.children[fork.idx()][1];
-    const double shorter_end = fork_base + std::min(len(a), len(b));
+    // Bundles still touching where the shorter child's segment ends (its next fork or its tip;
+    // collar nodes and other single-child nodes do not end a segment) are split there.
+    auto segment = [&](NodeId c) {
+      double l = len(c);
+      while (s_.child_count(c) == 1) {
+        c = s_.children[c.idx()][0];
+        l += len(c);
+      }
+      return l;
+    };
+    const double shorter_end = fork_base + std::min(segment(a), segment(b));
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);
