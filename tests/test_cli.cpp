@@ -102,5 +102,59 @@ TEST(Cli, InfoOnSamplesReportsRepairs) {
   }
 }
 
+TEST(Cli, MeshWritesEveryFormatAndStats) {
+  const fs::path dir = test::temp_dir("cli_mesh");
+  ASSERT_EQ(run("grow --seed 1 -o " + (dir / "t.json").string()).code, 0);  // the default tree: checks pass
+  for (const char* ext : {"glb", "gltf", "obj", "ply"}) {
+    SCOPED_TRACE(ext);
+    const fs::path out = dir / (std::string("t.") + ext);
+    const CmdResult r = run("-q mesh " + (dir / "t.json").string() + " -o " + out.string() + " --stats " +
+                            (dir / "stats.json").string());
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(out));
+    EXPECT_GT(fs::file_size(out), 1000u);
+  }
+  const std::string stats = read_file(dir / "stats.json");
+  for (const char* key : {"\"nodes\"", "\"strands\"", "\"particles\"", "\"slices\"", "\"vertices\"",
+                          "\"triangles\"", "\"seconds\"", "\"skeleton\"", "\"contours\"", "\"meshing\"",
+                          "\"export\"", "\"total\""}) {
+    EXPECT_NE(stats.find(key), std::string::npos) << key;
+  }
+  // The mesh passes its own check against the skeleton.
+  const CmdResult check = run("check " + (dir / "t.glb").string() + " --skeleton " + (dir / "t.json").string());
+  EXPECT_EQ(check.code, 0) << check.out;
+  // Stage dumps, into a folder that does not exist yet and that also receives the mesh.
+  const fs::path dump = dir / "dump";
+  EXPECT_EQ(run("-q mesh " + (dir / "t.json").string() + " -o " + (dump / "t.ply").string() + " --dump-stages " +
+                dump.string()).code,
+            0);
+  for (const char* f : {"skeleton.json", "particles.json", "strands.json", "contours.json", "stats.json", "t.ply"}) {
+    EXPECT_TRUE(fs::exists(dump / f)) << f;
+  }
+}
+
+TEST(Cli, MeshFailuresLeaveNoOutput) {
+  const fs::path dir = test::temp_dir("cli_mesh_bad");
+  write_file_atomically(dir / "bad.json", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":-1}]})");
+  ASSERT_EQ(run("grow --seed 3 -o " + (dir / "ok.json").string()).code, 0);
+  const CmdResult bad = run("mesh " + (dir / "bad.json").string() + " -o " + (dir / "bad.glb").string());
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.err.find("negative"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "bad.glb"));
+  // Unknown output format: a usage problem, reported before any work.
+  const CmdResult ext = run("mesh " + (dir / "ok.json").string() + " -o " + (dir / "t.stl").string());
+  EXPECT_EQ(ext.code, 1);
+  EXPECT_FALSE(fs::exists(dir / "t.stl"));
+  // A config with an unknown key.
+  write_file_atomically(dir / "cfg.json", R"({"contours": {"slice_stepp": 1}})");
+  const CmdResult cfg =
+      run("mesh " + (dir / "ok.json").string() + " --config " + (dir / "cfg.json").string() + " -o " + (dir / "c.glb").string());
+  EXPECT_EQ(cfg.code, 1);
+  EXPECT_NE(cfg.err.find("unknown key \"slice_stepp\""), std::string::npos) << cfg.err;
+  EXPECT_FALSE(fs::exists(dir / "c.glb"));
+  // An output folder that does not exist.
+  EXPECT_EQ(run("mesh " + (dir / "ok.json").string() + " -o " + (dir / "nope" / "t.glb").string()).code, 1);
+}
+
 }  // namespace
 }  // namespace sm

@@ -78,12 +78,12 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
         log::warn(line + ")");
       }
+      if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
       Stopwatch export_clock;
       ExportParams ep;
       ep.up_axis = r.skeleton.skeleton.up_axis;
       write_file_atomically(o->output, encode_mesh(r.mesh.mesh, format, ep));
       const double export_seconds = export_clock.elapsed();
-      if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       char line[512];
       std::snprintf(line, sizeof line, "%s: %zu nodes, %zu strands, %zu particles => %zu triangles, %zu vertices in %.2f s -> %s",
