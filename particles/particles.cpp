@@ -47,6 +47,11 @@
 //    cut, and 5-8% of the strands near the cut lost most of their neighbours (the star map:
 //    about 1%).
 //
+//    Forks of at most 32 particles take the relaxed tip pattern of their count instead, the
+//    mapped positions only choosing which slot each particle takes (snap_to_pattern): with so
+//    few particles the mapped bundles sit on the boundaries of their halves, and the
+//    relaxation can settle with holes in the middles.
+//
 //  - New strands: candidate positions are a sunflower spiral with the node's full count;
 //    the candidates farthest from the carried particles take the new strands (they are the
 //    holes of the sparse cloud), then the whole cloud is relaxed.
@@ -325,6 +330,11 @@ struct Scratch {
   std::vector<dvec2> candidates;
   std::vector<double> cand_dist;
   std::vector<std::uint32_t> sort_buf;
+  struct PairSlot {
+    double d2;
+    std::uint32_t particle, slot;
+  };
+  std::vector<PairSlot> pairs;  // small forks: particle-slot distances
   // Relaxed tip patterns by particle count (see tip_pattern()).
   std::vector<std::vector<dvec2>> tip_pattern;
   std::vector<RelaxResultSlot> tip_result;
@@ -376,6 +386,8 @@ constexpr std::size_t kParallelCloud = 4096;
 constexpr float kCoincident2 = 1e-12f;
 /// Tips with at most this many particles take a cached relaxed pattern.
 constexpr std::uint32_t kTipCache = 256;
+/// Forks with at most this many particles take the relaxed pattern too (snap_to_pattern).
+constexpr std::uint32_t kSmallFork = 32;
 
 template <class F>
 void for_particles(std::size_t m, F&& f) {
@@ -744,7 +756,8 @@ class CloudBuilder {
         carry(n, c0, pos);
         skip_relaxation = carried == m && converged_[c0.idx()];
       } else {
-        place_fork(n, c0, c1, pos);
+        const dvec2 u = place_fork(n, c0, c1, pos);
+        if (carried == m && m <= kSmallFork) snap_to_pattern(n, u, lambda, pos, sc);
       }
       if (carried < m) insert_new_strands(pos, carried, wall, rng.uniform(0.0, 2.0 * kPi), sc);
       sc.placement_cpu += watch.lap();
@@ -798,7 +811,8 @@ class CloudBuilder {
   }
 
   /// Fork: each child's cloud into its part of the parent disc (see the file comment).
-  void place_fork(NodeId n, NodeId c0, NodeId c1, std::span<dvec2> pos) {
+  /// Places a fork's bundles (see the file comment); returns the child-to-child direction.
+  dvec2 place_fork(NodeId n, NodeId c0, NodeId c1, std::span<dvec2> pos) {
     const std::size_t i = n.idx();
     const Frame& fr = sk_.frame[i];
     const dvec3 d0 = check_direction(n, c0), d1 = check_direction(n, c1);
@@ -845,6 +859,51 @@ class CloudBuilder {
         pos[j] = wall * (sigma * q.x * u + q.y * w);
       }
     }
+    return u;
+  }
+
+  /// Small forks: a handful of particles mapped onto half discs sit on the boundaries of the
+  /// two parts and leave the middles empty, and with so few particles the relaxation can
+  /// stop in such a state (every particle is farther than the repulsion radius from the
+  /// hole). Instead the fork takes the relaxed tip pattern of its count: the slots with the
+  /// smaller coordinates along u go to the main bundle, the others to the lateral one, and
+  /// within each side the particles take the slots nearest to their mapped positions (greedy,
+  /// closest pairs first), which keeps the bundle's arrangement.
+  void snap_to_pattern(NodeId n, dvec2 u, double lambda, std::span<dvec2> pos, Scratch& sc) {
+    const std::uint32_t m = std::uint32_t(pos.size());
+    tip_pattern(m, sc);
+    const std::vector<dvec2>& pat = sc.tip_pattern[m];
+    std::uint32_t order[kSmallFork];
+    for (std::uint32_t k = 0; k < m; ++k) order[k] = k;
+    std::sort(order, order + m, [&](std::uint32_t a, std::uint32_t b) {
+      const double ua = glm::dot(pat[a], u), ub = glm::dot(pat[b], u);
+      return ua != ub ? ua < ub : a < b;
+    });
+    const std::uint32_t n0 = f_.count(sk_.children[n.idx()][0]);
+    dvec2 placed[kSmallFork];
+    for (int side = 0; side < 2; ++side) {
+      const std::uint32_t b = side == 0 ? 0 : n0, e = side == 0 ? n0 : m;
+      using Pair = Scratch::PairSlot;
+      std::vector<Pair>& pairs = sc.pairs;
+      pairs.clear();
+      for (std::uint32_t a = b; a < e; ++a) {
+        for (std::uint32_t k = b; k < e; ++k) {
+          const dvec2 d = pos[a] - lambda * pat[order[k]];
+          pairs.push_back({glm::dot(d, d), a, order[k]});
+        }
+      }
+      std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+        return x.d2 != y.d2 ? x.d2 < y.d2 : (x.particle != y.particle ? x.particle < y.particle : x.slot < y.slot);
+      });
+      std::uint64_t used_particle = 0, used_slot = 0;
+      for (const Pair& q : pairs) {
+        if ((used_particle >> q.particle & 1) || (used_slot >> q.slot & 1)) continue;
+        used_particle |= std::uint64_t(1) << q.particle;
+        used_slot |= std::uint64_t(1) << q.slot;
+        placed[q.particle] = lambda * pat[q.slot];
+      }
+    }
+    std::copy(placed, placed + m, pos.begin());
   }
 
   const Skeleton& sk_;
