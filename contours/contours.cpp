@@ -190,9 +190,27 @@ class Walker {
     const double scale_n = g.radius / s_.radius[n.idx()];
     out.offset.insert(out.offset.end(), count,
                       glm::mix(surface_offset(parent) * scale_p, surface_offset(n) * scale_n, w));
+    // A wide lateral's section near its fork is tilted against the fork's own section; part
+    // of it would dip back below the fork's plane and fold the surface there. Points above a
+    // fork are kept at least a little above its plane (a third of their distance along the
+    // edge), which only touches the first sections of steep laterals.
+    const dvec3& fork_pos = s_.position[parent.idx()];
+    const dvec3& fork_up = s_.frame[parent.idx()].tangent;
+    const double rf = s_.radius[parent.idx()];
+    const double along = t * len(n);
+    // Only where the child leaves upwards, within its transition, by at most half the fork's
+    // radius (a drooping branch is meant to go below the fork's plane).
+    const bool above_fork = s_.is_fork(parent) && along < p_.fork_transition * rf &&
+                            glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
+    const double min_height = along / 3.0;
     for (std::uint32_t j = 0; j < count; ++j) {
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
-      out.point.push_back(g.center + g.frame.to_world(q));
+      dvec3 pt = g.center + g.frame.to_world(q);
+      if (above_fork) {
+        const double h = glm::dot(pt - fork_pos, fork_up);
+        if (h < min_height) pt += fork_up * std::min(min_height - h, 0.5 * rf);
+      }
+      out.point.push_back(pt);
       out.strand.push_back(f_.strand[base + j]);
     }
   }

@@ -359,10 +359,13 @@ void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch) {
 
 void Builder::root_cap(std::uint32_t loop, std::uint32_t branch) {
   const auto ids = loop_ids(loop);
-  // Flat base: the centre in the loop's plane.
+  // Base: the centre below the loop's plane.
   const Frame& f = c_.loop_frame[loop];
   glm::dvec3 c = loop_centroid(loop);
   c -= f.tangent * glm::dot(c - c_.loop_center[loop], f.tangent);
+  // A very shallow dome downwards (5% of the radius), so the root node lies strictly inside
+  // the mesh rather than exactly on its base, where float32 export could put it either side.
+  c -= f.tangent * (0.05 * c_.loop_radius[loop]);
   const std::uint32_t centre = add_vertex(c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
   scratch_.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) scratch_.push_back({ids[(k + 1) % ids.size()], ids[k], centre});

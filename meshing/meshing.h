@@ -10,8 +10,8 @@
 ///    either side of the crotch, each half is stitched to one upper loop (opened at its crotch
 ///    vertex), and two special triangles on the crotch edge close the gap: a pair of pants
 ///    with no holes and no overlaps, manifold by construction (see fuse_loops).
-///  - Caps: a dome on the last loop of every tube that ends at a tip, a flat base on the
-///    root's loop.
+///  - Caps: a dome on the last loop of every tube that ends at a tip, a nearly flat base
+///    (5% of the radius deep) on the root's loop.
 ///  - Normals are computed on the finished mesh (angle-weighted), UVs follow the strands:
 ///    u around the branch (from the parallel-transported frame, so it does not twist), v along
 ///    it, scaled by the circumference so texels stay square. Seams are per-corner UVs only.

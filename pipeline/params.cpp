@@ -38,12 +38,14 @@ void visit_fields(ParticleParams& p, V&& v) {
   v("min_particles", p.min_particles);
   v("new_strand_sparsity", p.new_strand_sparsity);
   v("wall_margin", p.wall_margin);
+  v("wall_offset", p.wall_offset);
   v("max_steps", p.max_steps);
   v("move_tolerance", p.move_tolerance);
   v("max_velocity", p.max_velocity);
   v("damping", p.damping);
   v("step_size", p.step_size);
   v("repulsion_radius", p.repulsion_radius);
+  v("neighbour_skin", p.neighbour_skin);
   v("rebuild_every", p.rebuild_every);
   v("fork_gap", p.fork_gap);
   v("max_total_particles", p.max_total_particles);

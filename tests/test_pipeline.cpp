@@ -92,7 +92,7 @@ TEST(Pipeline, OtherGrownTrees) {
   SCOPED_TRACE("seed 2");
   expect_bounded(run_and_check(test::grown_tree(2)), 10, 0.15, 0);
   SCOPED_TRACE("seed 3");
-  expect_bounded(run_and_check(test::grown_tree(3)), 30, 0.15, 0);
+  expect_bounded(run_and_check(test::grown_tree(3)), 30, 0.15, 1);
 }
 
 TEST(Pipeline, Samples) {
@@ -105,7 +105,7 @@ TEST(Pipeline, Samples) {
       {"mtg_boutdenoylum2.json", {1900, 0.38, 20}},
       {"qsm_simpleforest_rtwig.json", {1300, 0.09, 10}},
       {"sapling_callistemon.json", {5500, 0.26, 70}},
-      {"sapling_quaking_aspen.json", {4100, 0.14, 10}},
+      {"sapling_quaking_aspen.json", {4100, 0.16, 10}},
       {"sapling_small_pine.json", {26000, 0.5, 130}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
