@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <map>
 #include <tuple>
 
@@ -144,6 +145,20 @@ TEST(Pipeline, SingleNodeSkeletonIsRejected) {
   RawSkeleton raw;
   raw.add(0, -1, dvec3(0), 0.1);
   EXPECT_THROW(run_pipeline(raw, {}), InvalidInputError);
+}
+
+TEST(Pipeline, ShippedConfigsLoad) {
+  std::size_t n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs")) {
+    if (e.path().extension() != ".json") continue;
+    SCOPED_TRACE(e.path().string());
+    EXPECT_NO_THROW(load_params(e.path()));
+    ++n;
+  }
+  EXPECT_GE(n, 3u);  // default, preview, high_detail
+  // default.json spells out exactly the built-in defaults.
+  EXPECT_EQ(params_to_json(load_params(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs/default.json")),
+            params_to_json(PipelineParams{}));
 }
 
 TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {
