@@ -55,10 +55,20 @@ std::vector<std::uint32_t> convex_hull(const std::vector<dvec2>& p) {
   return h;
 }
 
-/// True when the loop (vertices in increasing angle `key` around c, the first at key 0) has
-/// all angular gaps below pi and every point lies inside it or within `tol` of it.
-/// O(n log m): each point's sector is found by binary search on the keys.
-bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key,
+/// A monotone stand-in for the angle of (x, y) in [0, 4) (a "diamond angle"): sorts like
+/// atan2 at a fraction of its cost.
+double pseudo_angle(double x, double y) {
+  const double s = std::abs(x) + std::abs(y);
+  if (s == 0) return 0;
+  const double r = y / s;
+  return x >= 0 ? (y >= 0 ? r : 4 + r) : 2 - r;
+}
+
+/// True when the loop (vertices in increasing `key` around c, the first at key 0) turns
+/// less than pi between consecutive vertices as seen from c (so it is simple and star-shaped
+/// around c) and every point lies inside it or within `tol` of it. O(n log m): each point's
+/// sector is found by binary search on the keys.
+bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const dvec2& c,
                      const std::vector<std::uint32_t>& loop, double tol) {
   const std::size_t m = loop.size();
   if (m < 3) return false;
@@ -66,11 +76,10 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
   for (std::size_t k = 0; k < m; ++k) {
     lk[k] = key[loop[k]];
     if (k > 0 && !(lk[k] > lk[k - 1])) return false;
-    if (k > 0 && lk[k] - lk[k - 1] >= kPi) return false;
+    if (!(cross2(p[loop[k]] - c, p[loop[(k + 1) % m]] - c) > 0)) return false;
   }
-  if (2 * kPi - lk[m - 1] >= kPi) return false;
   for (std::uint32_t i = 0; i < p.size(); ++i) {
-    // Sector k spans [lk[k], lk[k+1]) (the last one wraps to 2 pi).
+    // Sector k spans [lk[k], lk[k+1]) (the last one wraps around).
     const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
     const std::size_t k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1));
     const dvec2& a = p[loop[k]];
@@ -106,22 +115,40 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   for (std::uint32_t i = 1; i < n; ++i) {
     if (p[i].y < p[start].y || (p[i].y == p[start].y && p[i].x < p[start].x)) start = i;
   }
-  const double a0 = std::atan2(p[start].y - c.y, p[start].x - c.x);
-  std::vector<std::uint32_t> order;
-  order.reserve(n);
+  const double a0 = pseudo_angle(p[start].x - c.x, p[start].y - c.y);
   std::vector<double> key(n), dist(n);
   for (std::uint32_t i = 0; i < n; ++i) {
-    double a = std::atan2(p[i].y - c.y, p[i].x - c.x) - a0;
-    while (a < 0) a += 2 * kPi;
-    while (a >= 2 * kPi) a -= 2 * kPi;
-    key[i] = a;
+    double a = pseudo_angle(p[i].x - c.x, p[i].y - c.y) - a0;
+    if (a < 0) a += 4;
+    if (a >= 4) a -= 4;
+    key[i] = i == start ? 0.0 : a;
     dist[i] = glm::length(p[i] - c);
-    if (i != start) order.push_back(i);
   }
-  // By angle; on equal angles the nearer point first, so the farther one survives the scan.
-  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return key[a] != key[b] ? key[a] < key[b] : (dist[a] != dist[b] ? dist[a] < dist[b] : a < b);
-  });
+  // Large clouds: only points near the outside of their angular sector can be on the loop;
+  // walk those (the result is verified against every point below, and redone without the
+  // filter if a dropped point turns out to be outside).
+  auto candidates = [&](bool filter) {
+    std::vector<std::uint32_t> order;
+    order.reserve(n);
+    if (!filter) {
+      for (std::uint32_t i = 0; i < n; ++i) {
+        if (i != start) order.push_back(i);
+      }
+    } else {
+      const std::size_t sectors = std::clamp<std::size_t>(n / 8, 16, 512);
+      std::vector<double> smax(sectors, 0.0);
+      auto sector = [&](std::uint32_t i) { return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors))); };
+      for (std::uint32_t i = 0; i < n; ++i) smax[sector(i)] = std::max(smax[sector(i)], dist[i]);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        if (i != start && dist[i] >= 0.6 * smax[sector(i)]) order.push_back(i);
+      }
+    }
+    // By angle; on equal angles the nearer point first, so the farther one survives the scan.
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return key[a] != key[b] ? key[a] < key[b] : (dist[a] != dist[b] ? dist[a] < dist[b] : a < b);
+    });
+    return order;
+  };
   const double max_concave = concave_turn_degrees * kPi / 180.0;
   // A turn counts as concave (drop the middle point) when it turns right by more than the
   // threshold, or is straight / degenerate.
@@ -136,17 +163,24 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (max_concave <= 0) return true;
     return -turn(p[a], p[b], p[q]) > max_concave;  // concave: keep only gentle turns
   };
-  std::vector<std::uint32_t> stack;
-  stack.reserve(n);
-  stack.push_back(start);
-  for (std::uint32_t q : order) {
-    while (stack.size() >= 2 && drop(stack[stack.size() - 2], stack.back(), q)) stack.pop_back();
-    stack.push_back(q);
+  auto walk = [&](const std::vector<std::uint32_t>& order) {
+    std::vector<std::uint32_t> stack;
+    stack.reserve(order.size() + 1);
+    stack.push_back(start);
+    for (std::uint32_t q : order) {
+      while (stack.size() >= 2 && drop(stack[stack.size() - 2], stack.back(), q)) stack.pop_back();
+      stack.push_back(q);
+    }
+    // Close the loop back to the start.
+    while (stack.size() >= 3 && drop(stack[stack.size() - 2], stack.back(), start)) stack.pop_back();
+    return stack;
+  };
+  const double valid_tol = tol + 1e-6 * extent;
+  for (const bool filter : {true, false}) {
+    if (filter && n <= 64) continue;
+    std::vector<std::uint32_t> loop = walk(candidates(filter));
+    if (loop.size() >= 3 && star_loop_valid(p, key, c, loop, valid_tol)) return loop;
   }
-  // Close the loop back to the start.
-  while (stack.size() >= 3 && drop(stack[stack.size() - 2], stack.back(), start)) stack.pop_back();
-
-  if (stack.size() >= 3 && star_loop_valid(p, key, stack, tol + 1e-6 * extent)) return stack;
   if (fallback) *fallback = true;
   return convex_hull(p);
 }

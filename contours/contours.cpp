@@ -239,9 +239,9 @@ class Walker {
     for (const auto& e : edges) evaluate(e.node, e.t, out);
   }
 
-  /// Smallest distance between the two point sets (3D). Brute force for small sets, a uniform
-  /// grid otherwise.
-  static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b);
+  /// Smallest distance between the two point sets (3D) when it is below `cap`; otherwise
+  /// infinity. May stop early with any distance <= `enough`.
+  static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough);
 
   // --- output -------------------------------------------------------------------------------
   std::uint32_t new_tube(NodeId branch, std::uint32_t start_junction) {
@@ -316,32 +316,61 @@ class Walker {
   std::vector<dvec2> flat_;
 };
 
-double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b) {
-  double best = std::numeric_limits<double>::infinity();
-  if (a.empty() || b.empty()) return best;
-  if (a.size() * b.size() <= 4096) {
-    for (const auto& p : a)
-      for (const auto& q : b) best = std::min(best, glm::dot(p - q, p - q));
-    return std::sqrt(best);
+double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough) {
+  // Exact below `cap`, otherwise infinity: a uniform grid of cell size cap over both sets, so
+  // only pairs in neighbouring cells are compared (the split test only asks "farther than").
+  if (a.empty() || b.empty()) return std::numeric_limits<double>::infinity();
+  dvec3 lo_a(std::numeric_limits<double>::infinity()), hi_a(-lo_a), lo_b = lo_a, hi_b = hi_a;
+  for (const auto& p : a) {
+    lo_a = glm::min(lo_a, p);
+    hi_a = glm::max(hi_a, p);
   }
-  // Sort both by x and sweep: only pairs within the current best in x are compared.
-  std::vector<dvec3> sa(a), sb(b);
-  auto byx = [](const dvec3& u, const dvec3& v) { return u.x < v.x; };
-  std::sort(sa.begin(), sa.end(), byx);
-  std::sort(sb.begin(), sb.end(), byx);
-  std::size_t lo = 0;
-  double r = std::numeric_limits<double>::infinity();
-  for (const auto& p : sa) {
-    while (lo < sb.size() && sb[lo].x < p.x - r) ++lo;
-    for (std::size_t k = lo; k < sb.size() && sb[k].x <= p.x + r; ++k) {
-      const double d2 = glm::dot(p - sb[k], p - sb[k]);
-      if (d2 < best) {
-        best = d2;
-        r = std::sqrt(best);
+  for (const auto& p : b) {
+    lo_b = glm::min(lo_b, p);
+    hi_b = glm::max(hi_b, p);
+  }
+  const dvec3 sep = glm::max(glm::max(lo_a - hi_b, lo_b - hi_a), dvec3(0));
+  if (glm::length(sep) >= cap) return std::numeric_limits<double>::infinity();
+  const double inv = 1.0 / cap;
+  auto cell = [&](const dvec3& p) { return glm::i64vec3(glm::floor((p - lo_b) * inv)); };
+  auto key = [](glm::i64vec3 c) {
+    return (std::uint64_t(c.x + (1 << 20)) << 42) ^ (std::uint64_t(c.y + (1 << 20)) << 21) ^ std::uint64_t(c.z + (1 << 20));
+  };
+  // Cell keys are linear in the cell coordinates (21 bits each, offset so they stay
+  // positive), so shifting every cell of a by one neighbour offset shifts its keys by one
+  // constant and keeps their order: each of the 27 offsets is one merge of two sorted lists.
+  auto sorted_cells = [&](const std::vector<dvec3>& pts) {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> cells(pts.size());
+    for (std::uint32_t k = 0; k < pts.size(); ++k) cells[k] = {key(cell(pts[k])), k};
+    std::sort(cells.begin(), cells.end());
+    return cells;
+  };
+  const auto cb = sorted_cells(b), ca = sorted_cells(a);
+  double best2 = cap * cap;
+  const double enough2 = enough * enough;
+  for (int dx = -1; dx <= 1 && best2 > enough2; ++dx)
+    for (int dy = -1; dy <= 1 && best2 > enough2; ++dy)
+      for (int dz = -1; dz <= 1 && best2 > enough2; ++dz) {
+        const std::uint64_t shift = (std::uint64_t(std::int64_t(dx)) << 42) + (std::uint64_t(std::int64_t(dy)) << 21) +
+                                    std::uint64_t(std::int64_t(dz));
+        std::size_t jb = 0;
+        for (std::size_t ia = 0; ia < ca.size() && best2 > enough2;) {
+          const std::uint64_t k = ca[ia].first + shift;
+          while (jb < cb.size() && cb[jb].first < k) ++jb;
+          if (jb == cb.size()) break;
+          if (cb[jb].first != k) {
+            ++ia;
+            continue;
+          }
+          std::size_t je = jb;
+          while (je < cb.size() && cb[je].first == k) ++je;
+          for (; ia < ca.size() && ca[ia].first + shift == k; ++ia) {
+            const dvec3& p = a[ca[ia].second];
+            for (std::size_t t = jb; t < je; ++t) best2 = std::min(best2, glm::dot(p - b[cb[t].second], p - b[cb[t].second]));
+          }
+        }
       }
-    }
-  }
-  return std::sqrt(best);
+  return best2 < cap * cap ? std::sqrt(best2) : std::numeric_limits<double>::infinity();
 }
 
 std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, LoopKind kind, double distance,
@@ -454,7 +483,7 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   pts_b_.clear();
   evaluate_cut(cut_a_, pts_a_);
   evaluate_cut(cut_b_, pts_b_);
-  last_gap_ = gap(pts_a_.point, pts_b_.point);
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(), 0.25 * spacing_);  // forced splits need > 0.5 x  // forced splits need > 0.5 x
   // Bundles can also run into the other branch at a different distance from the fork (a
   // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
   // distance): each bundle's surface must also clear the other subtree's round cones.

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <unordered_set>
 
 #include "core/errors.h"
 
@@ -14,10 +13,6 @@ namespace sm {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-  return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
-}
 
 /// Signed angle difference wrapped into (-pi, pi].
 double wrap_pi(double a) {
@@ -55,9 +50,6 @@ struct AngleGuard {
 void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
             const std::vector<glm::dvec3>& pos, std::vector<Mesh::Triangle>& out, const AngleGuard* guard) {
   const std::size_t m = lower.size(), n = upper.size();
-  std::unordered_set<std::uint64_t> diagonals;
-  diagonals.reserve(2 * (m + n));
-  diagonals.insert(edge_key(lower[0], upper[0]));
   std::size_t i = 0, j = 0;
   while (i < m || j < n) {
     const std::uint32_t p = lower[i % m], q = upper[j % n];
@@ -76,19 +68,12 @@ void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint
         if (advance_lower && al > au + guard->tolerance) advance_lower = false;
         if (!advance_lower && au > al + guard->tolerance) advance_lower = true;
       }
-      // Never create the same diagonal twice (the keyhole loop visits two vertices twice).
-      const bool lower_dup = diagonals.count(edge_key(p1, q)) != 0 && !(i + 1 == m && j == n);
-      const bool upper_dup = diagonals.count(edge_key(p, q1)) != 0 && !(i == m && j + 1 == n);
-      if (advance_lower && lower_dup && !upper_dup) advance_lower = false;
-      if (!advance_lower && upper_dup && !lower_dup) advance_lower = true;
     }
     if (advance_lower) {
       out.push_back({p, p1, q});
-      diagonals.insert(edge_key(p1, q));
       ++i;
     } else {
       out.push_back({p, q1, q});
-      diagonals.insert(edge_key(p, q1));
       ++j;
     }
   }
@@ -408,27 +393,34 @@ void Builder::compute_uvs() {
 }
 
 void Builder::check_topology() {
-  // Every undirected edge must be used exactly twice, once in each direction.
-  std::vector<std::pair<std::uint64_t, int>> edges;
-  edges.reserve(mesh_.triangles.size() * 3);
+  // Every directed edge a->b must appear once, and its twin b->a once. Half-edges are grouped
+  // by their start vertex (counting sort), so this is linear apart from tiny per-vertex sorts.
+  const std::size_t nv = mesh_.positions.size();
+  std::vector<std::uint32_t> begin(nv + 1, 0);
   for (const auto& t : mesh_.triangles) {
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = t[std::size_t(k)], b = t[std::size_t((k + 1) % 3)];
-      edges.emplace_back(edge_key(a, b), a < b ? 1 : -1);
-    }
+    for (int k = 0; k < 3; ++k) ++begin[t[std::size_t(k)] + 1];
   }
-  std::sort(edges.begin(), edges.end());
+  for (std::size_t v = 0; v < nv; ++v) begin[v + 1] += begin[v];
+  std::vector<std::uint32_t> target(begin[nv]);
+  std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+  for (const auto& t : mesh_.triangles) {
+    for (int k = 0; k < 3; ++k) target[fill[t[std::size_t(k)]]++] = t[std::size_t((k + 1) % 3)];
+  }
+  for (std::size_t v = 0; v < nv; ++v) std::sort(target.begin() + begin[v], target.begin() + begin[v + 1]);
   std::size_t bad = 0;
-  for (std::size_t i = 0; i < edges.size();) {
-    std::size_t k = i;
-    int dir = 0;
-    while (k < edges.size() && edges[k].first == edges[i].first) dir += edges[k++].second;
-    if (k - i != 2 || dir != 0) ++bad;
-    i = k;
+  for (std::size_t a = 0; a < nv; ++a) {
+    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
+      const std::uint32_t b = target[k];
+      const bool repeated = k + 1 < begin[a + 1] && target[k + 1] == b;
+      const auto first = target.begin() + begin[b], last = target.begin() + begin[b + 1];
+      const auto range = std::equal_range(first, last, static_cast<std::uint32_t>(a));
+      if (repeated || range.second - range.first != 1) ++bad;
+    }
   }
   stats_.bad_edges = bad;
   if (bad > 0) {
-    stats_.warnings.add_count("bad_edges", "edges not shared by exactly two consistently oriented triangles", bad);
+    stats_.warnings.add_count("bad_edges", "half-edges without exactly one opposite twin (mesh not closed or not manifold)",
+                              bad);
   }
 }
 
