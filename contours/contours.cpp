@@ -63,6 +63,39 @@ struct SliceGeometry {
   double t = 1;
 };
 
+/// Indices of the points that can lie on the boundary of `pts` (those within 40% of the
+/// farthest point of their angular sector around the centroid; all of them for small sets).
+/// A particle deep inside its cloud at both ends of an edge stays inside every section of
+/// the edge (the sections interpolate the two clouds linearly), so only these are sliced.
+void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>& out) {
+  out.clear();
+  if (n <= 32) {
+    for (std::uint32_t i = 0; i < n; ++i) out.push_back(i);
+    return;
+  }
+  dvec2 c(0);
+  for (std::uint32_t i = 0; i < n; ++i) c += pts[i];
+  c /= double(n);
+  const std::size_t sectors = std::clamp<std::size_t>(n / 8, 16, 256);
+  auto sector = [&](std::uint32_t i) {
+    // A pseudo-angle in [0, 4) (monotone in the angle, no trigonometry).
+    const dvec2 d = pts[i] - c;
+    const double sum = std::abs(d.x) + std::abs(d.y);
+    const double r = sum > 0 ? d.y / sum : 0.0;
+    const double a = d.x >= 0 ? (d.y >= 0 ? r : 4 + r) : 2 - r;
+    return std::min(sectors - 1, static_cast<std::size_t>(a * 0.25 * double(sectors)));
+  };
+  std::vector<double> smax(sectors, 0.0);
+  std::vector<std::size_t> sec(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    sec[i] = sector(i);
+    smax[sec[i]] = std::max(smax[sec[i]], glm::length(pts[i] - c));
+  }
+  for (std::uint32_t i = 0; i < n; ++i) {
+    if (glm::length(pts[i] - c) >= 0.6 * smax[sec[i]]) out.push_back(i);
+  }
+}
+
 class Walker {
  public:
   Walker(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p)
@@ -78,6 +111,7 @@ class Walker {
       root_distance_[i] = root_distance_[s.parent[i].idx()] + s.edge_length(NodeId(i));
     }
     branch_ = s.branch_ids();
+    compute_candidates();
     compute_node_offsets();
   }
 
@@ -136,12 +170,40 @@ class Walker {
   /// (relaxed clouds keep their outer ring somewhat inside the disc), at most half the radius.
   [[nodiscard]] double surface_offset(NodeId n) const { return node_offset_[n.idx()]; }
 
+  /// cand_begin_ / cand_: per node n, the local particle indices of n that may be on the
+  /// boundary of a section of n's edge: outer in n's own cloud, or outer in n's bundle inside
+  /// its parent's cloud.
+  void compute_candidates() {
+    cand_begin_.assign(s_.size() + 1, 0);
+    std::vector<std::uint32_t> a, b;
+    std::vector<std::uint8_t> mark;
+    for (std::size_t i = 0; i < s_.size(); ++i) {
+      const NodeId n(i);
+      const std::uint32_t count = f_.count(n);
+      outer_points(f_.position.data() + f_.node_begin[i], count, a);
+      mark.assign(count, 0);
+      for (auto j : a) mark[j] = 1;
+      const NodeId parent = s_.parent[i];
+      if (parent.valid()) {
+        outer_points(f_.position.data() + f_.node_begin[parent.idx()] + parent_index(s_, f_, n, 0), count, b);
+        for (auto j : b) mark[j] = 1;
+      }
+      for (std::uint32_t j = 0; j < count; ++j) {
+        if (mark[j]) cand_.push_back(j);
+      }
+      cand_begin_[i + 1] = static_cast<std::uint32_t>(cand_.size());
+    }
+  }
+
   void compute_node_offsets() {
     node_offset_.assign(s_.size(), 0.0);
     std::vector<dvec2> pts;
+    std::vector<std::uint32_t> outer;
     for (std::size_t i = 0; i < s_.size(); ++i) {
-      const std::uint32_t b = f_.node_begin[i], e = f_.node_begin[i + 1];
-      pts.assign(f_.position.begin() + b, f_.position.begin() + e);
+      const std::uint32_t b = f_.node_begin[i];
+      outer_points(f_.position.data() + b, f_.count(NodeId(i)), outer);
+      pts.clear();
+      for (auto j : outer) pts.push_back(f_.position[b + j]);
       const auto hull = boundary_loop(pts, 0.0);
       if (hull.size() < 3) continue;
       double mean = 0;
@@ -153,15 +215,16 @@ class Walker {
 
   /// Appends the strands of node n at t on its edge.
   void evaluate(NodeId n, double t, SlicePoints& out) {
-    const std::uint32_t count = f_.count(n);
+    const std::uint32_t* cand = cand_.data() + cand_begin_[n.idx()];
+    const std::uint32_t count = cand_begin_[n.idx() + 1] - cand_begin_[n.idx()];
     const std::uint32_t base = f_.node_begin[n.idx()];
     stats_.evaluated_points += count;
     const NodeId parent = s_.parent[n.idx()];
     if (t >= 1.0 || !s_.parent[n.idx()].valid()) {
       out.offset.insert(out.offset.end(), count, surface_offset(n));
-      for (std::uint32_t j = 0; j < count; ++j) {
-        out.point.push_back(st_.point[base + j]);
-        out.strand.push_back(f_.strand[base + j]);
+      for (std::uint32_t k = 0; k < count; ++k) {
+        out.point.push_back(st_.point[base + cand[k]]);
+        out.strand.push_back(f_.strand[base + cand[k]]);
       }
       return;
     }
@@ -203,7 +266,8 @@ class Walker {
     const bool above_fork = s_.is_fork(parent) && along < p_.fork_transition * rf &&
                             glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
     const double min_height = along / 3.0;
-    for (std::uint32_t j = 0; j < count; ++j) {
+    for (std::uint32_t k = 0; k < count; ++k) {
+      const std::uint32_t j = cand[k];
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
       dvec3 pt = g.center + g.frame.to_world(q);
       if (above_fork) {
@@ -305,6 +369,7 @@ class Walker {
   std::vector<double> root_distance_;
   std::vector<std::uint32_t> branch_;
   std::vector<double> node_offset_;  // #N surface offset of each node's cloud (metres)
+  std::vector<std::uint32_t> cand_begin_, cand_;  // boundary candidates per edge (see compute_candidates)
   double last_gap_ = 0, last_clearance_ = 0;  // of the last split_gap_at
   ContourSet out_;
   ContourStats& stats_ = out_.stats;

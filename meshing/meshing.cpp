@@ -21,16 +21,15 @@ double wrap_pi(double a) {
   return a;
 }
 
-/// Unwrapped angles of loop vertices around an axis, relative to `ref`; entry k = m is the
-/// first one plus 2 pi, so a full turn ends where it started.
-std::vector<double> unwrapped_angles(const std::vector<std::uint32_t>& loop, const std::vector<glm::dvec3>& pos,
-                                     const Frame& frame, const glm::dvec3& center, double ref) {
+/// Unwrapped angles of loop vertices (raw angles in (-pi, pi] given per vertex id), relative
+/// to `ref`; entry k = m is the first one plus 2 pi, so a full turn ends where it started.
+std::vector<double> unwrapped_angles(const std::vector<std::uint32_t>& loop, const std::vector<double>& raw_angle,
+                                     double ref) {
   const std::size_t m = loop.size();
   std::vector<double> a(m + 1);
   double prev = 0;
   for (std::size_t k = 0; k < m; ++k) {
-    const dvec2 q = frame.to_local(pos[loop[k]] - center);
-    const double raw = std::atan2(q.y, q.x);
+    const double raw = raw_angle[loop[k]];
     a[k] = k == 0 ? wrap_pi(raw - ref) : a[k - 1] + wrap_pi(raw - prev);
     prev = raw;
   }
@@ -261,6 +260,7 @@ class Builder {
   MeshStats stats_;
   std::vector<double> loop_v_;                  // per loop
   std::vector<double> vertex_u_, vertex_v_;     // per vertex
+  std::vector<double> vertex_angle_;            // per loop vertex: angle around its loop's centroid
   std::vector<Mesh::Triangle> scratch_;
   std::vector<TriangleKind> kind_;
 };
@@ -286,19 +286,14 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   const auto lower = loop_ids(lower_loop);
   auto upper = loop_ids(upper_loop);
   align(upper, lower);
-  // Angles of each loop's vertices in its own slice plane, around its own centroid: the two
-  // loops may be far apart along a thin branch and their planes tilted against each other,
-  // so projecting one onto the other's plane would scramble the angles. Frames are
-  // parallel-transported along the branch, so their normals share the angle origin.
-  auto angles = [&](std::uint32_t l, const std::vector<std::uint32_t>& ids, double ref) {
-    return unwrapped_angles(ids, c_.point, c_.loop_frame[l], loop_centroid(l), ref);
-  };
-  const Frame& fl = c_.loop_frame[lower_loop];
-  const dvec2 q0 = fl.to_local(c_.point[lower[0]] - loop_centroid(lower_loop));
-  const double ref = std::atan2(q0.y, q0.x);
+  // Angles of each loop's vertices in its own slice plane, around its own centroid (computed
+  // once per vertex in compute_uvs): the two loops may be far apart along a thin branch and
+  // their planes tilted against each other, so projecting one onto the other's plane would
+  // scramble the angles. Frames are parallel-transported, so their normals share the origin.
+  const double ref = vertex_angle_[lower[0]];
   AngleGuard guard;
-  guard.lower = angles(lower_loop, lower, ref);
-  guard.upper = angles(upper_loop, upper, ref);
+  guard.lower = unwrapped_angles(lower, vertex_angle_, ref);
+  guard.upper = unwrapped_angles(upper, vertex_angle_, ref);
   guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
   scratch_.clear();
   stitch(lower, upper, c_.point, scratch_, &guard);
@@ -379,12 +374,14 @@ void Builder::compute_uvs() {
   // u = 0 runs along the branch without twisting).
   vertex_u_.assign(c_.point.size(), 0.0);
   vertex_v_.assign(c_.point.size(), 0.0);
+  vertex_angle_.assign(c_.point.size(), 0.0);
   for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
     const glm::dvec3 centre = loop_centroid(l);
     const Frame& f = c_.loop_frame[l];
     for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
       const dvec2 q = f.to_local(c_.point[v] - centre);
-      double a = std::atan2(q.y, q.x) / kTwoPi;
+      vertex_angle_[v] = std::atan2(q.y, q.x);
+      double a = vertex_angle_[v] / kTwoPi;
       if (a < 0) a += 1;
       vertex_u_[v] = a * repeat;
       vertex_v_[v] = loop_v_[l];
