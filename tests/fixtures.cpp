@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include "core/file_io.h"
 #include "skeleton/grow/random_grower.h"
 
 namespace sm::test {
@@ -117,6 +119,18 @@ std::filesystem::path temp_dir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+CmdResult run_cli(const std::string& args) {
+  const std::filesystem::path dir = temp_dir("cli_run");
+  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
+                          " 2>" + (dir / "err").string();
+  const int status = std::system(cmd.c_str());
+  CmdResult r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_file(dir / "out");
+  r.err = read_file(dir / "err");
+  return r;
 }
 
 }  // namespace sm::test

@@ -36,4 +36,13 @@ std::vector<std::filesystem::path> sample_skeletons();
 /// A fresh empty temporary directory for one test.
 std::filesystem::path temp_dir(const std::string& name);
 
+/// The result of running the built strandmesh binary.
+struct CmdResult {
+  int code = -1;     ///< exit code (-1 when it did not exit normally)
+  std::string out;   ///< stdout
+  std::string err;   ///< stderr
+};
+/// Runs `build/strandmesh ARGS` through the shell, capturing both streams.
+CmdResult run_cli(const std::string& args);
+
 }  // namespace sm::test

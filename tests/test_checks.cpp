@@ -367,22 +367,8 @@ TEST(Checks, TextAndJsonReports) {
 
 // ---------------------------------------------------------------- strandmesh check
 
-struct CmdResult {
-  int code = -1;
-  std::string out, err;
-};
-
-CmdResult run(const std::string& args) {
-  const fs::path dir = test::temp_dir("check_cli_run");
-  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
-                          " 2>" + (dir / "err").string();
-  const int status = std::system(cmd.c_str());
-  CmdResult r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_file(dir / "out");
-  r.err = read_file(dir / "err");
-  return r;
-}
+using test::CmdResult;
+CmdResult run(const std::string& args) { return test::run_cli(args); }
 
 TEST(CheckCli, ExitCodes) {
   const fs::path dir = test::temp_dir("check_cli");

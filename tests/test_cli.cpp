@@ -15,22 +15,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CmdResult {
-  int code = -1;
-  std::string out, err;
-};
-
-CmdResult run(const std::string& args) {
-  const fs::path dir = test::temp_dir("cli_run");
-  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
-                          " 2>" + (dir / "err").string();
-  const int status = std::system(cmd.c_str());
-  CmdResult r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_file(dir / "out");
-  r.err = read_file(dir / "err");
-  return r;
-}
+using test::CmdResult;
+CmdResult run(const std::string& args) { return test::run_cli(args); }
 
 TEST(Cli, HelpAndVersion) {
   EXPECT_EQ(run("--help").code, 0);

@@ -81,7 +81,9 @@ TEST(Fuse, PantsAreManifoldForTinyAndLargeLoops) {
         // Lower loop edges are traversed forwards, upper loop edges backwards (they bound the
         // pants from below and above); every other edge appears in both directions.
         const bool boundary = in_loop(lower) || e.count({edge.second, edge.first}) == 0;
-        if (!boundary) EXPECT_EQ(e.count({edge.second, edge.first}), 1u);
+        if (!boundary) {
+          EXPECT_EQ(e.count({edge.second, edge.first}), 1u);
+        }
       }
       for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(e.count({a[(k + 1) % a.size()], a[k]}), 1u);
       for (std::size_t k = 0; k < b.size(); ++k) EXPECT_EQ(e.count({b[(k + 1) % b.size()], b[k]}), 1u);
