@@ -43,7 +43,12 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"clamped_children", r.clamped_children},
                          {"resampled_edges", r.resampled_edges},
                          {"binarized_nodes", r.binarized_nodes},
-                         {"inserted_nodes", r.inserted_nodes}};
+                         {"inserted_nodes", r.inserted_nodes},
+                         {"merged_inner", r.merged_inner},
+                         {"collars", r.collars},
+                         {"branch_collisions", r.branch_collisions},
+                         {"unresolved_collisions", r.unresolved_collisions},
+                         {"max_separation", r.max_separation}};
         std::printf("%s\n", j.dump(2).c_str());
       } else {
         std::printf("%s\n%s", o->input.c_str(), describe_skeleton(result).c_str());

@@ -82,9 +82,12 @@ std::string describe_skeleton(const SkeletonResult& result) {
                 "  resampled edges  %zu\n"
                 "  binarized nodes  %zu\n"
                 "  inserted nodes   %zu\n"
-                "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n",
+                "  inner branches   %zu nodes folded into a sibling\n"
+                "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n"
+                "  collar nodes     %zu (a refinement, not a repair)\n",
                 r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
-                r.binarized_nodes, r.inserted_nodes, r.branch_collisions, r.max_separation, r.unresolved_collisions);
+                r.binarized_nodes, r.inserted_nodes, r.merged_inner, r.branch_collisions, r.max_separation,
+                r.unresolved_collisions, r.collars);
   out += buf;
   return out;
 }
