@@ -69,4 +69,15 @@ NodeId Skeleton::add_node(NodeId p, dvec3 pos, double r, std::int64_t source) {
   return n;
 }
 
+RawSkeleton raw_from_skeleton(const Skeleton& s, const std::string& source) {
+  RawSkeleton out;
+  out.up_axis = s.up_axis;
+  out.source = source;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    out.add(static_cast<std::int64_t>(i), s.parent[i].valid() ? std::int64_t(s.parent[i].value) : -1, s.position[i],
+            s.radius[i]);
+  }
+  return out;
+}
+
 }  // namespace sm

@@ -83,4 +83,7 @@ struct Skeleton {
   NodeId add_node(NodeId parent, dvec3 pos, double r, std::int64_t source = -1);
 };
 
+/// The skeleton as a raw skeleton (ids = node indices, parents first), e.g. to write it.
+RawSkeleton raw_from_skeleton(const Skeleton& skeleton, const std::string& source = {});
+
 }  // namespace sm

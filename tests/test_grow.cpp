@@ -295,7 +295,7 @@ TEST(Grow, SmallTreeIsClean) {
   EXPECT_GT(g.stats.height, 3.0);
   EXPECT_TRUE(g.stats.warnings.empty()) << g.stats.warnings.to_string();
   expect_clean_tree(g, p, "self-organizing");
-  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton).skeleton), 0u);
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0}).skeleton), 0u);
 }
 
 TEST(Grow, GoldenStatisticsForSeedOne) {
@@ -459,7 +459,7 @@ void check_preset(const std::string& name, std::uint64_t seed = 0) {
   EXPECT_LE(g.stats.nodes, preset.expected_max_nodes) << name;
   EXPECT_TRUE(g.stats.warnings.empty()) << name << ": " << g.stats.warnings.to_string();
   expect_clean_tree(g, preset.params, name);
-  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton).skeleton), 0u) << name;
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0}).skeleton), 0u) << name;
 }
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS

@@ -91,15 +91,7 @@ RawSkeleton grow_random(const RandomGrowParams& p) {
   }
   // Random directions let branches run into one another; swing those apart here (the same
   // repair build_skeleton applies to imported skeletons), so the grown tree is clean.
-  const Skeleton clean = build_skeleton(raw).skeleton;
-  RawSkeleton out;
-  out.up_axis = raw.up_axis;
-  out.source = raw.source;
-  for (std::size_t i = 0; i < clean.size(); ++i) {
-    out.add(static_cast<std::int64_t>(i), clean.parent[i].valid() ? std::int64_t(clean.parent[i].value) : -1,
-            clean.position[i], clean.radius[i]);
-  }
-  return out;
+  return raw_from_skeleton(build_skeleton(raw).skeleton, raw.source);
 }
 
 }  // namespace sm

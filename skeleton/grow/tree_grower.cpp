@@ -21,6 +21,8 @@
 
 #include "skeleton/grow/tree_grower.h"
 
+#include "skeleton/build.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -167,6 +169,17 @@ class TreeGrower {
     untangle();
     stats_->timings.add("collisions", clock.lap());
     result.skeleton = emit();
+    {
+      // Branches the cleanup could not keep apart are swung apart the way build_skeleton
+      // does for imported skeletons (and nothing else: no collars, which would break the
+      // pipe model at forks), so the grown tree needs no repair when it is read back.
+      SkeletonParams sp;
+      sp.collar_ratio = 0;
+      sp.merge_inner_branches = false;
+      const SkeletonResult clean = build_skeleton(result.skeleton, sp);
+      if (clean.report.branch_collisions > 0) result.skeleton = raw_from_skeleton(clean.skeleton, result.skeleton.source);
+    }
+    stats_->timings.add("separation", clock.lap());
     report("cleanup", 1);
     result.attraction_points = std::move(points_);
     return result;
