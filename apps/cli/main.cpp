@@ -20,12 +20,15 @@ int main(int argc, char** argv) {
   app.footer(
       "Exit codes: 0 ok, 1 bad input (malformed or unreadable file, invalid parameters),\n"
       "            2 usage error, 3 internal error.\n"
+      "Global options --threads N, -q/--quiet, -v/--verbose go before or after the command.\n"
       "Run 'strandmesh COMMAND --help' for the options of a command.");
   GlobalOptions global;
   app.add_option("--threads", global.threads, "Worker threads (default: all cores); output is identical for any count")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("-q,--quiet", global.quiet, "Print only errors");
   app.add_flag("-v,--verbose", global.verbose, "Print details and per-phase timings");
+  // Global options are accepted after the subcommand too ("strandmesh grow ... -q").
+  app.fallthrough();
   register_commands(app, global);
 
   try {
