@@ -661,7 +661,8 @@ void Walker::walk(Task task) {
     const NodeId a = s_.children[fork.idx()][0];
     const NodeId b = s_.children[fork.idx()][1];
     // Bundles still touching where the shorter child's segment ends (its next fork or its tip;
-    // collar nodes and other single-child nodes do not end a segment) are split there.
+    // collar nodes and other single-child nodes do not end a segment), and at least
+    // min_fused_length x the fork's radius above it, are split there.
     auto segment = [&](NodeId c) {
       double l = len(c);
       while (s_.child_count(c) == 1) {
@@ -670,7 +671,8 @@ void Walker::walk(Task task) {
       }
       return l;
     };
-    const double shorter_end = fork_base + std::min(segment(a), segment(b));
+    const double shorter_end =
+        fork_base + std::max(std::min(segment(a), segment(b)), p_.min_fused_length * s_.radius[fork.idx()]);
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);

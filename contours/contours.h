@@ -22,7 +22,8 @@
 /// points of the two bundles are nearer than `split_gap` x their neighbour distance, the slice is one loop
 /// around the union; the first distance where they are farther apart is found by bisection
 /// and becomes the split: from there on each bundle has its own tube. Bundles that do not
-/// separate before the shorter child edge ends are split there (counted warning).
+/// separate before the shorter child's segment ends (and min_fused_length x the fork's radius)
+/// are split there (counted warning).
 ///
 /// Boundary selection (seed 003 §2.4.2): the points of a slice are projected onto the slice
 /// plane and the outer loop is found by the angular walk around the centroid (a Graham scan
@@ -62,6 +63,11 @@ struct ContourParams {
   /// section to its own round section within this distance, relative to the fork's radius
   /// (or the child edge's length, if shorter).
   double fork_transition = 1.5;
+  /// Bundles that have not separated are split where the shorter child's segment ends (its
+  /// next fork or tip), but no nearer the fork than this distance, relative to the fork's
+  /// radius: a whorl (a chain of forks a tiny step apart) would otherwise split each lateral
+  /// while it is still inside the trunk.
+  double min_fused_length = 2.0;
   /// Bisection steps refining the split position between two slices (a count).
   std::uint32_t split_bisection_steps = 8;
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives

@@ -62,6 +62,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("max_slices_per_edge", p.max_slices_per_edge);
   v("split_gap", p.split_gap);
   v("fork_transition", p.fork_transition);
+  v("min_fused_length", p.min_fused_length);
   v("split_bisection_steps", p.split_bisection_steps);
   v("concave_turn_degrees", p.concave_turn_degrees);
 }
