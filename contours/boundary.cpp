@@ -3,11 +3,12 @@
 // The seed sorts the points by angle around their centroid and walks them like a Graham
 // scan, dropping points where the contour turns inwards by more than a threshold. It measured
 // turns with acos and a sign taken separately, and the sign flipped for nearly collinear
-// points, so points far inside were kept (the seed's Figure 8). Here every turn is measured
-// with atan2(cross, dot) of the two edge vectors, whose sign is that of the cross product and
-// is exact up to rounding for any configuration; collinear and duplicate points are dropped
-// (a turn of exactly zero counts as concave), which also keeps degenerate triangles out of the
-// mesh.
+// points, so points far inside were kept (the seed's Figure 8). Here the side of every turn
+// comes from a cross product (the signed distance of the middle point from the chord), exact
+// up to rounding for any configuration, and only the size of a concave turn is compared with
+// the threshold, as dot(u, v) < cos(threshold) |u| |v| (no trigonometry); collinear and
+// duplicate points are dropped (a turn of exactly zero counts as concave), which also keeps
+// degenerate triangles out of the mesh.
 //
 // Because the kept points are visited in strictly increasing angle around the centroid, the
 // loop is simple and star-shaped around it whenever every angular gap between consecutive
@@ -27,12 +28,6 @@ namespace sm {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-/// Turn angle at b for the path a -> b -> c: > 0 left (convex for a CCW loop), < 0 right.
-double turn(const dvec2& a, const dvec2& b, const dvec2& c) {
-  const dvec2 u = b - a, v = c - b;
-  return std::atan2(cross2(u, v), glm::dot(u, v));
-}
 
 /// Andrew's monotone chain; strictly convex (collinear points dropped), CCW.
 std::vector<std::uint32_t> convex_hull(const std::vector<dvec2>& p) {
@@ -150,6 +145,7 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     return order;
   };
   const double max_concave = concave_turn_degrees * kPi / 180.0;
+  const double cos_max_concave = std::cos(max_concave);
   // A turn counts as concave (drop the middle point) when it turns right by more than the
   // threshold, or is straight / degenerate.
   auto drop = [&](std::uint32_t a, std::uint32_t b, std::uint32_t q) {
@@ -161,7 +157,10 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (inward < -1e-7 * wl) return false;  // a convex vertex
     if (inward <= 1e-7 * wl) return true;   // (nearly) collinear or duplicate: drop
     if (max_concave <= 0) return true;
-    return -turn(p[a], p[b], p[q]) > max_concave;  // concave: keep only gentle turns
+    // Concave (b left of the chord, a right turn at b): keep only turns gentler than the
+    // threshold, i.e. edges a->b and b->q at an angle below it.
+    const dvec2 u = p[b] - p[a], v = p[q] - p[b];
+    return glm::dot(u, v) < cos_max_concave * glm::length(u) * glm::length(v);
   };
   auto walk = [&](const std::vector<std::uint32_t>& order) {
     std::vector<std::uint32_t> stack;

@@ -17,13 +17,26 @@
 // whose strands all end (tips) before separating is absorbed into its sibling's tube (counted
 // warning); bundles still touching where the shorter child edge ends are split there if they
 // are at least loosely apart (counted warning), otherwise they stay fused.
+//
+// Tubes are walked in parallel (oneTBB tasks: a junction spawns its two child tubes). Each
+// walk reads only the inputs and per-node tables computed once (Tables) and writes its own
+// Fragment; the fragments are then concatenated in a fixed depth-first order (main child
+// first), so the ContourSet is identical for any number of threads.
 
 #include "contours/contours.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <unordered_map>
+
+#include <tbb/concurrent_vector.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include "core/errors.h"
 
@@ -96,35 +109,111 @@ void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>&
   }
 }
 
+/// What a tube's walk starts from.
+struct Task {
+  NodeId anchor;     // the fork whose split starts the tube; invalid for the root tube
+  NodeId x;          // subtree root carried by the tube
+  double split = 0;  // distance above the anchor of the tube's first loop (the split section)
+};
+
+/// The output of one tube's walk: its loops (numbered from 0, `part.tubes[0]` is the tube)
+/// and, if it ends in a junction, the junction and the tasks of its two child tubes.
+struct Fragment {
+  ContourSet part;
+  bool has_junction = false;
+  Junction junction;                // lower loop in part's numbering; upper loops set on assembly
+  std::array<Task, 2> next{};       // main child, lateral
+  std::array<Fragment*, 2> child{};
+};
+
+/// Read-only per-node tables every walk uses, computed once.
+struct Tables {
+  Tables(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p);
+
+  const Skeleton& s;
+  const ParticleField& f;
+  const StrandSet& st;
+  const ContourParams& p;
+  double spacing;         // distance between neighbouring particles (metres)
+  std::vector<double> root_distance;  // #N distance from the root along the tree (for UV distances)
+  std::vector<std::uint32_t> branch;  // #N first node of each node's branch
+  std::vector<double> node_offset;    // #N surface offset of each node's cloud (metres)
+  std::vector<std::uint32_t> cand_begin, cand;  // boundary candidates per edge (see below)
+};
+
+Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_, const ContourParams& p_)
+    : s(s_),
+      f(f_),
+      st(st_),
+      p(p_),
+      spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)) {
+  const std::size_t n = s.size();
+  root_distance.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) root_distance[i] = root_distance[s.parent[i].idx()] + s.edge_length(NodeId(i));
+  branch = s.branch_ids();
+
+  // Per node n: the local particle indices of n that may be on the boundary of a section of
+  // n's edge: outer in n's own cloud, or outer in n's bundle inside its parent's cloud. And
+  // how far the wood surface lies outside the cloud's boundary strands: the skeleton radius
+  // minus the mean distance of the convex-hull particles from the node centre (relaxed
+  // clouds keep their outer ring somewhat inside the disc), at most half the radius.
+  node_offset.assign(n, 0.0);
+  std::vector<std::vector<std::uint32_t>> per_node(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<std::uint32_t> a, b;
+    std::vector<std::uint8_t> mark;
+    std::vector<dvec2> pts;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const NodeId node(i);
+      const std::uint32_t count = f.count(node);
+      const dvec2* own = f.position.data() + f.node_begin[i];
+      outer_points(own, count, a);
+      pts.clear();
+      for (auto j : a) pts.push_back(own[j]);
+      const auto hull = boundary_loop(pts, 0.0);
+      if (hull.size() >= 3) {
+        double mean = 0;
+        for (auto k : hull) mean += glm::length(pts[k]);
+        mean /= double(hull.size());
+        node_offset[i] = std::clamp(s.radius[i] - mean, 0.0, 0.5 * s.radius[i]);
+      }
+      mark.assign(count, 0);
+      for (auto j : a) mark[j] = 1;
+      const NodeId parent = s.parent[i];
+      if (parent.valid()) {
+        outer_points(f.position.data() + f.node_begin[parent.idx()] + parent_index(s, f, node, 0), count, b);
+        for (auto j : b) mark[j] = 1;
+      }
+      for (std::uint32_t j = 0; j < count; ++j) {
+        if (mark[j]) per_node[i].push_back(j);
+      }
+    }
+  });
+  cand_begin.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) cand_begin[i + 1] = cand_begin[i] + static_cast<std::uint32_t>(per_node[i].size());
+  cand.resize(cand_begin[n]);
+  for (std::size_t i = 0; i < n; ++i) std::copy(per_node[i].begin(), per_node[i].end(), cand.begin() + cand_begin[i]);
+}
+
+/// Walks one tube (see the top of this file) into a Fragment. One per task: it holds scratch
+/// buffers only.
 class Walker {
  public:
-  Walker(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p)
-      : s_(s),
-        f_(f),
-        st_(st),
-        p_(p),
-        spacing_(f.neighbour_distance > 0 ? f.neighbour_distance : (f.spacing > 0 ? 1.9 * f.spacing : 1e-3)),
-        density_length_(f.spacing > 0 ? f.spacing : spacing_ / 1.9) {
-    // Distance of every node from the root along the tree (for UV distances).
-    root_distance_.assign(s.size(), 0.0);
-    for (std::size_t i = 1; i < s.size(); ++i) {
-      root_distance_[i] = root_distance_[s.parent[i].idx()] + s.edge_length(NodeId(i));
-    }
-    branch_ = s.branch_ids();
-    compute_candidates();
-    compute_node_offsets();
-  }
+  explicit Walker(const Tables& t)
+      : s_(t.s),
+        f_(t.f),
+        st_(t.st),
+        p_(t.p),
+        spacing_(t.spacing),
+        root_distance_(t.root_distance),
+        branch_(t.branch),
+        node_offset_(t.node_offset),
+        cand_begin_(t.cand_begin),
+        cand_(t.cand) {}
 
-  ContourSet run(const ProgressFn& progress);
+  void walk(const Task& task, Fragment& out);
 
  private:
-  struct Task {
-    NodeId anchor;   // invalid for the root tube
-    NodeId x;        // subtree root carried by the tube
-    double d = 0;     // distance above the anchor of the next slice
-    double last = 0;  // distance above the anchor of the tube's last loop so far
-    std::uint32_t tube = 0;
-  };
 
   // --- geometry helpers -------------------------------------------------------------------
   [[nodiscard]] double len(NodeId n) const { return s_.edge_length(n); }
@@ -165,60 +254,15 @@ class Walker {
     return step;
   }
 
-  /// How far the wood surface lies outside a node's boundary strands (metres): the skeleton
-  /// radius minus the mean distance of the cloud's convex-hull particles from the node centre
-  /// (relaxed clouds keep their outer ring somewhat inside the disc), at most half the radius.
+  /// How far the wood surface lies outside a node's boundary strands (metres; see Tables).
   [[nodiscard]] double surface_offset(NodeId n) const { return node_offset_[n.idx()]; }
-
-  /// cand_begin_ / cand_: per node n, the local particle indices of n that may be on the
-  /// boundary of a section of n's edge: outer in n's own cloud, or outer in n's bundle inside
-  /// its parent's cloud.
-  void compute_candidates() {
-    cand_begin_.assign(s_.size() + 1, 0);
-    std::vector<std::uint32_t> a, b;
-    std::vector<std::uint8_t> mark;
-    for (std::size_t i = 0; i < s_.size(); ++i) {
-      const NodeId n(i);
-      const std::uint32_t count = f_.count(n);
-      outer_points(f_.position.data() + f_.node_begin[i], count, a);
-      mark.assign(count, 0);
-      for (auto j : a) mark[j] = 1;
-      const NodeId parent = s_.parent[i];
-      if (parent.valid()) {
-        outer_points(f_.position.data() + f_.node_begin[parent.idx()] + parent_index(s_, f_, n, 0), count, b);
-        for (auto j : b) mark[j] = 1;
-      }
-      for (std::uint32_t j = 0; j < count; ++j) {
-        if (mark[j]) cand_.push_back(j);
-      }
-      cand_begin_[i + 1] = static_cast<std::uint32_t>(cand_.size());
-    }
-  }
-
-  void compute_node_offsets() {
-    node_offset_.assign(s_.size(), 0.0);
-    std::vector<dvec2> pts;
-    std::vector<std::uint32_t> outer;
-    for (std::size_t i = 0; i < s_.size(); ++i) {
-      const std::uint32_t b = f_.node_begin[i];
-      outer_points(f_.position.data() + b, f_.count(NodeId(i)), outer);
-      pts.clear();
-      for (auto j : outer) pts.push_back(f_.position[b + j]);
-      const auto hull = boundary_loop(pts, 0.0);
-      if (hull.size() < 3) continue;
-      double mean = 0;
-      for (auto k : hull) mean += glm::length(pts[k]);
-      mean /= double(hull.size());
-      node_offset_[i] = std::clamp(s_.radius[i] - mean, 0.0, 0.5 * s_.radius[i]);
-    }
-  }
 
   /// Appends the strands of node n at t on its edge.
   void evaluate(NodeId n, double t, SlicePoints& out) {
     const std::uint32_t* cand = cand_.data() + cand_begin_[n.idx()];
     const std::uint32_t count = cand_begin_[n.idx() + 1] - cand_begin_[n.idx()];
     const std::uint32_t base = f_.node_begin[n.idx()];
-    stats_.evaluated_points += count;
+    out_->stats.evaluated_points += count;
     const NodeId parent = s_.parent[n.idx()];
     if (t >= 1.0 || !s_.parent[n.idx()].valid()) {
       out.offset.insert(out.offset.end(), count, surface_offset(n));
@@ -308,13 +352,6 @@ class Walker {
   static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough);
 
   // --- output -------------------------------------------------------------------------------
-  std::uint32_t new_tube(NodeId branch, std::uint32_t start_junction) {
-    Tube t;
-    t.branch = branch;
-    t.start_junction = start_junction;
-    out_.tubes.push_back(std::move(t));
-    return static_cast<std::uint32_t>(out_.tubes.size() - 1);
-  }
 
   /// Selects the boundary of `pts` in the plane of `g`, offsets it outwards to the surface and
   /// appends it as a loop of `tube`. Returns the loop index.
@@ -323,7 +360,6 @@ class Walker {
   std::uint32_t add_loop_vertices(const SlicePoints& pts, const std::vector<std::uint32_t>& loop,
                                   const SliceGeometry& g, LoopKind kind, double distance, std::uint32_t tube);
 
-  void walk(Task task);
   /// Junction::lower_side for loop `loop` below fork `fork`: particle order at the fork is
   /// [main child's strands | lateral's | new at the fork] (particles/particles.h).
   std::vector<std::uint8_t> bundle_sides(NodeId fork, std::uint32_t loop) const {
@@ -333,9 +369,9 @@ class Walker {
     std::unordered_map<std::uint32_t, std::uint8_t> side;
     side.reserve(2 * n_both);
     for (std::uint32_t j = 0; j < n_both; ++j) side.emplace(f_.strand[base + j].value, j < n_main ? 0 : 1);
-    std::vector<std::uint8_t> out(out_.loop_size(loop), 2);
+    std::vector<std::uint8_t> out(out_->loop_size(loop), 2);
     for (std::uint32_t k = 0; k < out.size(); ++k) {
-      const auto it = side.find(out_.strand[out_.loop_begin[loop] + k].value);
+      const auto it = side.find(out_->strand[out_->loop_begin[loop] + k].value);
       if (it != side.end()) out[k] = it->second;
     }
     return out;
@@ -364,16 +400,14 @@ class Walker {
   const ParticleField& f_;
   const StrandSet& st_;
   const ContourParams& p_;
-  double spacing_;         // distance between neighbouring particles (metres)
-  double density_length_;  // the particle field's density length s (metres)
-  std::vector<double> root_distance_;
-  std::vector<std::uint32_t> branch_;
-  std::vector<double> node_offset_;  // #N surface offset of each node's cloud (metres)
-  std::vector<std::uint32_t> cand_begin_, cand_;  // boundary candidates per edge (see compute_candidates)
+  double spacing_;  // distance between neighbouring particles (metres)
+  const std::vector<double>& root_distance_;
+  const std::vector<std::uint32_t>& branch_;
+  const std::vector<double>& node_offset_;
+  const std::vector<std::uint32_t>& cand_begin_;
+  const std::vector<std::uint32_t>& cand_;
   double last_gap_ = 0, last_clearance_ = 0;  // of the last split_gap_at
-  ContourSet out_;
-  ContourStats& stats_ = out_.stats;
-  std::vector<Task> tasks_;
+  ContourSet* out_ = nullptr;                 // the walk's Fragment::part
   mutable std::vector<std::pair<NodeId, double>> stack_;
   // scratch
   SlicePoints pts_, pts_a_, pts_b_;
@@ -445,15 +479,15 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   bool fallback = false;
   std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback);
   if (fallback) {
-    ++stats_.boundary_fallbacks;
-    stats_.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; convex hull used",
+    ++out_->stats.boundary_fallbacks;
+    out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; convex hull used",
                         s_.describe(g.node));
   }
   if (loop.size() >= 3) return add_loop_vertices(pts, loop, g, kind, distance, tube);
 
   // Fewer than three non-collinear strand points (a degenerate bundle): replace the slice by
   // a small triangle around the points so the surface stays closed.
-  stats_.warnings.add("degenerate_slice", "slice with fewer than 3 boundary strands widened to a triangle",
+  out_->stats.warnings.add("degenerate_slice", "slice with fewer than 3 boundary strands widened to a triangle",
                       s_.describe(g.node));
   dvec2 c(0);
   for (const auto& q : flat_) c += q;
@@ -520,21 +554,21 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
       }
     }
   }
-  const auto loop_index = static_cast<std::uint32_t>(out_.loop_kind.size());
+  const auto loop_index = static_cast<std::uint32_t>(out_->loop_kind.size());
   for (std::size_t k = 0; k < m; ++k) {
-    out_.point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
-    out_.strand.push_back(pts.strand[loop[k]]);
+    out_->point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
+    out_->strand.push_back(pts.strand[loop[k]]);
   }
-  out_.loop_begin.push_back(static_cast<std::uint32_t>(out_.point.size()));
-  out_.loop_node.push_back(g.node);
-  out_.loop_t.push_back(g.t);
-  out_.loop_distance.push_back(distance);
-  out_.loop_center.push_back(g.center);
-  out_.loop_frame.push_back(g.frame);
-  out_.loop_radius.push_back(g.radius);
-  out_.loop_kind.push_back(kind);
-  out_.tubes[tube].loops.push_back(loop_index);
-  if (kind == LoopKind::fused) ++stats_.fused_loops;
+  out_->loop_begin.push_back(static_cast<std::uint32_t>(out_->point.size()));
+  out_->loop_node.push_back(g.node);
+  out_->loop_t.push_back(g.t);
+  out_->loop_distance.push_back(distance);
+  out_->loop_center.push_back(g.center);
+  out_->loop_frame.push_back(g.frame);
+  out_->loop_radius.push_back(g.radius);
+  out_->loop_kind.push_back(kind);
+  out_->tubes[tube].loops.push_back(loop_index);
+  if (kind == LoopKind::fused) ++out_->stats.fused_loops;
   return loop_index;
 }
 
@@ -598,12 +632,32 @@ double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi)
   return hi;
 }
 
-void Walker::walk(Task task) {
-  const std::uint32_t tube = task.tube;
+void Walker::walk(const Task& task, Fragment& fragment) {
+  out_ = &fragment.part;
+  out_->loop_begin.assign(1, 0);
+  out_->tubes.assign(1, Tube{});
+  constexpr std::uint32_t tube = 0;
   const NodeId anchor = task.anchor;
+  out_->tubes[tube].branch = NodeId(branch_[task.x.idx()]);
   const double anchor_distance = anchor.valid() ? root_distance_[anchor.idx()] : 0.0;
-  double d = task.d;
-  double last = task.last;
+  // The tube's first loop: the root's section, or the split section above the anchor.
+  double last = task.split;
+  double d = 0;
+  if (!anchor.valid()) {
+    pts_.clear();
+    evaluate(task.x, 1.0, pts_);
+    const SliceGeometry g = edge_geometry(task.x, 1.0);
+    add_loop(pts_, g, LoopKind::plain, 0.0, tube);
+    d = step_at(g);
+  } else {
+    std::vector<CutEdge> edges;
+    cut(task.x, 0.0, task.split, edges);
+    pts_.clear();
+    evaluate_cut(edges, pts_);
+    const SliceGeometry g = cut_geometry(edges);
+    add_loop(pts_, g, LoopKind::split, anchor_distance + task.split, tube);
+    d = task.split + step_at(g);
+  }
   NodeId cur = task.x;
   double cur_base = 0;  // distance above the anchor where cur's edge starts
   auto end_of = [&](NodeId n, double base) { return base + (s_.parent[n.idx()].valid() ? len(n) : 0.0); };
@@ -648,7 +702,7 @@ void Walker::walk(Task task) {
       // the edge below was sliced coarsely): a loop at the fork's own section.
       const SliceGeometry g = edge_geometry(fork, 1.0);
       const double near = p_.slice_step * g.radius;
-      if (end - last > 0.5 * near && !out_.tubes[tube].loops.empty()) {
+      if (end - last > 0.5 * near && !out_->tubes[tube].loops.empty()) {
         pts_.clear();
         evaluate(fork, 1.0, pts_);
         add_loop(pts_, g, LoopKind::plain, anchor_distance + end, tube);
@@ -679,7 +733,7 @@ void Walker::walk(Task task) {
       if (pts_a_.point.empty() || pts_b_.point.empty()) {
         if (pts_a_.point.empty() && pts_b_.point.empty()) return;  // everything ended: cap the last loop
         // One bundle ended (its tips) before separating: the other carries on alone.
-        stats_.warnings.add("absorbed_bundle", "branch ended before separating from its sibling; absorbed",
+        out_->stats.warnings.add("absorbed_bundle", "branch ended before separating from its sibling; absorbed",
                             s_.describe(pts_b_.point.empty() ? b : a));
         cur = pts_b_.point.empty() ? a : b;
         cur_base = fork_base;
@@ -696,38 +750,23 @@ void Walker::walk(Task task) {
           const double lo = std::max(last, fork_base);
           split = bisect_split(fork, fork_base, lo, d);
         } else {
-          ++stats_.forced_splits;
-          stats_.warnings.add("forced_split", "bundles still touching where the shorter child edge ends; split there",
+          ++out_->stats.forced_splits;
+          out_->stats.warnings.add("forced_split", "bundles still touching where the shorter child edge ends; split there",
                               s_.describe(fork));
         }
         split = std::min(d, std::max(split, last + min_sep));
-        // The junction: the tube's last loop below, one new tube per child above.
-        Junction j;
+        // The junction: the tube's last loop below; each child's tube starts with its own
+        // section at the split (the junction's upper loops, linked on assembly).
+        Junction& j = fragment.junction;
+        fragment.has_junction = true;
         j.fork = fork;
-        j.lower = out_.tubes[tube].loops.back();
+        j.lower = out_->tubes[tube].loops.back();
         j.lower_tube = tube;
         j.split_distance = split - fork_base;
         j.forced = forced;
         j.lower_side = bundle_sides(fork, j.lower);
-        const auto junction = static_cast<std::uint32_t>(out_.junctions.size());
-        out_.tubes[tube].end_junction = junction;
-        std::array<Task, 2> next;
-        for (int k = 0; k < 2; ++k) {
-          const NodeId child = k == 0 ? a : b;
-          const std::uint32_t t = new_tube(NodeId(branch_[child.idx()]), junction);
-          std::vector<CutEdge> edges;
-          cut(child, fork_base, split, edges);
-          pts_.clear();
-          evaluate_cut(edges, pts_);
-          const SliceGeometry g = cut_geometry(edges);
-          j.upper[std::size_t(k)] = add_loop(pts_, g, LoopKind::split, anchor_distance + split, t);
-          j.upper_tubes[std::size_t(k)] = t;
-          next[std::size_t(k)] = Task{fork, child, split - fork_base + step_at(g), split - fork_base, t};
-        }
-        out_.junctions.push_back(j);
-        // Lateral first onto the stack so the main child's tube is walked next.
-        tasks_.push_back(next[1]);
-        tasks_.push_back(next[0]);
+        fragment.next[0] = Task{fork, a, split - fork_base};
+        fragment.next[1] = Task{fork, b, split - fork_base};
         return;
       }
       // Still together: one loop around both bundles.
@@ -743,31 +782,65 @@ void Walker::walk(Task task) {
   }
 }
 
-ContourSet Walker::run(const ProgressFn& progress) {
-  Stopwatch clock;
-  out_.loop_begin.push_back(0);
-  if (s_.empty()) return std::move(out_);
-  const NodeId root = Skeleton::root();
-  const std::uint32_t tube = new_tube(root, kNone);
-  pts_.clear();
-  evaluate(root, 1.0, pts_);
-  const SliceGeometry g = edge_geometry(root, 1.0);
-  add_loop(pts_, g, LoopKind::plain, 0.0, tube);
-  tasks_.push_back(Task{NodeId{}, root, step_at(g), 0.0, tube});
-  std::size_t forks = 0;
-  for (std::size_t i = 0; i < s_.size(); ++i) forks += s_.is_fork(NodeId(i));
-  std::size_t done = 0;
-  while (!tasks_.empty()) {
-    const Task t = tasks_.back();
-    tasks_.pop_back();
-    walk(t);
-    ++done;
-    if (progress && (done & 63) == 0) progress("contours", std::min(1.0, double(done) / double(2 * forks + 1)));
+/// Concatenates the fragments depth-first from the root tube (main child before lateral), so
+/// tubes are numbered parents first and the result does not depend on the walks' order.
+ContourSet assemble(Fragment& root) {
+  ContourSet out;
+  out.loop_begin.assign(1, 0);
+  out.tubes.emplace_back();
+  struct Item {
+    Fragment* fragment;
+    std::uint32_t tube;
+    std::uint32_t start_junction;
+    std::size_t side;  // which upper loop of start_junction the tube's first loop is
+  };
+  std::vector<Item> stack{{&root, 0, kNone, 0}};
+  while (!stack.empty()) {
+    const Item item = stack.back();
+    stack.pop_back();
+    Fragment& fr = *item.fragment;
+    const ContourSet& part = fr.part;
+    const auto loop_offset = static_cast<std::uint32_t>(out.loop_count());
+    const std::uint32_t vertex_offset = out.loop_begin.back();
+    out.point.insert(out.point.end(), part.point.begin(), part.point.end());
+    out.strand.insert(out.strand.end(), part.strand.begin(), part.strand.end());
+    for (std::size_t l = 1; l < part.loop_begin.size(); ++l) out.loop_begin.push_back(vertex_offset + part.loop_begin[l]);
+    out.loop_node.insert(out.loop_node.end(), part.loop_node.begin(), part.loop_node.end());
+    out.loop_t.insert(out.loop_t.end(), part.loop_t.begin(), part.loop_t.end());
+    out.loop_distance.insert(out.loop_distance.end(), part.loop_distance.begin(), part.loop_distance.end());
+    out.loop_center.insert(out.loop_center.end(), part.loop_center.begin(), part.loop_center.end());
+    out.loop_frame.insert(out.loop_frame.end(), part.loop_frame.begin(), part.loop_frame.end());
+    out.loop_radius.insert(out.loop_radius.end(), part.loop_radius.begin(), part.loop_radius.end());
+    out.loop_kind.insert(out.loop_kind.end(), part.loop_kind.begin(), part.loop_kind.end());
+    {
+      Tube& t = out.tubes[item.tube];
+      t.branch = part.tubes[0].branch;
+      t.start_junction = item.start_junction;
+      for (const std::uint32_t l : part.tubes[0].loops) t.loops.push_back(loop_offset + l);
+      if (item.start_junction != kNone) out.junctions[item.start_junction].upper[item.side] = t.loops.front();
+    }
+    out.stats.evaluated_points += part.stats.evaluated_points;
+    out.stats.fused_loops += part.stats.fused_loops;
+    out.stats.forced_splits += part.stats.forced_splits;
+    out.stats.boundary_fallbacks += part.stats.boundary_fallbacks;
+    out.stats.warnings.merge(part.stats.warnings);
+    if (!fr.has_junction) continue;
+    Junction j = std::move(fr.junction);
+    j.lower += loop_offset;
+    j.lower_tube = item.tube;
+    const auto junction = static_cast<std::uint32_t>(out.junctions.size());
+    const auto first_child = static_cast<std::uint32_t>(out.tubes.size());
+    j.upper_tubes = {first_child, first_child + 1};
+    out.tubes.resize(out.tubes.size() + 2);
+    out.tubes[item.tube].end_junction = junction;
+    out.junctions.push_back(std::move(j));
+    // Lateral first onto the stack so the main child's tube comes next.
+    stack.push_back({fr.child[1], first_child + 1, junction, 1});
+    stack.push_back({fr.child[0], first_child, junction, 0});
   }
-  stats_.loops = out_.loop_kind.size();
-  stats_.loop_vertices = out_.point.size();
-  stats_.timings.add("slicing", clock.lap());
-  return std::move(out_);
+  out.stats.loops = out.loop_count();
+  out.stats.loop_vertices = out.point.size();
+  return out;
 }
 
 }  // namespace
@@ -776,8 +849,49 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
                             const ContourParams& params, const ProgressFn& progress) {
   SM_CHECK(field.node_count() == skeleton.size(), "particle field does not match the skeleton");
   SM_CHECK(strands.point.size() == field.position.size(), "strand set does not match the particle field");
-  Walker walker(skeleton, field, strands, params);
-  return walker.run(progress);
+  Stopwatch clock;
+  if (skeleton.empty()) {
+    ContourSet out;
+    out.loop_begin.assign(1, 0);
+    return out;
+  }
+  const Tables tables(skeleton, field, strands, params);
+  const double t_tables = clock.lap();
+
+  // Walk the tubes as tasks: each junction spawns its two child tubes.
+  std::size_t forks = 0;
+  for (std::size_t i = 0; i < skeleton.size(); ++i) forks += skeleton.is_fork(NodeId(i));
+  const double total = double(2 * forks + 1);
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::concurrent_vector<std::unique_ptr<Fragment>> fragments;
+  tbb::task_group group;
+  std::function<void(Fragment*, Task)> spawn = [&](Fragment* fragment, Task task) {
+    group.run([&, fragment, task] {
+      Walker(tables).walk(task, *fragment);
+      const std::size_t n = ++done;
+      if (progress && (n & 63) == 0) {
+        const std::lock_guard lock(progress_mutex);
+        progress("contours", std::min(1.0, double(n) / total));
+      }
+      if (!fragment->has_junction) return;
+      for (std::size_t k = 0; k < 2; ++k) {
+        fragment->child[k] = fragments.push_back(std::make_unique<Fragment>())->get();
+        spawn(fragment->child[k], fragment->next[k]);
+      }
+    });
+  };
+  fragments.push_back(std::make_unique<Fragment>());
+  Fragment* root = fragments.front().get();
+  spawn(root, Task{NodeId{}, Skeleton::root(), 0.0});
+  group.wait();
+  const double t_walk = clock.lap();
+
+  ContourSet out = assemble(*root);
+  out.stats.timings.add("tables", t_tables);
+  out.stats.timings.add("slicing", t_walk);
+  out.stats.timings.add("assembly", clock.lap());
+  return out;
 }
 
 }  // namespace sm
