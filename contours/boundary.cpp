@@ -132,7 +132,9 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     } else {
       const std::size_t sectors = std::clamp<std::size_t>(n / 8, 16, 512);
       std::vector<double> smax(sectors, 0.0);
-      auto sector = [&](std::uint32_t i) { return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors))); };
+      auto sector = [&](std::uint32_t i) {
+        return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors)));
+      };
       for (std::uint32_t i = 0; i < n; ++i) smax[sector(i)] = std::max(smax[sector(i)], dist[i]);
       for (std::uint32_t i = 0; i < n; ++i) {
         if (i != start && dist[i] >= 0.6 * smax[sector(i)]) order.push_back(i);

@@ -121,8 +121,8 @@ struct Task {
 struct Fragment {
   ContourSet part;
   bool has_junction = false;
-  Junction junction;                // lower loop in part's numbering; upper loops set on assembly
-  std::array<Task, 2> next{};       // main child, lateral
+  Junction junction;           // lower loop in part's numbering; upper loops set on assembly
+  std::array<Task, 2> next{};  // main child, lateral
   std::array<Fragment*, 2> child{};
 };
 
@@ -134,10 +134,10 @@ struct Tables {
   const ParticleField& f;
   const StrandSet& st;
   const ContourParams& p;
-  double spacing;         // distance between neighbouring particles (metres)
-  std::vector<double> root_distance;  // #N distance from the root along the tree (for UV distances)
-  std::vector<std::uint32_t> branch;  // #N first node of each node's branch
-  std::vector<double> node_offset;    // #N surface offset of each node's cloud (metres)
+  double spacing;                               // distance between neighbouring particles (metres)
+  std::vector<double> root_distance;            // #N distance from the root along the tree (for UV distances)
+  std::vector<std::uint32_t> branch;            // #N first node of each node's branch
+  std::vector<double> node_offset;              // #N surface offset of each node's cloud (metres)
   std::vector<std::uint32_t> cand_begin, cand;  // boundary candidates per edge (see below)
 };
 
@@ -190,7 +190,8 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
     }
   });
   cand_begin.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) cand_begin[i + 1] = cand_begin[i] + static_cast<std::uint32_t>(per_node[i].size());
+  for (std::size_t i = 0; i < n; ++i)
+    cand_begin[i + 1] = cand_begin[i] + static_cast<std::uint32_t>(per_node[i].size());
   cand.resize(cand_begin[n]);
   for (std::size_t i = 0; i < n; ++i) std::copy(per_node[i].begin(), per_node[i].end(), cand.begin() + cand_begin[i]);
 }
@@ -214,7 +215,6 @@ class Walker {
   void walk(const Task& task, Fragment& out);
 
  private:
-
   // --- geometry helpers -------------------------------------------------------------------
   [[nodiscard]] double len(NodeId n) const { return s_.edge_length(n); }
 
@@ -307,8 +307,8 @@ class Walker {
     const double along = t * len(n);
     // Only where the child leaves upwards, within its transition, by at most half the fork's
     // radius (a drooping branch is meant to go below the fork's plane).
-    const bool above_fork = s_.is_fork(parent) && along < p_.fork_transition * rf &&
-                            glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
+    const bool above_fork =
+        s_.is_fork(parent) && along < p_.fork_transition * rf && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
     const double min_height = along / 3.0;
     for (std::uint32_t k = 0; k < count; ++k) {
       const std::uint32_t j = cand[k];
@@ -433,7 +433,8 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   const double inv = 1.0 / cap;
   auto cell = [&](const dvec3& p) { return glm::i64vec3(glm::floor((p - lo_b) * inv)); };
   auto key = [](glm::i64vec3 c) {
-    return (std::uint64_t(c.x + (1 << 20)) << 42) ^ (std::uint64_t(c.y + (1 << 20)) << 21) ^ std::uint64_t(c.z + (1 << 20));
+    return (std::uint64_t(c.x + (1 << 20)) << 42) ^ (std::uint64_t(c.y + (1 << 20)) << 21) ^
+           std::uint64_t(c.z + (1 << 20));
   };
   // Cell keys are linear in the cell coordinates (21 bits each, offset so they stay
   // positive), so shifting every cell of a by one neighbour offset shifts its keys by one
@@ -465,7 +466,8 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
           while (je < cb.size() && cb[je].first == k) ++je;
           for (; ia < ca.size() && ca[ia].first + shift == k; ++ia) {
             const dvec3& p = a[ca[ia].second];
-            for (std::size_t t = jb; t < je; ++t) best2 = std::min(best2, glm::dot(p - b[cb[t].second], p - b[cb[t].second]));
+            for (std::size_t t = jb; t < je; ++t)
+              best2 = std::min(best2, glm::dot(p - b[cb[t].second], p - b[cb[t].second]));
           }
         }
       }
@@ -481,14 +483,14 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   if (fallback) {
     ++out_->stats.boundary_fallbacks;
     out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; convex hull used",
-                        s_.describe(g.node));
+                             s_.describe(g.node));
   }
   if (loop.size() >= 3) return add_loop_vertices(pts, loop, g, kind, distance, tube);
 
   // Fewer than three non-collinear strand points (a degenerate bundle): replace the slice by
   // a small triangle around the points so the surface stays closed.
   out_->stats.warnings.add("degenerate_slice", "slice with fewer than 3 boundary strands widened to a triangle",
-                      s_.describe(g.node));
+                           s_.describe(g.node));
   dvec2 c(0);
   for (const auto& q : flat_) c += q;
   c /= double(std::max<std::size_t>(flat_.size(), 1));
@@ -498,7 +500,8 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
     const double a = 2.0943951023931953 * k;
     const dvec2 q = c + 0.3 * g.radius * dvec2(std::cos(a), std::sin(a));
     extra.point.push_back(g.center + g.frame.to_world(q));
-    extra.strand.push_back(pts.strand.empty() ? StrandId{} : pts.strand[std::min<std::size_t>(k, pts.strand.size() - 1)]);
+    extra.strand.push_back(pts.strand.empty() ? StrandId{}
+                                              : pts.strand[std::min<std::size_t>(k, pts.strand.size() - 1)]);
     extra.offset.push_back(0.0);
     loop.push_back(k);
   }
@@ -582,12 +585,14 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   pts_b_.clear();
   evaluate_cut(cut_a_, pts_a_);
   evaluate_cut(cut_b_, pts_b_);
-  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(), 0.25 * spacing_);  // forced splits need > 0.5 x  // forced splits need > 0.5 x
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(),
+                  0.25 * spacing_);  // forced splits need > 0.5 x  // forced splits need > 0.5 x
   // Bundles can also run into the other branch at a different distance from the fork (a
   // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
   // distance): each bundle's surface must also clear the other subtree's round cones.
   const double reach = u + 2.0 * s_.radius[fork.idx()];
-  last_clearance_ = std::min(cone_clearance(pts_b_, c[0], fork_base, reach), cone_clearance(pts_a_, c[1], fork_base, reach));
+  last_clearance_ =
+      std::min(cone_clearance(pts_b_, c[0], fork_base, reach), cone_clearance(pts_a_, c[1], fork_base, reach));
   return last_gap_;
 }
 
@@ -619,7 +624,6 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
 }
 
 double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi) {
-
   for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
     const double mid = 0.5 * (lo + hi);
     split_gap_at(fork, fork_base, mid);
@@ -734,7 +738,7 @@ void Walker::walk(const Task& task, Fragment& fragment) {
         if (pts_a_.point.empty() && pts_b_.point.empty()) return;  // everything ended: cap the last loop
         // One bundle ended (its tips) before separating: the other carries on alone.
         out_->stats.warnings.add("absorbed_bundle", "branch ended before separating from its sibling; absorbed",
-                            s_.describe(pts_b_.point.empty() ? b : a));
+                                 s_.describe(pts_b_.point.empty() ? b : a));
         cur = pts_b_.point.empty() ? a : b;
         cur_base = fork_base;
         absorbed = true;
@@ -751,8 +755,9 @@ void Walker::walk(const Task& task, Fragment& fragment) {
           split = bisect_split(fork, fork_base, lo, d);
         } else {
           ++out_->stats.forced_splits;
-          out_->stats.warnings.add("forced_split", "bundles still touching where the shorter child edge ends; split there",
-                              s_.describe(fork));
+          out_->stats.warnings.add("forced_split",
+                                   "bundles still touching where the shorter child edge ends; split there",
+                                   s_.describe(fork));
         }
         split = std::min(d, std::max(split, last + min_sep));
         // The junction: the tube's last loop below; each child's tube starts with its own
@@ -804,7 +809,8 @@ ContourSet assemble(Fragment& root) {
     const std::uint32_t vertex_offset = out.loop_begin.back();
     out.point.insert(out.point.end(), part.point.begin(), part.point.end());
     out.strand.insert(out.strand.end(), part.strand.begin(), part.strand.end());
-    for (std::size_t l = 1; l < part.loop_begin.size(); ++l) out.loop_begin.push_back(vertex_offset + part.loop_begin[l]);
+    for (std::size_t l = 1; l < part.loop_begin.size(); ++l)
+      out.loop_begin.push_back(vertex_offset + part.loop_begin[l]);
     out.loop_node.insert(out.loop_node.end(), part.loop_node.begin(), part.loop_node.end());
     out.loop_t.insert(out.loop_t.end(), part.loop_t.begin(), part.loop_t.end());
     out.loop_distance.insert(out.loop_distance.end(), part.loop_distance.begin(), part.loop_distance.end());

@@ -1,30 +1,52 @@
 #include "core/mesh.h"
 
 #include <cmath>
+#include <cstdint>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace sm {
 
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
-  std::vector<glm::dvec3> n(mesh.positions.size(), glm::dvec3(0));
+  // Each vertex sums the contributions of its corners in triangle order (a CSR of corners per
+  // vertex), so the vertices are independent and the result is the same for any number of
+  // threads.
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
+  std::vector<std::uint32_t> begin(nv + 1, 0);
   for (const auto& t : mesh.triangles) {
+    for (const std::uint32_t v : t) ++begin[v + 1];
+  }
+  for (std::size_t v = 0; v < nv; ++v) begin[v + 1] += begin[v];
+  std::vector<std::uint32_t> corners(begin[nv]);
+  {
+    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+    for (std::size_t f = 0; f < nf; ++f) {
+      for (std::uint32_t k = 0; k < 3; ++k)
+        corners[fill[mesh.triangles[f][k]]++] = static_cast<std::uint32_t>(3 * f + k);
+    }
+  }
+  // The angle-weighted unit face normal at one corner (zero for degenerate faces and corners).
+  auto contribution = [&](std::uint32_t corner) {
+    const auto& t = mesh.triangles[corner / 3];
+    const std::uint32_t k = corner % 3;
     const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
     const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
     const double len = glm::length(fn);
-    if (!(len > 0)) continue;
-    const glm::dvec3 unit = fn / len;
-    for (int k = 0; k < 3; ++k) {
-      const glm::dvec3 a = p[(k + 1) % 3] - p[k];
-      const glm::dvec3 b = p[(k + 2) % 3] - p[k];
-      const double la = glm::length(a), lb = glm::length(b);
-      if (!(la > 0) || !(lb > 0)) continue;
-      const double angle = std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
-      n[t[k]] += unit * angle;
+    if (!(len > 0)) return glm::dvec3(0);
+    // The corner's angle: |a x b| is twice the area at every corner, i.e. len.
+    const double angle = std::atan2(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
+    return (fn / len) * angle;
+  };
+  std::vector<glm::dvec3> n(nv);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      glm::dvec3 sum(0);
+      for (std::uint32_t i = begin[v]; i < begin[v + 1]; ++i) sum += contribution(corners[i]);
+      const double l = glm::length(sum);
+      n[v] = l > 0 ? sum / l : glm::dvec3(0, 0, 1);
     }
-  }
-  for (auto& v : n) {
-    const double l = glm::length(v);
-    v = l > 0 ? v / l : glm::dvec3(0, 0, 1);
-  }
+  });
   return n;
 }
 

@@ -4,8 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numbers>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "core/errors.h"
 
@@ -162,8 +167,10 @@ void fuse_chains(const std::vector<std::uint32_t>& lower, const std::vector<std:
       const int x = s[k], y = s[(k + 1) % m];
       if (x != y) {
         ++changes;
-        if (x == 0) a_to_b = k;        // last vertex of the a-run
-        else b_to_a = (k + 1) % m;      // first vertex of the a-run
+        if (x == 0)
+          a_to_b = k;  // last vertex of the a-run
+        else
+          b_to_a = (k + 1) % m;  // first vertex of the a-run
       }
     }
     if (changes == 2) {
@@ -258,9 +265,9 @@ class Builder {
   const MeshParams& p_;
   Mesh mesh_;
   MeshStats stats_;
-  std::vector<double> loop_v_;                  // per loop
-  std::vector<double> vertex_u_, vertex_v_;     // per vertex
-  std::vector<double> vertex_angle_;            // per loop vertex: angle around its loop's centroid
+  std::vector<double> loop_v_;               // per loop
+  std::vector<double> vertex_u_, vertex_v_;  // per vertex
+  std::vector<double> vertex_angle_;         // per loop vertex: angle around its loop's centroid
   std::vector<Mesh::Triangle> scratch_;
   std::vector<TriangleKind> kind_;
 };
@@ -403,21 +410,30 @@ void Builder::check_topology() {
   for (const auto& t : mesh_.triangles) {
     for (int k = 0; k < 3; ++k) target[fill[t[std::size_t(k)]]++] = t[std::size_t((k + 1) % 3)];
   }
-  for (std::size_t v = 0; v < nv; ++v) std::sort(target.begin() + begin[v], target.begin() + begin[v + 1]);
-  std::size_t bad = 0;
-  for (std::size_t a = 0; a < nv; ++a) {
-    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
-      const std::uint32_t b = target[k];
-      const bool repeated = k + 1 < begin[a + 1] && target[k + 1] == b;
-      const auto first = target.begin() + begin[b], last = target.begin() + begin[b + 1];
-      const auto range = std::equal_range(first, last, static_cast<std::uint32_t>(a));
-      if (repeated || range.second - range.first != 1) ++bad;
-    }
-  }
+  const tbb::blocked_range<std::size_t> vertices(0, nv, 8192);
+  tbb::parallel_for(vertices, [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v)
+      std::sort(target.begin() + begin[v], target.begin() + begin[v + 1]);
+  });
+  const std::size_t bad = tbb::parallel_reduce(
+      vertices, std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        for (std::size_t a = r.begin(); a != r.end(); ++a) {
+          for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
+            const std::uint32_t b = target[k];
+            const bool repeated = k + 1 < begin[a + 1] && target[k + 1] == b;
+            const auto first = target.begin() + begin[b], last = target.begin() + begin[b + 1];
+            const auto range = std::equal_range(first, last, static_cast<std::uint32_t>(a));
+            if (repeated || range.second - range.first != 1) ++count;
+          }
+        }
+        return count;
+      },
+      std::plus<>());
   stats_.bad_edges = bad;
   if (bad > 0) {
-    stats_.warnings.add_count("bad_edges", "half-edges without exactly one opposite twin (mesh not closed or not manifold)",
-                              bad);
+    stats_.warnings.add_count("bad_edges",
+                              "half-edges without exactly one opposite twin (mesh not closed or not manifold)", bad);
   }
 }
 
@@ -450,22 +466,26 @@ MeshResult Builder::run(const ProgressFn& progress) {
   if (p_.uvs) {
     mesh_.corner_uvs.resize(mesh_.triangles.size());
     const double repeat = p_.uv_repeat_u;
-    for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
-      const auto& t = mesh_.triangles[f];
-      double u[3], v[3];
-      for (int k = 0; k < 3; ++k) {
-        u[k] = vertex_u_[t[std::size_t(k)]];
-        v[k] = vertex_v_[t[std::size_t(k)]];
-      }
-      // Seam: a triangle spanning the u wrap gets its small u values lifted by one turn.
-      const double lo = std::min({u[0], u[1], u[2]}), hi = std::max({u[0], u[1], u[2]});
-      if (hi - lo > 0.5 * repeat) {
-        for (double& x : u) {
-          if (x < 0.5 * repeat) x += repeat;
-        }
-      }
-      for (int k = 0; k < 3; ++k) mesh_.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 8192),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t f = range.begin(); f != range.end(); ++f) {
+                          const auto& t = mesh_.triangles[f];
+                          double u[3], v[3];
+                          for (int k = 0; k < 3; ++k) {
+                            u[k] = vertex_u_[t[std::size_t(k)]];
+                            v[k] = vertex_v_[t[std::size_t(k)]];
+                          }
+                          // Seam: a triangle spanning the u wrap gets its small u values lifted by one turn.
+                          const double lo = std::min({u[0], u[1], u[2]}), hi = std::max({u[0], u[1], u[2]});
+                          if (hi - lo > 0.5 * repeat) {
+                            for (double& x : u) {
+                              if (x < 0.5 * repeat) x += repeat;
+                            }
+                          }
+                          for (int k = 0; k < 3; ++k)
+                            mesh_.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));
+                        }
+                      });
   }
   stats_.timings.add("normals_uvs", clock.lap());
   check_topology();
@@ -486,7 +506,8 @@ void stitch_loops(const std::vector<std::uint32_t>& lower, const std::vector<std
 void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper_main,
                 const std::vector<std::uint32_t>& upper_lateral, const std::vector<glm::dvec3>& positions,
                 const glm::dvec3& tangent, std::vector<Mesh::Triangle>& out) {
-  SM_CHECK(lower.size() >= 3 && upper_main.size() >= 3 && upper_lateral.size() >= 3, "fuse_loops: loops need 3 vertices");
+  SM_CHECK(lower.size() >= 3 && upper_main.size() >= 3 && upper_lateral.size() >= 3,
+           "fuse_loops: loops need 3 vertices");
   fuse_chains(lower, upper_main, upper_lateral, {}, positions, tangent, out);
 }
 
