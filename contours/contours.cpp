@@ -198,6 +198,15 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
 
 /// Walks one tube (see the top of this file) into a Fragment. One per task: it holds scratch
 /// buffers only.
+/// A slice plane tilted against its edge's axis (frames turn smoothly through a bend, edges
+/// do not) cuts the edge's round cone in an ellipse, not a circle: an offset `w` in the plane
+/// is stretched within the plane until its distance from the axis is |w| (at most twice).
+dvec3 unslant(const dvec3& w, const dvec3& axis) {
+  const double l = glm::length(w);
+  const double perp = glm::length(w - axis * glm::dot(w, axis));
+  return perp > 0.5 * l ? w * (l / perp) : w * 2.0;
+}
+
 class Walker {
  public:
   explicit Walker(const Tables& t)
@@ -264,10 +273,15 @@ class Walker {
     const std::uint32_t base = f_.node_begin[n.idx()];
     out_->stats.evaluated_points += count;
     const NodeId parent = s_.parent[n.idx()];
-    if (t >= 1.0 || !s_.parent[n.idx()].valid()) {
+    // (Not next to forks, where bundles sit beside each other rather than round on their axis.)
+    const bool unslanted = parent.valid() && !s_.is_fork(parent) && !s_.is_fork(n);
+    const dvec3 axis = unslanted ? normalize_or(s_.position[n.idx()] - s_.position[parent.idx()], dvec3(0)) : dvec3(0);
+    if (t >= 1.0 || !parent.valid()) {
       out.offset.insert(out.offset.end(), count, surface_offset(n));
+      const dvec3& c = s_.position[n.idx()];
       for (std::uint32_t k = 0; k < count; ++k) {
-        out.point.push_back(st_.point[base + cand[k]]);
+        const dvec3& q = st_.point[base + cand[k]];
+        out.point.push_back(unslanted ? c + unslant(q - c, axis) : q);
         out.strand.push_back(f_.strand[base + cand[k]]);
       }
       return;
@@ -313,7 +327,8 @@ class Walker {
     for (std::uint32_t k = 0; k < count; ++k) {
       const std::uint32_t j = cand[k];
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
-      dvec3 pt = g.center + g.frame.to_world(q);
+      const dvec3 w = g.frame.to_world(q);
+      dvec3 pt = g.center + (unslanted ? unslant(w, axis) : w);
       if (above_fork) {
         const double h = glm::dot(pt - fork_pos, fork_up);
         if (h < min_height) pt += fork_up * std::min(min_height - h, 0.5 * rf);
@@ -693,8 +708,32 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       return;  // the tube ends at a tip: capped by the meshing stage
     }
     if (!s_.is_fork(cur)) {
+      const NodeId next = s_.children[cur.idx()][0];
+      // A bend at cur: the strip between the loops on either side is a straight chord and
+      // cuts the corner; on a thin twig sliced coarsely it can leave the node (and the
+      // skeleton) outside the surface. Then the node's own section becomes a loop.
+      const NodeId parent = s_.parent[cur.idx()];
+      if (parent.valid() && d > end && end - last > 1e-12) {
+        const dvec3 p = s_.position[cur.idx()];
+        const dvec3 u = p - s_.position[parent.idx()], v = s_.position[next.idx()] - p;
+        const double lu = glm::length(u), lv = glm::length(v);
+        if (lu > 0 && lv > 0) {
+          const double a = end - last, b = std::min(d - end, lv);
+          const dvec3 from = p - u * (a / lu), to = p + v * (b / lv);
+          const double chord = glm::length(to - from);
+          const double miss = chord > 0 ? glm::length(glm::cross(p - from, to - from)) / chord : 0.0;
+          if (miss > p_.max_corner_cut * s_.radius[cur.idx()]) {
+            const SliceGeometry g = edge_geometry(cur, 1.0);
+            pts_.clear();
+            evaluate(cur, 1.0, pts_);
+            add_loop(pts_, g, LoopKind::plain, anchor_distance + end, tube);
+            last = end;
+            d = std::max(d, end + 0.5 * step_at(g));
+          }
+        }
+      }
       cur_base = end;
-      cur = s_.children[cur.idx()][0];
+      cur = next;
       continue;
     }
 

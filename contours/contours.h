@@ -53,6 +53,11 @@ struct ContourParams {
   /// Most slices on one edge away from forks (a count; 0 = no limit): a long thin twig is a
   /// straight round cone between its nodes and needs no more.
   std::uint32_t max_slices_per_edge = 4;
+  /// Where a branch bends at a node, the straight strip between the loops on either side
+  /// passes this far from the node at most (relative to its radius); farther, the node's own
+  /// section is added as a loop (thin twigs sliced coarsely would otherwise leave their
+  /// skeleton outside the surface).
+  double max_corner_cut = 0.25;
   /// Lower bound on the slice step, relative to the neighbour distance of the particles
   /// (ParticleField::neighbour_distance; keeps thin twigs from being sliced ever more finely).
   double min_slice_step = 1.0;

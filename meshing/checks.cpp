@@ -431,13 +431,17 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
 
   // ---- fidelity
   std::vector<dvec3> thick;
+  std::vector<std::uint32_t> thick_ids;
   if (params.skeleton && !params.skeleton->empty() && r.nonfinite_vertices == 0) {
     const Skeleton& skel = *params.skeleton;
     measure_fidelity(mesh, used, skel, r);
     std::vector<double> radii = skel.radius;
     const double median = percentile(radii, 0.5);
     for (std::size_t i = 0; i < skel.size(); ++i) {
-      if (skel.radius[i] >= median) thick.push_back(skel.position[i]);
+      if (skel.radius[i] >= median) {
+        thick.push_back(skel.position[i]);
+        thick_ids.push_back(static_cast<std::uint32_t>(i));
+      }
     }
     r.thick_nodes = thick.size();
   }
@@ -454,6 +458,9 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
     r.inside_checked = c.inside_checked;
     if (c.inside_checked) {
       r.thick_nodes_inside = static_cast<std::size_t>(std::count(c.inside.begin(), c.inside.end(), 1));
+      for (std::size_t k = 0; k < c.inside.size() && r.outside_node_examples.size() < params.max_examples; ++k) {
+        if (!c.inside[k]) r.outside_node_examples.push_back(thick_ids[k]);
+      }
     }
     for (const auto& e : c.timings.entries) r.timings.add(e.name, e.seconds);
   }
@@ -544,8 +551,11 @@ std::string to_text(const MeshCheckReport& r) {
     line("fidelity", "p50 " + fmt(r.fidelity_p50, 3) + ", p95 " + fmt(r.fidelity_p95, 3) + ", max " +
                          fmt(r.fidelity_max, 3) + " of the local radius (tolerance " + fmt(r.fidelity_tolerance, 3) +
                          " for p95)");
+    std::string ex;
+    for (const auto v : r.outside_node_examples) ex += (ex.empty() ? " (outside: node " : ", ") + std::to_string(v);
+    if (!ex.empty()) ex += ")";
     line("thick nodes inside",
-         r.inside_checked ? n(r.thick_nodes_inside) + " / " + n(r.thick_nodes) : std::string("not checked"));
+         r.inside_checked ? n(r.thick_nodes_inside) + " / " + n(r.thick_nodes) + ex : std::string("not checked"));
   }
   const auto failures = r.failures();
   for (const auto& f : failures) s += "problem: " + f + "\n";
@@ -597,7 +607,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                    {"nonmanifold_vertices", r.nonmanifold_vertex_examples},
                    {"misoriented_edges", pairs(r.misoriented_edge_examples)},
                    {"degenerate_triangles", r.degenerate_triangle_examples},
-                   {"self_intersections", pairs(r.self_intersection_examples)}};
+                   {"self_intersections", pairs(r.self_intersection_examples)},
+                   {"outside_nodes", r.outside_node_examples}};
   nlohmann::json t = nlohmann::json::object();
   for (const auto& e : r.timings.entries) t[e.name] = e.seconds;
   j["timings"] = t;

@@ -100,6 +100,7 @@ struct MeshCheckReport {
   std::vector<std::array<std::uint32_t, 2>> misoriented_edge_examples;   ///< vertex pairs
   std::vector<std::uint32_t> degenerate_triangle_examples;               ///< triangle indices
   std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
+  std::vector<std::uint32_t> outside_node_examples;                      ///< skeleton node indices (thick, outside)
   Timings timings;                                                       ///< seconds per phase
 
   /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component,

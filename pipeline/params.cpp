@@ -60,6 +60,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("slice_step", p.slice_step);
   v("min_slice_step", p.min_slice_step);
   v("max_slices_per_edge", p.max_slices_per_edge);
+  v("max_corner_cut", p.max_corner_cut);
   v("split_gap", p.split_gap);
   v("fork_transition", p.fork_transition);
   v("min_fused_length", p.min_fused_length);
