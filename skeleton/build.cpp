@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <string>
 #include <unordered_map>
@@ -58,7 +59,9 @@ struct WorkTree {
   }
 };
 
-[[noreturn]] void reject(const std::string& msg) { throw InvalidInputError(msg); }
+[[noreturn]] void reject(const std::string& msg) {
+  throw InvalidInputError(msg);
+}
 
 /// "file: place" for error messages (places in RawSkeleton::where do not repeat the file).
 std::string at(const RawSkeleton& raw, std::size_t i) {
@@ -433,6 +436,69 @@ void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep)
   }
 }
 
+/// Steep laterals: a lateral leaving its fork at more than max_lateral_angle from the parent's
+/// direction gets a base node where it has cleared the parent (its first stretch, rotated
+/// towards the parent's direction in the plane of the two, leaves at max_lateral_angle); from
+/// there the branch bends to its own direction, like the upturned base of a real branch.
+void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep) {
+  const double max_angle = params.max_lateral_angle * std::numbers::pi / 180.0;
+  if (!(max_angle > 0) || max_angle >= std::numbers::pi) return;
+  const auto order = t.bfs();
+  for (std::uint32_t v : order) {
+    if (t.children[v].size() != 2) continue;
+    const std::uint32_t main = t.children[v][0], c = t.children[v][1];  // main first (binarize)
+    // The parent's direction: from the nearest ancestor at least a radius away (the extra
+    // nodes of a binarized node lie a tiny step apart, in no meaningful direction); at the
+    // root, towards the main child.
+    std::uint32_t a = t.parent[v];
+    while (a != kNone && t.parent[a] != kNone && glm::length(t.pos[v] - t.pos[a]) < t.radius[v]) a = t.parent[a];
+    const dvec3 from = a != kNone ? t.pos[v] - t.pos[a] : t.pos[main] - t.pos[v];
+    const dvec3 up = normalize_or(from, dvec3(0));
+    const dvec3 edge = t.pos[c] - t.pos[v];
+    const double len = glm::length(edge);
+    if (up == dvec3(0) || !(len > 0)) continue;
+    const dvec3 dir = edge / len;
+    const double cos_angle = std::clamp(glm::dot(dir, up), -1.0, 1.0);
+    if (cos_angle >= std::cos(max_angle + 1e-3)) continue;  // (tolerance: sanitizing twice changes nothing)
+    // The side the lateral leaves towards (perpendicular to up); straight back down: any
+    // side, taken from the main child's offset or a fixed axis so it is deterministic.
+    dvec3 side = dir - up * cos_angle;
+    if (glm::length(side) < 1e-6) side = t.pos[main] - t.pos[v] - up * glm::dot(t.pos[main] - t.pos[v], up);
+    if (glm::length(side) < 1e-6)
+      side = std::abs(up.x) < 0.9 ? glm::cross(up, dvec3(1, 0, 0)) : glm::cross(up, dvec3(0, 1, 0));
+    side = glm::normalize(side);
+    const dvec3 base_dir = up * std::cos(max_angle) + side * std::sin(max_angle);
+    // Far enough along base_dir to clear the parent (radius rv) with the lateral's own radius.
+    const double rv = t.radius[v], rc = t.radius[c];
+    // (At most 70% of the way along a short edge. Left as they are: an edge too short to
+    // reach nearly that far, whose base node would lie inside the parent, and a short stub
+    // ending in a tip, which bent would be all bend.)
+    const double clear = 1.25 * (rv + rc) / std::sin(max_angle);
+    const double reach = std::min(clear, 0.7 * len);
+    if (reach < 0.85 * clear || (t.children[c].empty() && len < 1.5 * clear)) continue;
+    // With the lateral's own radius: a thicker base would add strands there (and thin the
+    // particles of the whole tree when the root's strand count is capped).
+    const std::uint32_t m = t.add(t.pos[v] + base_dir * reach, rc, v, -1);
+    t.children[v][1] = m;
+    t.parent[c] = m;
+    // The bend, halved by a second node where there is room: one stretch along the mean of
+    // the base direction and the way on to c.
+    const dvec3 rest = t.pos[c] - t.pos[m];
+    const double rest_len = glm::length(rest);
+    const double step = std::max(reach, 2.0 * rc);
+    if (rest_len > 2.0 * step) {
+      const dvec3 mid_dir = normalize_or(base_dir + rest / rest_len, rest / rest_len);
+      const std::uint32_t m2 = t.add(t.pos[m] + mid_dir * step, rc, m, -1);
+      t.children[m].push_back(m2);
+      t.children[m2].push_back(c);
+      t.parent[c] = m2;
+    } else {
+      t.children[m].push_back(c);
+    }
+    ++rep.raised_laterals;  // a refinement, not a repair: counted, not warned about
+  }
+}
+
 }  // namespace
 
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
@@ -455,6 +521,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   }
   resample_long_edges(t, params, rep);
   binarize(t, params, rep, raw);
+  raise_steep_laterals(t, params, rep);
   add_collars(t, params, rep);
   rep.timings.add("repair", clock.lap());
 

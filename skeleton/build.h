@@ -58,6 +58,12 @@ struct SkeletonParams {
   double collar_ratio = 1.0;
   /// Only laterals thinner than this fraction of the fork's radius get a collar node.
   double collar_max_child_ratio = 0.7;
+  /// A lateral leaving its fork at more than this angle from the parent's direction
+  /// (degrees; horizontal and drooping branches) gets a base node just outside the parent's
+  /// surface, raised so its first stretch leaves at this angle; the branch then bends to its
+  /// own direction. Strand bundles cannot leave a branch sideways or backwards without
+  /// folding the surface at the fork. 0 (or 180) keeps every lateral as it is.
+  double max_lateral_angle = 60.0;
   /// Swing apart branches whose round cones intersect away from their common fork (no mesh
   /// can be free of self-intersections and genus 0 otherwise).
   bool separate_branches = true;
@@ -77,6 +83,7 @@ struct SkeletonReport {
   std::size_t inserted_nodes = 0;        ///< extra nodes created by binarizing or resampling
   std::size_t merged_inner = 0;          ///< nodes of branches running inside a sibling, merged into it
   std::size_t collars = 0;               ///< collar nodes inserted at thin laterals (not a repair)
+  std::size_t raised_laterals = 0;       ///< steep laterals given a raised base node (not a repair)
   std::size_t branch_collisions = 0;     ///< pairs of branches that ran into each other
   std::size_t unresolved_collisions = 0; ///< of those, pairs still touching after separation
   double max_separation = 0;             ///< largest distance a node was moved to separate (metres)

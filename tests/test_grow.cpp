@@ -118,8 +118,9 @@ void expect_clean_tree(const GrowResult& grown, const GrowerParams& p, const std
     ASSERT_EQ(raw.id[i], static_cast<std::int64_t>(i));
     ASSERT_LT(raw.parent_id[i], raw.id[i]);
   }
-  // Collar nodes are a meshing refinement, not a repair: leave them out to compare 1:1.
-  const SkeletonResult built = build_skeleton(raw, {.collar_ratio = 0});
+  // Collar nodes and raised lateral bases are meshing refinements, not repairs: leave them
+  // out to compare 1:1.
+  const SkeletonResult built = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
   const SkeletonReport& r = built.report;
   EXPECT_TRUE(r.warnings.empty()) << r.warnings.to_string();
   EXPECT_EQ(r.merged_edges + r.raised_radii + r.clamped_children + r.binarized_nodes + r.inserted_nodes, 0u);
@@ -295,7 +296,7 @@ TEST(Grow, SmallTreeIsClean) {
   EXPECT_GT(g.stats.height, 3.0);
   EXPECT_TRUE(g.stats.warnings.empty()) << g.stats.warnings.to_string();
   expect_clean_tree(g, p, "self-organizing");
-  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0}).skeleton), 0u);
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0, .max_lateral_angle = 0}).skeleton), 0u);
 }
 
 TEST(Grow, GoldenStatisticsForSeedOne) {
@@ -459,7 +460,8 @@ void check_preset(const std::string& name, std::uint64_t seed = 0) {
   EXPECT_LE(g.stats.nodes, preset.expected_max_nodes) << name;
   EXPECT_TRUE(g.stats.warnings.empty()) << name << ": " << g.stats.warnings.to_string();
   expect_clean_tree(g, preset.params, name);
-  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0}).skeleton), 0u) << name;
+  EXPECT_EQ(touching_pairs(build_skeleton(g.skeleton, {.collar_ratio = 0, .max_lateral_angle = 0}).skeleton), 0u)
+      << name;
 }
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS
@@ -602,7 +604,9 @@ TEST(GrowPresets, MeshCrownFromObjFile) {
 // ---- the grow command ----------------------------------------------------------------------
 
 using test::CmdResult;
-CmdResult run(const std::string& args) { return test::run_cli(args); }
+CmdResult run(const std::string& args) {
+  return test::run_cli(args);
+}
 
 TEST(GrowCli, PresetIsDeterministicAndNeedsNoRepairs) {
   const fs::path dir = test::temp_dir("grow_cli");

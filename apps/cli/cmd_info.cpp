@@ -46,6 +46,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"inserted_nodes", r.inserted_nodes},
                          {"merged_inner", r.merged_inner},
                          {"collars", r.collars},
+                         {"raised_laterals", r.raised_laterals},
                          {"branch_collisions", r.branch_collisions},
                          {"unresolved_collisions", r.unresolved_collisions},
                          {"max_separation", r.max_separation}};

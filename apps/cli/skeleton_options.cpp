@@ -84,10 +84,11 @@ std::string describe_skeleton(const SkeletonResult& result) {
                 "  inserted nodes   %zu\n"
                 "  inner branches   %zu nodes folded into a sibling\n"
                 "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n"
-                "  collar nodes     %zu (a refinement, not a repair)\n",
+                "  collar nodes     %zu (a refinement, not a repair)\n"
+                "  raised laterals  %zu (steep laterals given an upturned base; a refinement)\n",
                 r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
                 r.binarized_nodes, r.inserted_nodes, r.merged_inner, r.branch_collisions, r.max_separation,
-                r.unresolved_collisions, r.collars);
+                r.unresolved_collisions, r.collars, r.raised_laterals);
   out += buf;
   return out;
 }

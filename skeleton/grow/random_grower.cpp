@@ -91,7 +91,8 @@ RawSkeleton grow_random(const RandomGrowParams& p) {
   }
   // Random directions let branches run into one another; swing those apart here (the same
   // repair build_skeleton applies to imported skeletons), so the grown tree is clean.
-  return raw_from_skeleton(build_skeleton(raw).skeleton, raw.source);
+  // (Laterals are raised by the pipeline's own skeleton stage, not baked into the file.)
+  return raw_from_skeleton(build_skeleton(raw, {.max_lateral_angle = 0}).skeleton, raw.source);
 }
 
 }  // namespace sm

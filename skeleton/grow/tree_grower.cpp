@@ -21,8 +21,6 @@
 
 #include "skeleton/grow/tree_grower.h"
 
-#include "skeleton/build.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -36,6 +34,7 @@
 
 #include "core/errors.h"
 #include "core/rng.h"
+#include "skeleton/build.h"
 
 namespace sm {
 namespace {
@@ -176,8 +175,10 @@ class TreeGrower {
       SkeletonParams sp;
       sp.collar_ratio = 0;
       sp.merge_inner_branches = false;
+      sp.max_lateral_angle = 0;
       const SkeletonResult clean = build_skeleton(result.skeleton, sp);
-      if (clean.report.branch_collisions > 0) result.skeleton = raw_from_skeleton(clean.skeleton, result.skeleton.source);
+      if (clean.report.branch_collisions > 0)
+        result.skeleton = raw_from_skeleton(clean.skeleton, result.skeleton.source);
     }
     stats_->timings.add("separation", clock.lap());
     report("cleanup", 1);
