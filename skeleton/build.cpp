@@ -470,12 +470,12 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
     const dvec3 base_dir = up * std::cos(max_angle) + side * std::sin(max_angle);
     // Far enough along base_dir to clear the parent (radius rv) with the lateral's own radius.
     const double rv = t.radius[v], rc = t.radius[c];
-    // (At most 70% of the way along a short edge. Left as they are: an edge too short to
-    // reach nearly that far, whose base node would lie inside the parent, and a short stub
-    // ending in a tip, which bent would be all bend.)
+    // (At most 70% of the way along a short edge, even if the base node then lies somewhat
+    // inside the parent. Left as they are: an edge too short to reach half that far, and a
+    // short stub ending in a tip, which bent would be all bend.)
     const double clear = 1.25 * (rv + rc) / std::sin(max_angle);
     const double reach = std::min(clear, 0.7 * len);
-    if (reach < 0.85 * clear || (t.children[c].empty() && len < 1.5 * clear)) continue;
+    if (reach < 0.5 * clear || (t.children[c].empty() && len < 1.5 * clear)) continue;
     // With the lateral's own radius: a thicker base would add strands there (and thin the
     // particles of the whole tree when the root's strand count is capped).
     const std::uint32_t m = t.add(t.pos[v] + base_dir * reach, rc, v, -1);
@@ -516,12 +516,14 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   raise_radii(t, rep.radius_floor, rep, raw);
   merge_short_edges(t, params, rep, raw);
   fix_thick_children(t, params, rep, raw);
-  if (params.merge_inner_branches && merge_inner_branches(t, rep, raw)) {
+  // A skeleton this stage wrote already has its geometric refinements (RawSkeleton::sanitized).
+  const bool refine = !raw.sanitized;
+  if (refine && params.merge_inner_branches && merge_inner_branches(t, rep, raw)) {
     merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
   binarize(t, params, rep, raw);
-  raise_steep_laterals(t, params, rep);
+  if (refine) raise_steep_laterals(t, params, rep);
   add_collars(t, params, rep);
   rep.timings.add("repair", clock.lap());
 
@@ -538,7 +540,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.emplace_back(*it, id);
   }
   // add_node fills child slots in visiting order, which is main first (pushed last above).
-  if (params.separate_branches) {
+  if (refine && params.separate_branches) {
     SeparateParams sp;
     sp.clearance = params.branch_clearance;
     const SeparateReport sep = separate_branches(s, sp);

@@ -75,20 +75,20 @@ struct SkeletonParams {
 struct SkeletonReport {
   std::size_t input_nodes = 0;
   std::size_t output_nodes = 0;
-  std::size_t merged_edges = 0;          ///< zero-length or too-short edges merged into parents
-  std::size_t raised_radii = 0;          ///< radii raised to the floor
-  std::size_t clamped_children = 0;      ///< thick children clamped (or parents raised)
-  std::size_t resampled_edges = 0;       ///< long edges split
-  std::size_t binarized_nodes = 0;       ///< nodes with more than two children
-  std::size_t inserted_nodes = 0;        ///< extra nodes created by binarizing or resampling
-  std::size_t merged_inner = 0;          ///< nodes of branches running inside a sibling, merged into it
-  std::size_t collars = 0;               ///< collar nodes inserted at thin laterals (not a repair)
-  std::size_t raised_laterals = 0;       ///< steep laterals given a raised base node (not a repair)
-  std::size_t branch_collisions = 0;     ///< pairs of branches that ran into each other
-  std::size_t unresolved_collisions = 0; ///< of those, pairs still touching after separation
-  double max_separation = 0;             ///< largest distance a node was moved to separate (metres)
-  double radius_floor = 0;               ///< the floor used (metres)
-  Warnings warnings;                     ///< one counted warning per kind of repair
+  std::size_t merged_edges = 0;           ///< zero-length or too-short edges merged into parents
+  std::size_t raised_radii = 0;           ///< radii raised to the floor
+  std::size_t clamped_children = 0;       ///< thick children clamped (or parents raised)
+  std::size_t resampled_edges = 0;        ///< long edges split
+  std::size_t binarized_nodes = 0;        ///< nodes with more than two children
+  std::size_t inserted_nodes = 0;         ///< extra nodes created by binarizing or resampling
+  std::size_t merged_inner = 0;           ///< nodes of branches running inside a sibling, merged into it
+  std::size_t collars = 0;                ///< collar nodes inserted at thin laterals (not a repair)
+  std::size_t raised_laterals = 0;        ///< steep laterals given a raised base node (not a repair)
+  std::size_t branch_collisions = 0;      ///< pairs of branches that ran into each other
+  std::size_t unresolved_collisions = 0;  ///< of those, pairs still touching after separation
+  double max_separation = 0;              ///< largest distance a node was moved to separate (metres)
+  double radius_floor = 0;                ///< the floor used (metres)
+  Warnings warnings;                      ///< one counted warning per kind of repair
   Timings timings;
 };
 

@@ -29,7 +29,9 @@ std::pair<std::size_t, std::size_t> line_col(std::string_view text, std::size_t 
   return {line, col};
 }
 
-const char* type_name(const json& j) { return j.type_name(); }
+const char* type_name(const json& j) {
+  return j.type_name();
+}
 
 std::int64_t get_int(const json& node, const char* key, const std::string& where) {
   auto it = node.find(key);
@@ -111,7 +113,8 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
     // e.g. out_of_range.406 "number overflow parsing '1e999'": strip the library prefix.
     std::string what = e.what();
     const auto bracket = what.find("] ");
-    throw InvalidInputError(name + ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
+    throw InvalidInputError(name +
+                            ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": the top level must be an object with a \"nodes\" array");
   auto nodes = doc.find("nodes");
@@ -121,6 +124,10 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
   RawSkeleton raw;
   raw.source = name;
   raw.up_axis = parse_up_axis(doc, name);
+  if (const auto it = doc.find("sanitized"); it != doc.end()) {
+    if (!it->is_boolean()) throw InvalidInputError(name + ": \"sanitized\" must be true or false, not " + it->dump());
+    raw.sanitized = it->get<bool>();
+  }
   const std::size_t n = nodes->size();
   raw.id.reserve(n);
   raw.parent_id.reserve(n);
@@ -140,7 +147,8 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
       throw InvalidInputError(where + ": \"position\" must be an array of 3 numbers");
     }
     dvec3 p;
-    for (int a = 0; a < 3; ++a) p[a] = get_number((*pos)[std::size_t(a)], "\"position\"[" + std::to_string(a) + "]", where);
+    for (int a = 0; a < 3; ++a)
+      p[a] = get_number((*pos)[std::size_t(a)], "\"position\"[" + std::to_string(a) + "]", where);
     auto rad = node.find("radius");
     if (rad == node.end()) throw InvalidInputError(where + ": missing \"radius\"");
     const double r = get_number(*rad, "\"radius\"", where);
@@ -194,8 +202,10 @@ RawSkeleton parse_swc(std::string_view text, const std::string& name) {
     }
     std::int64_t id = 0, parent = 0, type = 0;
     double v[4];
-    if (!parse_int(tok[0], id)) throw InvalidInputError(where + ": id \"" + std::string(tok[0]) + "\" is not an integer");
-    if (!parse_int(tok[1], type)) throw InvalidInputError(where + ": type \"" + std::string(tok[1]) + "\" is not an integer");
+    if (!parse_int(tok[0], id))
+      throw InvalidInputError(where + ": id \"" + std::string(tok[0]) + "\" is not an integer");
+    if (!parse_int(tok[1], type))
+      throw InvalidInputError(where + ": type \"" + std::string(tok[1]) + "\" is not an integer");
     static const char* names[4] = {"x", "y", "z", "radius"};
     for (int a = 0; a < 4; ++a) {
       if (!parse_double(tok[2 + a], v[a])) {
@@ -229,6 +239,7 @@ std::string skeleton_to_json(const Skeleton& s, const std::string& source) {
   doc["source"] = source.empty() ? std::string("strandmesh") : source;
   doc["up_axis"] = s.up_axis == UpAxis::y ? "y" : "z";
   doc["units"] = "m";
+  doc["sanitized"] = true;  // see RawSkeleton::sanitized
   json nodes = json::array();
   for (std::size_t i = 0; i < s.size(); ++i) {
     json node;

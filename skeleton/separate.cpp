@@ -156,7 +156,8 @@ std::vector<Collision> Separator::collisions(double clearance) const {
     const dvec3 lo = glm::min(a, b) - dvec3(r), hi = glm::max(a, b) + dvec3(r);
     boxes.push_back({lo.x, hi.x, lo, hi, i});
   }
-  std::sort(boxes.begin(), boxes.end(), [](const Box& x, const Box& y) { return x.lo_x != y.lo_x ? x.lo_x < y.lo_x : x.e < y.e; });
+  std::sort(boxes.begin(), boxes.end(),
+            [](const Box& x, const Box& y) { return x.lo_x != y.lo_x ? x.lo_x < y.lo_x : x.e < y.e; });
   std::vector<Collision> out;
   for (std::size_t u = 0; u < boxes.size(); ++u) {
     for (std::size_t v = u + 1; v < boxes.size() && boxes[v].lo_x <= boxes[u].hi_x; ++v) {
@@ -217,7 +218,8 @@ SeparateReport Separator::run() {
       closest_params(s_.position[pm], s_.position[mover], s_.position[po], s_.position[other], s_m, t_o);
       const dvec3 x = glm::mix(s_.position[pm], s_.position[mover], s_m);
       const dvec3 y = glm::mix(s_.position[po], s_.position[other], t_o);
-      const double gap_need = glm::mix(s_.radius[pm], s_.radius[mover], s_m) + glm::mix(s_.radius[po], s_.radius[other], t_o);
+      const double gap_need =
+          glm::mix(s_.radius[pm], s_.radius[mover], s_m) + glm::mix(s_.radius[po], s_.radius[other], t_o);
       for (std::size_t v = mover; v != root; v = s_.parent[v].idx()) {
         const std::size_t pv = s_.parent[v].idx();
         if (s_.is_fork(NodeId(pv)) && glm::length(x - s_.position[pv]) > 3 * gap_need && !in_subtree(other, v)) {
@@ -231,7 +233,8 @@ SeparateReport Separator::run() {
       if (overlaps) continue;
       const dvec3 pivot = s_.position[s_.parent[root].idx()];
       dvec3 sep = x - y;
-      if (glm::length(sep) < 1e-12 * (1 + glm::length(x))) sep = any_perpendicular(normalize_or(x - pivot, dvec3(0, 0, 1)));
+      if (glm::length(sep) < 1e-12 * (1 + glm::length(x)))
+        sep = any_perpendicular(normalize_or(x - pivot, dvec3(0, 0, 1)));
       sep = glm::normalize(sep);
       const dvec3 lever = x - pivot;
       dvec3 axis = glm::cross(lever, sep);

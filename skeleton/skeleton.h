@@ -32,7 +32,11 @@ struct RawSkeleton {
   std::vector<std::string> where;       ///< #N or empty: human-readable place of each node for
                                         ///< error messages ("line 12"); empty → "node id <id>"
   UpAxis up_axis = UpAxis::z;
-  std::string source;                   ///< informative description of the origin
+  std::string source;  ///< informative description of the origin
+  /// Written by strandmesh's skeleton stage (JSON key "sanitized": true): its geometric
+  /// refinements (inner branches folded, steep laterals raised, branches separated) were
+  /// applied already and are not applied again, so re-importing an export changes nothing.
+  bool sanitized = false;
 
   [[nodiscard]] std::size_t size() const { return id.size(); }
   /// Appends a node; returns its index.
@@ -53,12 +57,12 @@ struct RawSkeleton {
 ///  - `frame[i]` is orthonormal, its tangent along the branch, obtained by parallel transport
 ///    from the root (see skeleton/frames.h).
 struct Skeleton {
-  std::vector<dvec3> position;                 ///< #N node positions (metres, input frame)
-  std::vector<double> radius;                  ///< #N radii (metres), > 0
-  std::vector<NodeId> parent;                  ///< #N parent, invalid for the root
+  std::vector<dvec3> position;                  ///< #N node positions (metres, input frame)
+  std::vector<double> radius;                   ///< #N radii (metres), > 0
+  std::vector<NodeId> parent;                   ///< #N parent, invalid for the root
   std::vector<std::array<NodeId, 2>> children;  ///< #N [main, lateral], invalid when absent
-  std::vector<Frame> frame;                    ///< #N orthonormal cross-section frames
-  std::vector<std::int64_t> source_id;         ///< #N id in the input; -1 for inserted nodes
+  std::vector<Frame> frame;                     ///< #N orthonormal cross-section frames
+  std::vector<std::int64_t> source_id;          ///< #N id in the input; -1 for inserted nodes
   UpAxis up_axis = UpAxis::z;
 
   [[nodiscard]] std::size_t size() const { return position.size(); }
