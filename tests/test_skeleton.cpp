@@ -378,6 +378,8 @@ INSTANTIATE_TEST_SUITE_P(
                  "duplicate node id 0"},
         BadInput{"empty_file", "", "the file is empty"}, BadInput{"empty_nodes", R"({"nodes":[]})", "no nodes"},
         BadInput{"no_nodes_key", R"({"bones":[]})", "missing the \"nodes\" array"},
+        BadInput{"sanitized_not_bool", R"({"sanitized":"yes","nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1}]})",
+                 "\"sanitized\" must be true or false"},
         BadInput{"binary_garbage",
                  "\x7f"
                  "ELF\x02\x01\x01\x00\xff\xfe\x00\x10",
