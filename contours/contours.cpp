@@ -273,12 +273,14 @@ class Walker {
     const std::uint32_t base = f_.node_begin[n.idx()];
     out_->stats.evaluated_points += count;
     const NodeId parent = s_.parent[n.idx()];
-    // (Not next to forks, where bundles sit beside each other rather than round on their axis.)
-    const bool unslanted = parent.valid() && !s_.is_fork(parent) && !s_.is_fork(n);
-    const dvec3 axis = unslanted ? normalize_or(s_.position[n.idx()] - s_.position[parent.idx()], dvec3(0)) : dvec3(0);
+    // Sections are stretched into the round cone's ellipse (unslant), except in a fork's own
+    // section, where the bundles sit beside each other rather than round on one axis.
+    const dvec3 axis =
+        parent.valid() ? normalize_or(s_.position[n.idx()] - s_.position[parent.idx()], dvec3(0)) : dvec3(0);
     if (t >= 1.0 || !parent.valid()) {
       out.offset.insert(out.offset.end(), count, surface_offset(n));
       const dvec3& c = s_.position[n.idx()];
+      const bool unslanted = parent.valid() && !s_.is_fork(n);
       for (std::uint32_t k = 0; k < count; ++k) {
         const dvec3& q = st_.point[base + cand[k]];
         out.point.push_back(unslanted ? c + unslant(q - c, axis) : q);
@@ -324,11 +326,15 @@ class Walker {
     const bool above_fork =
         s_.is_fork(parent) && along < p_.fork_transition * rf && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
     const double min_height = along / 3.0;
+    // Above a fork, as the bundle gets its own round section: weight w^4 of the transition's
+    // smoothstep (slices near the fork lie in its plane, far from perpendicular to the child,
+    // and stretched early they would press into the sibling).
+    const double w_round = s_.is_fork(parent) ? (w * w) * (w * w) : 1.0;
     for (std::uint32_t k = 0; k < count; ++k) {
       const std::uint32_t j = cand[k];
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
-      const dvec3 w = g.frame.to_world(q);
-      dvec3 pt = g.center + (unslanted ? unslant(w, axis) : w);
+      const dvec3 off = g.frame.to_world(q);
+      dvec3 pt = g.center + (w_round < 1.0 ? glm::mix(off, unslant(off, axis), w_round) : unslant(off, axis));
       if (above_fork) {
         const double h = glm::dot(pt - fork_pos, fork_up);
         if (h < min_height) pt += fork_up * std::min(min_height - h, 0.5 * rf);
