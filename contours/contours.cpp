@@ -606,8 +606,9 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   pts_b_.clear();
   evaluate_cut(cut_a_, pts_a_);
   evaluate_cut(cut_b_, pts_b_);
-  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(),
-                  0.25 * spacing_);  // forced splits need > 0.5 x  // forced splits need > 0.5 x
+  // Exact up to the threshold; may stop early at 0.25 x the neighbour distance, below the
+  // 0.5 x a forced split needs.
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(), 0.25 * spacing_);
   // Bundles can also run into the other branch at a different distance from the fork (a
   // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
   // distance): each bundle's surface must also clear the other subtree's round cones.
