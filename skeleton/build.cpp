@@ -412,6 +412,54 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
   return rep.merged_inner > before;
 }
 
+/// The same for a branch that runs back down inside its parent's own edge (Sapling starts
+/// whorl hubs that way: a child of v lying inside the round cone of parent(v) -> v, well
+/// below v): a node M is inserted on that edge at the child's projection and takes the
+/// child's children. Repeated until nothing changes.
+bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
+  const std::size_t before = rep.merged_inner;
+  std::vector<std::uint32_t> queue = t.bfs();
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const std::uint32_t v = queue[q];
+    if (t.removed[v] || t.parent[v] == kNone) continue;
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      const std::uint32_t p = t.parent[v];
+      const dvec3 a = t.pos[p], b = t.pos[v];
+      const dvec3 ab = b - a;
+      const double l2 = glm::dot(ab, ab);
+      if (!(l2 > 0)) break;
+      const std::vector<std::uint32_t> ch = t.children[v];  // copy: t.add() may reallocate
+      for (const std::uint32_t x : ch) {
+        const double tt = glm::dot(t.pos[x] - a, ab) / l2;
+        if (tt <= 0.02 || tt >= 0.98 || (1.0 - tt) * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
+        const double r = glm::mix(t.radius[p], t.radius[v], tt);
+        if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
+        const std::uint32_t m = t.add(a + tt * ab, r, p, -1);
+        *std::find(t.children[p].begin(), t.children[p].end(), v) = m;
+        t.children[m].push_back(v);
+        t.parent[v] = m;
+        for (const std::uint32_t g : t.children[x]) {
+          t.children[m].push_back(g);
+          t.parent[g] = m;
+        }
+        t.children[x].clear();
+        t.removed[x] = true;
+        auto& cv = t.children[v];
+        cv.erase(std::find(cv.begin(), cv.end(), x));
+        ++rep.merged_inner;
+        rep.warnings.add("inner_branch_back", "branch running back inside its parent's edge merged into it",
+                         x < raw.size() ? raw.place(x) : std::string("inserted node"));
+        queue.push_back(m);
+        changed = true;
+        break;
+      }
+    }
+  }
+  return rep.merged_inner > before;
+}
+
 /// Lateral collars: a lateral edge from a fork of radius r to a much thinner child is, as a
 /// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
 /// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
@@ -518,8 +566,10 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   fix_thick_children(t, params, rep, raw);
   // A skeleton this stage wrote already has its geometric refinements (RawSkeleton::sanitized).
   const bool refine = !raw.sanitized;
-  if (refine && params.merge_inner_branches && merge_inner_branches(t, rep, raw)) {
-    merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
+  if (refine && params.merge_inner_branches) {
+    bool folded = fold_backward_branches(t, rep, raw);
+    folded = merge_inner_branches(t, rep, raw) || folded;
+    if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
   binarize(t, params, rep, raw);

@@ -138,9 +138,9 @@ TEST(Pipeline, Samples) {
       {"mtg_agraf.json", {4200, 0.18, 10}},
       {"mtg_boutdenoylum2.json", {1050, 0.25, 12}},
       {"qsm_simpleforest_rtwig.json", {550, 0.07, 4}},
-      {"sapling_callistemon.json", {3000, 0.12, 10}},
-      {"sapling_quaking_aspen.json", {450, 0.09, 3}},
-      {"sapling_small_pine.json", {14500, 0.21, 45}}};
+      {"sapling_callistemon.json", {700, 0.08, 3}},
+      {"sapling_quaking_aspen.json", {250, 0.085, 2}},
+      {"sapling_small_pine.json", {5500, 0.12, 25}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);

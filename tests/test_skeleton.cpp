@@ -237,6 +237,33 @@ TEST(Skeleton, BranchRunningInsideItsSiblingIsMerged) {
   }
 }
 
+TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
+  // A whorl hub as Sapling writes it: a child of node 2 that starts back down inside the
+  // trunk edge 1 -> 2 (0.4 below node 2, on the axis), its two laterals leaving from there.
+  // The hub is folded into the trunk edge: the laterals leave from a trunk node at its height.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  raw.add(2, 1, dvec3(0, 0, 2), 0.09);
+  raw.add(3, 2, dvec3(0, 0, 3), 0.08);
+  raw.add(4, 2, dvec3(0.005, 0, 1.6), 0.03);  // the hub
+  raw.add(5, 4, dvec3(1, 0, 1.6), 0.02);
+  raw.add(6, 4, dvec3(-1, 0, 1.7), 0.02);
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+  EXPECT_EQ(r.report.warnings.count("inner_branch_back"), 1u);
+  const Skeleton& s = r.skeleton;
+  expect_valid(s);
+  EXPECT_EQ(std::count(s.source_id.begin(), s.source_id.end(), 4), 0);  // the hub is gone
+  for (const std::int64_t lateral : {5, 6}) {
+    const auto it = std::find(s.source_id.begin(), s.source_id.end(), lateral);
+    ASSERT_NE(it, s.source_id.end());
+    const dvec3 base = s.position[s.parent[std::size_t(it - s.source_id.begin())].idx()];
+    EXPECT_NEAR(base.x, 0.0, 1e-9);  // on the trunk's axis
+    EXPECT_NEAR(base.y, 0.0, 1e-9);
+    EXPECT_NEAR(base.z, 1.6, 0.01);
+  }
+}
+
 TEST(Skeleton, ThickChildPolicies) {
   const auto clamp = build_skeleton(test::thick_child());
   EXPECT_EQ(clamp.report.clamped_children, 1u);
@@ -378,7 +405,8 @@ INSTANTIATE_TEST_SUITE_P(
                  "duplicate node id 0"},
         BadInput{"empty_file", "", "the file is empty"}, BadInput{"empty_nodes", R"({"nodes":[]})", "no nodes"},
         BadInput{"no_nodes_key", R"({"bones":[]})", "missing the \"nodes\" array"},
-        BadInput{"sanitized_not_bool", R"({"sanitized":"yes","nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1}]})",
+        BadInput{"sanitized_not_bool",
+                 R"({"sanitized":"yes","nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1}]})",
                  "\"sanitized\" must be true or false"},
         BadInput{"binary_garbage",
                  "\x7f"
