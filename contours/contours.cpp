@@ -209,17 +209,7 @@ dvec3 unslant(const dvec3& w, const dvec3& axis) {
 
 class Walker {
  public:
-  explicit Walker(const Tables& t)
-      : s_(t.s),
-        f_(t.f),
-        st_(t.st),
-        p_(t.p),
-        spacing_(t.spacing),
-        root_distance_(t.root_distance),
-        branch_(t.branch),
-        node_offset_(t.node_offset),
-        cand_begin_(t.cand_begin),
-        cand_(t.cand) {}
+  explicit Walker(const Tables& t) : s_(t.s), f_(t.f), st_(t.st), p_(t.p), spacing_(t.spacing), tables_(t) {}
 
   void walk(const Task& task, Fragment& out);
 
@@ -264,12 +254,12 @@ class Walker {
   }
 
   /// How far the wood surface lies outside a node's boundary strands (metres; see Tables).
-  [[nodiscard]] double surface_offset(NodeId n) const { return node_offset_[n.idx()]; }
+  [[nodiscard]] double surface_offset(NodeId n) const { return tables_.node_offset[n.idx()]; }
 
   /// Appends the strands of node n at t on its edge.
   void evaluate(NodeId n, double t, SlicePoints& out) {
-    const std::uint32_t* cand = cand_.data() + cand_begin_[n.idx()];
-    const std::uint32_t count = cand_begin_[n.idx() + 1] - cand_begin_[n.idx()];
+    const std::uint32_t* cand = tables_.cand.data() + tables_.cand_begin[n.idx()];
+    const std::uint32_t count = tables_.cand_begin[n.idx() + 1] - tables_.cand_begin[n.idx()];
     const std::uint32_t base = f_.node_begin[n.idx()];
     out_->stats.evaluated_points += count;
     const NodeId parent = s_.parent[n.idx()];
@@ -421,12 +411,8 @@ class Walker {
   const ParticleField& f_;
   const StrandSet& st_;
   const ContourParams& p_;
-  double spacing_;  // distance between neighbouring particles (metres)
-  const std::vector<double>& root_distance_;
-  const std::vector<std::uint32_t>& branch_;
-  const std::vector<double>& node_offset_;
-  const std::vector<std::uint32_t>& cand_begin_;
-  const std::vector<std::uint32_t>& cand_;
+  double spacing_;                            // distance between neighbouring particles (metres)
+  const Tables& tables_;                      // per-node tables shared by all walks
   double last_gap_ = 0, last_clearance_ = 0;  // of the last split_gap_at
   ContourSet* out_ = nullptr;                 // the walk's Fragment::part
   mutable std::vector<std::pair<NodeId, double>> stack_;
@@ -664,8 +650,8 @@ void Walker::walk(const Task& task, Fragment& fragment) {
   out_->tubes.assign(1, Tube{});
   constexpr std::uint32_t tube = 0;
   const NodeId anchor = task.anchor;
-  out_->tubes[tube].branch = NodeId(branch_[task.x.idx()]);
-  const double anchor_distance = anchor.valid() ? root_distance_[anchor.idx()] : 0.0;
+  out_->tubes[tube].branch = NodeId(tables_.branch[task.x.idx()]);
+  const double anchor_distance = anchor.valid() ? tables_.root_distance[anchor.idx()] : 0.0;
   // The tube's first loop: the root's section, or the split section above the anchor.
   double last = task.split;
   double d = 0;

@@ -1,5 +1,7 @@
 #include "core/math.h"
 
+#include <algorithm>
+
 namespace sm {
 
 dvec3 any_perpendicular(const dvec3& t) {
@@ -30,6 +32,36 @@ Frame transport_frame(const Frame& f, const dvec3& t) {
   out.normal = normalize_or(n, any_perpendicular(t));
   out.binormal = glm::cross(t, out.normal);
   return out;
+}
+
+void closest_segment_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t) {
+  const dvec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
+  if (a <= 1e-300 && e <= 1e-300) {
+    s = t = 0;
+    return;
+  }
+  if (a <= 1e-300) {
+    s = 0;
+    t = std::clamp(f / e, 0.0, 1.0);
+    return;
+  }
+  const double c = glm::dot(d1, r);
+  if (e <= 1e-300) {
+    t = 0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+    return;
+  }
+  const double b = glm::dot(d1, d2), denom = a * e - b * b;
+  s = denom > 1e-300 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+  t = (b * s + f) / e;
+  if (t < 0) {
+    t = 0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+  } else if (t > 1) {
+    t = 1;
+    s = std::clamp((b - c) / a, 0.0, 1.0);
+  }
 }
 
 }  // namespace sm

@@ -39,7 +39,14 @@ inline dvec3 normalize_or(const dvec3& v, const dvec3& fallback) {
   return l > 1e-300 && std::isfinite(l) ? v / l : fallback;
 }
 
+/// Closest points between the segments [p0, p1] and [q0, q1]: their parameters s, t in
+/// [0, 1] (clamped, Ericson, Real-Time Collision Detection §5.1.9; degenerate segments are
+/// points).
+void closest_segment_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t);
+
 /// 2D cross product (z of the 3D cross product): > 0 when b is counter-clockwise of a.
-inline double cross2(const dvec2& a, const dvec2& b) { return a.x * b.y - a.y * b.x; }
+inline double cross2(const dvec2& a, const dvec2& b) {
+  return a.x * b.y - a.y * b.x;
+}
 
 }  // namespace sm

@@ -8,24 +8,30 @@
 
 namespace sm {
 
-std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
-  // Each vertex sums the contributions of its corners in triangle order (a CSR of corners per
-  // vertex), so the vertices are independent and the result is the same for any number of
-  // threads.
+VertexCorners vertex_corners(const Mesh& mesh) {
   const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
-  std::vector<std::uint32_t> begin(nv + 1, 0);
+  VertexCorners out;
+  out.begin.assign(nv + 1, 0);
   for (const auto& t : mesh.triangles) {
-    for (const std::uint32_t v : t) ++begin[v + 1];
+    for (const std::uint32_t v : t) ++out.begin[v + 1];
   }
-  for (std::size_t v = 0; v < nv; ++v) begin[v + 1] += begin[v];
-  std::vector<std::uint32_t> corners(begin[nv]);
-  {
-    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t f = 0; f < nf; ++f) {
-      for (std::uint32_t k = 0; k < 3; ++k)
-        corners[fill[mesh.triangles[f][k]]++] = static_cast<std::uint32_t>(3 * f + k);
-    }
+  for (std::size_t v = 0; v < nv; ++v) out.begin[v + 1] += out.begin[v];
+  out.corner.resize(out.begin[nv]);
+  std::vector<std::uint32_t> fill(out.begin.begin(), out.begin.end() - 1);
+  for (std::size_t f = 0; f < nf; ++f) {
+    for (std::uint32_t k = 0; k < 3; ++k)
+      out.corner[fill[mesh.triangles[f][k]]++] = static_cast<std::uint32_t>(3 * f + k);
   }
+  return out;
+}
+
+std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
+  // Each vertex sums the contributions of its corners in triangle order, so the vertices are
+  // independent and the result is the same for any number of threads.
+  const std::size_t nv = mesh.positions.size();
+  const VertexCorners vc = vertex_corners(mesh);
+  const auto& begin = vc.begin;
+  const auto& corners = vc.corner;
   // The angle-weighted unit face normal at one corner (zero for degenerate faces and corners).
   auto contribution = [&](std::uint32_t corner) {
     const auto& t = mesh.triangles[corner / 3];

@@ -23,16 +23,25 @@ struct Mesh {
   std::vector<glm::dvec3> positions;  ///< #V, world coordinates of the input (metres)
   std::vector<Triangle> triangles;    ///< #F vertex indices, CCW seen from outside
 
-  std::vector<glm::dvec3> normals;          ///< #V unit normals, or empty
+  std::vector<glm::dvec3> normals;                   ///< #V unit normals, or empty
   std::vector<std::array<glm::vec2, 3>> corner_uvs;  ///< #F × 3 texture coordinates, or empty
-  std::vector<StrandId> vertex_strand;      ///< #V strand the vertex lies on (invalid: cap centre), or empty
-  std::vector<NodeId> vertex_node;          ///< #V skeleton node whose edge or section made the vertex, or empty
+  std::vector<StrandId> vertex_strand;               ///< #V strand the vertex lies on (invalid: cap centre), or empty
+  std::vector<NodeId> vertex_node;             ///< #V skeleton node whose edge or section made the vertex, or empty
   std::vector<std::uint32_t> triangle_branch;  ///< #F branch id (see Skeleton::branch_id), or empty
 
   [[nodiscard]] std::size_t vertex_count() const { return positions.size(); }
   [[nodiscard]] std::size_t triangle_count() const { return triangles.size(); }
   [[nodiscard]] bool empty() const { return triangles.empty(); }
 };
+
+/// The corners (3 f + k: corner k of triangle f) around every vertex, in triangle order:
+/// those of vertex v are corner[begin[v]] .. corner[begin[v + 1] - 1] (#V + 1 offsets).
+struct VertexCorners {
+  std::vector<std::uint32_t> begin;
+  std::vector<std::uint32_t> corner;
+};
+/// Precondition: every triangle index is a vertex of the mesh.
+VertexCorners vertex_corners(const Mesh& mesh);
 
 /// Angle-weighted vertex normals of the welded mesh (unit length; a vertex
 /// with no non-degenerate incident triangle gets (0,0,1)).

@@ -336,19 +336,10 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
   const bool with_uv = params.uvs && !mesh.corner_uvs.empty();
   const bool with_branch = params.branch_ids && !mesh.triangle_branch.empty();
 
-  // Corners of each welded vertex, in triangle order (CSR).
-  std::vector<std::uint32_t> start(nv + 1, 0);
-  for (const auto& t : mesh.triangles) {
-    for (const std::uint32_t v : t) ++start[v + 1];
-  }
-  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<std::uint32_t> corners(3 * nf);
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t t = 0; t < nf; ++t) {
-      for (std::size_t k = 0; k < 3; ++k) corners[fill[mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(3 * t + k);
-    }
-  }
+  // Corners of each welded vertex, in triangle order.
+  const VertexCorners vc = vertex_corners(mesh);
+  const std::vector<std::uint32_t>& start = vc.begin;
+  const std::vector<std::uint32_t>& corners = vc.corner;
   auto key_of = [&](std::uint32_t c) {
     CornerKey key;
     if (with_uv) {

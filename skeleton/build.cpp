@@ -47,6 +47,28 @@ struct WorkTree {
     return static_cast<std::uint32_t>(pos.size() - 1);
   }
 
+  /// Inserts a node at `p` (radius `r`) on the edge from c's parent to c, in c's child slot.
+  std::uint32_t insert_above(std::uint32_t c, dvec3 p, double r) {
+    const std::uint32_t par = parent[c];
+    const std::uint32_t m = add(p, r, par, -1);
+    *std::find(children[par].begin(), children[par].end(), c) = m;
+    children[m].push_back(c);
+    parent[c] = m;
+    return m;
+  }
+
+  /// Removes node x, its children moving to node m (appended to m's children).
+  void fold_into(std::uint32_t x, std::uint32_t m) {
+    for (const std::uint32_t g : children[x]) {
+      children[m].push_back(g);
+      parent[g] = m;
+    }
+    children[x].clear();
+    removed[x] = true;
+    auto& siblings = children[parent[x]];
+    siblings.erase(std::find(siblings.begin(), siblings.end(), x));
+  }
+
   /// Live nodes in breadth-first order from the root (parents before children).
   [[nodiscard]] std::vector<std::uint32_t> bfs() const {
     std::vector<std::uint32_t> order;
@@ -388,18 +410,8 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
           if (tt >= 0.98 || tt * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
           const double r = glm::mix(t.radius[v], t.radius[y], tt);
           if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
-          const std::uint32_t m = t.add(a + tt * ab, r, v, -1);
-          t.children[m].push_back(y);
-          t.parent[y] = m;
-          for (std::uint32_t g : t.children[x]) {
-            t.children[m].push_back(g);
-            t.parent[g] = m;
-          }
-          t.children[x].clear();
-          t.removed[x] = true;
-          auto& cv = t.children[v];
-          cv.erase(std::find(cv.begin(), cv.end(), x));
-          *std::find(cv.begin(), cv.end(), y) = m;
+          const std::uint32_t m = t.insert_above(y, a + tt * ab, r);
+          t.fold_into(x, m);
           ++rep.merged_inner;
           rep.warnings.add("inner_branch", "branch running inside its sibling's edge merged into it",
                            x < raw.size() ? raw.place(x) : std::string("inserted node"));
@@ -436,18 +448,8 @@ bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton&
         if (tt <= 0.02 || tt >= 0.98 || (1.0 - tt) * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
         const double r = glm::mix(t.radius[p], t.radius[v], tt);
         if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
-        const std::uint32_t m = t.add(a + tt * ab, r, p, -1);
-        *std::find(t.children[p].begin(), t.children[p].end(), v) = m;
-        t.children[m].push_back(v);
-        t.parent[v] = m;
-        for (const std::uint32_t g : t.children[x]) {
-          t.children[m].push_back(g);
-          t.parent[g] = m;
-        }
-        t.children[x].clear();
-        t.removed[x] = true;
-        auto& cv = t.children[v];
-        cv.erase(std::find(cv.begin(), cv.end(), x));
+        const std::uint32_t m = t.insert_above(v, a + tt * ab, r);
+        t.fold_into(x, m);
         ++rep.merged_inner;
         rep.warnings.add("inner_branch_back", "branch running back inside its parent's edge merged into it",
                          x < raw.size() ? raw.place(x) : std::string("inserted node"));
@@ -476,10 +478,7 @@ void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep)
     const double at = params.collar_ratio * rv;
     if (rc >= params.collar_max_child_ratio * rv || len < at + 2.0 * rc) continue;
     const dvec3 dir = (t.pos[c] - t.pos[v]) / len;
-    const std::uint32_t m = t.add(t.pos[v] + dir * at, rc + 0.25 * (rv - rc), v, -1);
-    t.children[v][1] = m;
-    t.children[m].push_back(c);
-    t.parent[c] = m;
+    t.insert_above(c, t.pos[v] + dir * at, rc + 0.25 * (rv - rc));
     ++rep.collars;  // a refinement, not a repair: counted, not warned about
   }
 }
@@ -507,7 +506,7 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
     if (up == dvec3(0) || !(len > 0)) continue;
     const dvec3 dir = edge / len;
     const double cos_angle = std::clamp(glm::dot(dir, up), -1.0, 1.0);
-    if (cos_angle >= std::cos(max_angle + 1e-3)) continue;  // (tolerance: sanitizing twice changes nothing)
+    if (cos_angle >= std::cos(max_angle + 1e-3)) continue;  // (1e-3 rad: laterals at the limit stay)
     // The side the lateral leaves towards (perpendicular to up); straight back down: any
     // side, taken from the main child's offset or a fixed axis so it is deterministic.
     dvec3 side = dir - up * cos_angle;
@@ -526,9 +525,7 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
     if (reach < 0.5 * clear || (t.children[c].empty() && len < 1.5 * clear)) continue;
     // With the lateral's own radius: a thicker base would add strands there (and thin the
     // particles of the whole tree when the root's strand count is capped).
-    const std::uint32_t m = t.add(t.pos[v] + base_dir * reach, rc, v, -1);
-    t.children[v][1] = m;
-    t.parent[c] = m;
+    const std::uint32_t m = t.insert_above(c, t.pos[v] + base_dir * reach, rc);
     // The bend, halved by a second node where there is room: one stretch along the mean of
     // the base direction and the way on to c.
     const dvec3 rest = t.pos[c] - t.pos[m];
@@ -536,12 +533,7 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
     const double step = std::max(reach, 2.0 * rc);
     if (rest_len > 2.0 * step) {
       const dvec3 mid_dir = normalize_or(base_dir + rest / rest_len, rest / rest_len);
-      const std::uint32_t m2 = t.add(t.pos[m] + mid_dir * step, rc, m, -1);
-      t.children[m].push_back(m2);
-      t.children[m2].push_back(c);
-      t.parent[c] = m2;
-    } else {
-      t.children[m].push_back(c);
+      t.insert_above(c, t.pos[m] + mid_dir * step, rc);
     }
     ++rep.raised_laterals;  // a refinement, not a repair: counted, not warned about
   }

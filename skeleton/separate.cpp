@@ -13,37 +13,6 @@ namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-/// Closest points between segments [p0, p1] and [q0, q1]: parameters s, t in [0, 1].
-void closest_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t) {
-  const dvec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
-  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
-  if (a <= 1e-300 && e <= 1e-300) {
-    s = t = 0;
-    return;
-  }
-  if (a <= 1e-300) {
-    s = 0;
-    t = std::clamp(f / e, 0.0, 1.0);
-    return;
-  }
-  const double c = glm::dot(d1, r);
-  if (e <= 1e-300) {
-    t = 0;
-    s = std::clamp(-c / a, 0.0, 1.0);
-    return;
-  }
-  const double b = glm::dot(d1, d2), denom = a * e - b * b;
-  s = denom > 1e-300 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
-  t = (b * s + f) / e;
-  if (t < 0) {
-    t = 0;
-    s = std::clamp(-c / a, 0.0, 1.0);
-  } else if (t > 1) {
-    t = 1;
-    s = std::clamp((b - c) / a, 0.0, 1.0);
-  }
-}
-
 class Separator {
  public:
   Separator(Skeleton& s, const SeparateParams& p) : s_(s), p_(p) {
@@ -168,7 +137,7 @@ std::vector<Collision> Separator::collisions(double clearance) const {
       const std::size_t pi = s_.parent[i].idx(), pj = s_.parent[j].idx();
       if (pi == pj || pj == i || pi == j) continue;  // edges sharing a node
       double si = 0, tj = 0;
-      closest_params(s_.position[pi], s_.position[i], s_.position[pj], s_.position[j], si, tj);
+      closest_segment_params(s_.position[pi], s_.position[i], s_.position[pj], s_.position[j], si, tj);
       const dvec3 x = glm::mix(s_.position[pi], s_.position[i], si);
       const dvec3 y = glm::mix(s_.position[pj], s_.position[j], tj);
       const double need =
@@ -215,7 +184,7 @@ SeparateReport Separator::run() {
       // long enough for a modest rotation.
       double s_m = 0, t_o = 0;
       const std::size_t pm = s_.parent[mover].idx(), po = s_.parent[other].idx();
-      closest_params(s_.position[pm], s_.position[mover], s_.position[po], s_.position[other], s_m, t_o);
+      closest_segment_params(s_.position[pm], s_.position[mover], s_.position[po], s_.position[other], s_m, t_o);
       const dvec3 x = glm::mix(s_.position[pm], s_.position[mover], s_m);
       const dvec3 y = glm::mix(s_.position[po], s_.position[other], t_o);
       const double gap_need =

@@ -23,28 +23,8 @@ T clamp_to(double v) {
   return static_cast<T>(std::llround(v));
 }
 
-// Fields that are being added to SkeletonParams (branch separation): taken into the table as
-// soon as the header has them, so the panel and the config file never disagree.
-template <class P>
-void add_separation_fields(P& p, std::vector<ParamField>& out) {
-  if constexpr (requires { p.separate_branches; }) {
-    out.push_back({.key = "separate_branches",
-                   .help = "swing apart branches whose round cones intersect away from their common fork",
-                   .value = &p.separate_branches,
-                   .min = 0,
-                   .max = 1});
-  }
-  if constexpr (requires { p.branch_clearance; }) {
-    out.push_back({.key = "branch_clearance",
-                   .help = "gap left between separated branches (relative to the sum of their radii)",
-                   .value = &p.branch_clearance,
-                   .min = 0,
-                   .max = 1});
-  }
-}
-
 std::vector<ParamField> skeleton_fields(SkeletonParams& p) {
-  std::vector<ParamField> out = {
+  return {
       {.key = "max_nodes",
        .help = "largest accepted node count (count)",
        .value = SizeRef{&p.max_nodes},
@@ -102,9 +82,17 @@ std::vector<ParamField> skeleton_fields(SkeletonParams& p) {
        .value = &p.collar_max_child_ratio,
        .min = 0,
        .max = 1},
+      {.key = "separate_branches",
+       .help = "swing apart branches whose round cones intersect away from their common fork",
+       .value = &p.separate_branches,
+       .min = 0,
+       .max = 1},
+      {.key = "branch_clearance",
+       .help = "gap left between separated branches (relative to the sum of their radii)",
+       .value = &p.branch_clearance,
+       .min = 0,
+       .max = 1},
   };
-  add_separation_fields(p, out);
-  return out;
 }
 
 std::vector<ParamField> particle_fields(ParticleParams& p) {

@@ -81,33 +81,11 @@ double angle_between(const dvec3& a, const dvec3& b) {
   return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
 }
 
-/// Distance between segments [p1, q1] and [p2, q2] (closest points by clamped parameters,
-/// Ericson, Real-Time Collision Detection §5.1.9).
+/// Distance between segments [p1, q1] and [p2, q2].
 double segment_distance(const dvec3& p1, const dvec3& q1, const dvec3& p2, const dvec3& q2) {
-  const dvec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
   double s = 0, t = 0;
-  if (a <= 1e-300 && e <= 1e-300) return glm::length(r);
-  if (a <= 1e-300) {
-    t = std::clamp(f / e, 0.0, 1.0);
-  } else {
-    const double c = glm::dot(d1, r);
-    if (e <= 1e-300) {
-      s = std::clamp(-c / a, 0.0, 1.0);
-    } else {
-      const double b = glm::dot(d1, d2), denom = a * e - b * b;
-      s = denom > 1e-300 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0) {
-        t = 0;
-        s = std::clamp(-c / a, 0.0, 1.0);
-      } else if (t > 1) {
-        t = 1;
-        s = std::clamp((b - c) / a, 0.0, 1.0);
-      }
-    }
-  }
-  return glm::length((p1 + s * d1) - (p2 + t * d2));
+  closest_segment_params(p1, q1, p2, q2, s, t);
+  return glm::length((p1 + s * (q1 - p1)) - (p2 + t * (q2 - p2)));
 }
 
 /// The unit vector in the plane of `ref` and `w` (on w's side) whose angle from ref is
