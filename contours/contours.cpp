@@ -486,10 +486,11 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   flat_.resize(pts.point.size());
   for (std::size_t i = 0; i < pts.point.size(); ++i) flat_[i] = g.frame.to_local(pts.point[i] - g.center);
   bool fallback = false;
-  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback);
+  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback,
+                                                 p_.fallback_max_edge);
   if (fallback) {
     ++out_->stats.boundary_fallbacks;
-    out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; convex hull used",
+    out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; concave outline used",
                              s_.describe(g.node));
   }
   if (loop.size() >= 3) return add_loop_vertices(pts, loop, g, kind, distance, tube);

@@ -29,11 +29,15 @@
 /// plane and the outer loop is found by the angular walk around the centroid (a Graham scan
 /// that tolerates small concave turns), with orientation from exact-sign cross products
 /// (never acos). The walk is verified (the loop turns monotonically around the centroid and
-/// leaves no point outside); when it fails (the slice is not star-shaped around its
-/// centroid), the loop falls back to the convex hull of the points, which is always a valid
-/// outer loop, and the fallback is counted (warning "boundary_fallback"). A concave fallback
-/// (alpha shapes) is not implemented: on the sample skeletons and grown presets the walk has
-/// not needed the fallback once.
+/// leaves no point outside). A slice that is not star-shaped around its centroid gets its
+/// concave outline instead: the Delaunay triangulation of the points with boundary triangles
+/// peeled off while their outer edge is longer than `fallback_max_edge` x the median
+/// nearest-neighbour distance (a "chi-shape": one simple polygon around every point). It is
+/// used when the walk fails, and when the walk bridges a long gap while the points form one
+/// connected shape whose outline turns back around the centroid by more than a quarter turn
+/// (a "C"). Bundles a gap apart and the shallow notches of a union stay bridged by the walk,
+/// which is what branch fusion stitches best (see boundary.cpp). The fallback is counted
+/// (warning "boundary_fallback").
 
 #include <array>
 #include <cstdint>
@@ -80,6 +84,10 @@ struct ContourParams {
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives
   /// the convex hull.
   double concave_turn_degrees = 12.0;
+  /// Concave fallback for slices that are not star-shaped around their centroid: outline
+  /// edges longer than this, relative to the median nearest-neighbour distance of the
+  /// slice's points, are carved away (0 = fall back to the convex hull).
+  double fallback_max_edge = 3.0;
 };
 
 /// Where a loop comes from.
@@ -153,8 +161,21 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
 
 /// Boundary selection on its own (exposed for tests and the viewer): indices into `points` of
 /// the outer loop, counter-clockwise, at least 3 when the points are not all collinear.
-/// `fallback` (optional) is set to true when the angular walk had to be replaced.
+/// `fallback` (optional) is set to true when the angular walk had to be replaced by the
+/// concave outline (`concave_hull` with `fallback_max_edge`; the convex hull when that is 0 or
+/// the points are collinear).
 std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& points, double concave_turn_degrees,
-                                         bool* fallback = nullptr);
+                                         bool* fallback = nullptr, double fallback_max_edge = 3.0);
+
+/// Concave outline of a point set ("chi-shape"): the Delaunay triangulation with boundary
+/// triangles removed, longest outer edge first, while that edge is longer than
+/// `relative_max_edge` x the median nearest-neighbour distance and the triangle's third point
+/// is not on the outline yet. Indices into `points`, counter-clockwise from the lowest point,
+/// one simple polygon with every point inside or on it; points collinear with their outline
+/// neighbours are left out. Empty when the points are fewer than 3 or all collinear.
+/// `connected` (optional) is set to whether the outline needs no edge longer than that limit
+/// (false: the points form clusters farther apart, bridged by long outline edges).
+std::vector<std::uint32_t> concave_hull(const std::vector<dvec2>& points, double relative_max_edge,
+                                        bool* connected = nullptr);
 
 }  // namespace sm

@@ -67,6 +67,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("min_fused_length", p.min_fused_length);
   v("split_bisection_steps", p.split_bisection_steps);
   v("concave_turn_degrees", p.concave_turn_degrees);
+  v("fallback_max_edge", p.fallback_max_edge);
 }
 template <class V>
 void visit_fields(MeshParams& p, V&& v) {

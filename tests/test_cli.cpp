@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sys/wait.h>
 
+#include <nlohmann/json.hpp>
+
 #include "core/file_io.h"
 #include "tests/fixtures.h"
 
@@ -30,6 +32,18 @@ TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_EQ(run("info").code, 2);
   EXPECT_EQ(run("info --no-such-option x.json").code, 2);
   EXPECT_EQ(run("frobnicate").code, 2);
+  EXPECT_EQ(run("mesh").code, 2);
+  EXPECT_EQ(run("mesh tree.json").code, 2);
+  EXPECT_EQ(run("mesh -o out.glb").code, 2);
+}
+
+TEST(Cli, PrintConfigNeedsNoSkeleton) {
+  // The printed config is the built-in default set, which configs/default.json spells out.
+  const CmdResult r = run("mesh --print-config");
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json shipped = nlohmann::json::parse(read_file(fs::path(STRANDMESH_SOURCE_DIR) / "configs/default.json"));
+  shipped.erase("description");
+  EXPECT_EQ(nlohmann::json::parse(r.out), shipped);  // every key, so a new parameter must be added there
 }
 
 TEST(Cli, GrowIsDeterministicAcrossThreadCounts) {

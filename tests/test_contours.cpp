@@ -117,7 +117,9 @@ TEST(Boundary, UnionOfTwoBundlesFollowsTheWaist) {
       }
     }
   }
-  const auto loop = boundary_loop(p, 60.0);
+  bool fallback = true;
+  const auto loop = boundary_loop(p, 60.0, &fallback);
+  EXPECT_FALSE(fallback);  // star-shaped around the centroid: the walk's loop
   expect_valid_loop(p, loop);
   double min_abs_y_near_waist = 1e9;
   for (auto i : loop) {
@@ -126,17 +128,91 @@ TEST(Boundary, UnionOfTwoBundlesFollowsTheWaist) {
   EXPECT_LT(min_abs_y_near_waist, 0.95);  // the convex hull would stay at |y| = 1 there
 }
 
-TEST(Boundary, NotStarShapedFallsBack) {
-  // A thin ring arc (a "C"): its centroid lies outside the points.
+double loop_area(const std::vector<dvec2>& p, const std::vector<std::uint32_t>& loop) {
+  double a = 0;
+  for (std::size_t k = 0; k < loop.size(); ++k) a += cross2(p[loop[k]], p[loop[(k + 1) % loop.size()]]);
+  return 0.5 * a;
+}
+
+TEST(Boundary, NotStarShapedFallsBackToTheConcaveOutline) {
+  // Evenly spread points (a jittered grid) in a thick ring arc, a "C": its centroid lies in
+  // the hole, so no loop around every point is star-shaped around it, and the angular walk
+  // would bridge the opening. The fallback follows the C instead, like the strands do.
+  Rng rng(3);
   std::vector<dvec2> p;
-  for (int k = 0; k <= 40; ++k) {
-    const double a = 0.2 * kPi + 1.6 * kPi * k / 40;
-    p.emplace_back(std::cos(a), std::sin(a));
-    p.emplace_back(0.9 * std::cos(a), 0.9 * std::sin(a));
+  const double h = 0.06;
+  for (double x = -1; x <= 1; x += h) {
+    for (double y = -1; y <= 1; y += h) {
+      const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(rng.uniform(-1, 1), rng.uniform(-1, 1));
+      const double r = glm::length(q), a = std::atan2(q.y, q.x);
+      if (r > 0.7 && r < 1 && std::abs(a) > 0.2 * kPi) p.push_back(q);
+    }
   }
   bool fallback = false;
-  const auto loop = boundary_loop(p, 60.0, &fallback);
+  const auto loop = boundary_loop(p, 12.0, &fallback);
+  EXPECT_TRUE(fallback);
   expect_valid_loop(p, loop);
+  const double c_area = 0.5 * (1.0 - 0.49) * 1.6 * kPi;  // the annulus sector: 1.28
+  EXPECT_NEAR(loop_area(p, loop), c_area, 0.15 * c_area);
+  // With the fallback off, the walk's star-shaped loop bridges the opening and covers the
+  // hole (area above 2.5).
+  const auto walked = boundary_loop(p, 12.0, nullptr, 0.0);
+  expect_valid_loop(p, walked);
+  EXPECT_GT(loop_area(p, walked), 2.5);
+}
+
+TEST(Boundary, SeparateBundlesStayBridged) {
+  // Two bundles a gap apart whose centroid lies between them (a fused slice just below a
+  // split): not star-shaped around the centroid, but not one connected shape either. The walk
+  // bridges the gap, as branch fusion expects, instead of a thin neck between the two.
+  std::vector<dvec2> p;
+  for (int side : {-1, 1}) {
+    for (int r = 0; r <= 3; ++r) {
+      const int n = std::max(1, 6 * r);
+      for (int k = 0; k < n; ++k) {
+        const double a = 2 * kPi * k / n + 0.1 * side;
+        p.emplace_back(side * 1.5 + 0.25 * r * std::cos(a), 0.25 * r * std::sin(a));
+      }
+    }
+  }
+  bool fallback = true;
+  const auto loop = boundary_loop(p, 12.0, &fallback);
+  EXPECT_FALSE(fallback);
+  expect_valid_loop(p, loop);
+  EXPECT_GT(loop_area(p, loop), 2 * 1.5 * 2 * 0.7);  // spans the gap at about full height
+}
+
+TEST(Boundary, ConcaveHullOfRandomShapesIsOneSimpleLoop) {
+  // Evenly spread points (a jittered grid, like relaxed particles) in an L, a ring and two
+  // separate discs: always one simple CCW loop around every point, never larger than the
+  // convex hull, and close to the shape's own area (for the ring, of its outer circle).
+  Rng rng(5);
+  const double h = 0.08;
+  for (int shape = 0; shape < 3; ++shape) {
+    for (int trial = 0; trial < 10; ++trial) {
+      std::vector<dvec2> p;
+      for (double x = -1; x <= 1; x += h) {
+        for (double y = -1; y <= 1; y += h) {
+          const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(rng.uniform(-1, 1), rng.uniform(-1, 1));
+          const bool in = shape == 0   ? (q.x < -0.4 || q.y < -0.4)
+                          : shape == 1 ? (glm::length(q) < 1 && glm::length(q) > 0.6)
+                                       : (glm::length(q - dvec2(0.5, 0)) < 0.4 || glm::length(q + dvec2(0.5, 0)) < 0.4);
+          if (in) p.push_back(q);
+        }
+      }
+      SCOPED_TRACE(shape * 100 + trial);
+      const auto loop = concave_hull(p, 3.0);
+      ASSERT_GE(loop.size(), 3u);
+      expect_valid_loop(p, loop);
+      const double area = loop_area(p, loop), hull = loop_area(p, boundary_loop(p, 0.0, nullptr, 0.0));
+      EXPECT_GT(area, 0);
+      EXPECT_LE(area, hull * (1 + 1e-12));
+      if (shape == 0) EXPECT_NEAR(area, 4 - 1.4 * 1.4, 0.15);  // the L (hull: about 3)
+      if (shape == 1) EXPECT_NEAR(area, kPi, 0.3);  // the ring: its outer circle (holes are not carved)
+    }
+  }
+  EXPECT_TRUE(concave_hull({{0, 0}, {1, 1}, {2, 2}}, 3.0).empty());
+  EXPECT_TRUE(concave_hull({{0, 0}, {1, 1}}, 3.0).empty());
 }
 
 TEST(Boundary, RandomCloudsGiveValidLoops) {

@@ -238,6 +238,12 @@ std::vector<ParamField> contour_fields(ContourParams& p) {
        .value = &p.concave_turn_degrees,
        .min = 0,
        .max = 90},
+      {.key = "fallback_max_edge",
+       .help = "concave fallback for non-star-shaped slices: outline edges longer than this x the "
+               "nearest-neighbour distance are carved (0 = convex hull)",
+       .value = &p.fallback_max_edge,
+       .min = 0,
+       .max = 10},
   };
 }
 

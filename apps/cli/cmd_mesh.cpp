@@ -25,8 +25,9 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       SkeletonParams skeleton;
     };
     auto o = std::make_shared<Opts>();
-    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc)")->required();
-    sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply")->required();
+    // Required unless --print-config (checked below, so the config can be printed alone).
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc); required");
+    sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
     sub.add_option("--config", o->config, "Parameter file (JSON; see configs/ and docs/parameters.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")->capture_default_str();
     auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
@@ -62,6 +63,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (o->print_config) {
         std::fputs(params_to_json(params).c_str(), stdout);
         return int(kOk);
+      }
+      if (o->input.empty() || o->output.empty()) {
+        log::error(std::string(o->input.empty() ? "SKELETON" : "--output") +
+                   " is required (strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}; see --help)");
+        return int(kUsage);
       }
       const MeshFormat format = mesh_format_from_path(o->output);  // fail before the long run
       const RawSkeleton raw = read_skeleton(o->input);
