@@ -170,7 +170,7 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
       outer_points(own, count, a);
       pts.clear();
       for (auto j : a) pts.push_back(own[j]);
-      const auto hull = boundary_loop(pts, 0.0);
+      const auto hull = boundary_loop(pts, 0.0, nullptr, 0.0);
       if (hull.size() >= 3) {
         double mean = 0;
         for (auto k : hull) mean += glm::length(pts[k]);
