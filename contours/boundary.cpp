@@ -35,8 +35,8 @@ constexpr double kPi = std::numbers::pi;
 /// Below, the backward turns are the notches of a concave union, which the walk bridges.
 constexpr double kHiddenTurn = kPi / 2;
 /// Only gaps bridged by a walk edge longer than this, relative to the slice's extent (its
-/// largest distance from the centroid), are examined: on the large grown tree, triangulating
-/// at every long edge added 45 % to the contours stage, this limit 10 %.
+/// largest distance from the centroid), are examined, and only when there is exactly one: on
+/// the large grown tree, triangulating at every long edge added 45 % to the contours stage.
 constexpr double kLongBridge = 0.5;
 
 /// Andrew's monotone chain; strictly convex (collinear points dropped), CCW.
@@ -204,8 +204,8 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (filter && n <= 64) continue;
     std::vector<std::uint32_t> loop = walk(candidates(filter));
     if (loop.size() < 3 || !star_loop_valid(p, key, c, loop, valid_tol)) continue;
-    // The walk gives a star-shaped loop around every point. Where it bridges a gap much wider
-    // than the spacing of its vertices and half as wide as the slice, the points may not be star-shaped around the centroid
+    // The walk gives a star-shaped loop around every point. Where it bridges one gap much
+    // wider than the spacing of its vertices and half as wide as the slice, the points may not be star-shaped around the centroid
     // (a "C"). When they are one connected shape at the spacing of the points (the concave
     // outline needs no long edge) and that outline turns back around the centroid by more
     // than kHiddenTurn, the outline is the true outer loop. Kept with the walk: separate
@@ -215,9 +215,12 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (fallback_max_edge > 0 && max_concave > 0 && loop.size() >= 4) {
       std::vector<double> len(loop.size());
       for (std::size_t k = 0; k < loop.size(); ++k) len[k] = glm::length(p[loop[(k + 1) % loop.size()]] - p[loop[k]]);
-      const double longest = *std::max_element(len.begin(), len.end());
-      std::nth_element(len.begin(), len.begin() + len.size() / 2, len.end());
-      if (longest > fallback_max_edge * len[len.size() / 2] && longest > kLongBridge * extent) {
+      std::vector<double> sorted = len;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double long_edge = std::max(fallback_max_edge * sorted[sorted.size() / 2], kLongBridge * extent);
+      // Exactly one bridge: clusters a gap apart need two or more (one on each side of every
+      // gap), so a single long edge spans a concavity of one connected shape.
+      if (std::count_if(len.begin(), len.end(), [&](double l) { return l > long_edge; }) == 1) {
         bool connected = false;
         std::vector<std::uint32_t> outline = concave_hull(p, fallback_max_edge, &connected);
         if (outline.size() >= 3 && connected && backward_turn(p, c, outline) > kHiddenTurn) {

@@ -33,6 +33,7 @@
 #include <memory>
 #include <mutex>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <tbb/concurrent_vector.h>
 #include <tbb/parallel_for.h>
@@ -114,6 +115,12 @@ struct Task {
   NodeId anchor;     // the fork whose split starts the tube; invalid for the root tube
   NodeId x;          // subtree root carried by the tube
   double split = 0;  // distance above the anchor of the tube's first loop (the split section)
+  /// The tube resumes the fused section of fork `anchor` (both its bundles, `x` unused) from
+  /// distance `split` above it, after a lateral inside it split off (see nested_split).
+  bool fused = false;
+  /// Laterals that already have their own tube: their subtrees are left out of every cut, and
+  /// their fork is walked as a plain node.
+  std::vector<NodeId> excluded;
 };
 
 /// The output of one tube's walk: its loops (numbered from 0, `part.tubes[0]` is the tube)
@@ -139,6 +146,11 @@ struct Tables {
   std::vector<std::uint32_t> branch;            // #N first node of each node's branch
   std::vector<double> node_offset;              // #N surface offset of each node's cloud (metres)
   std::vector<std::uint32_t> cand_begin, cand;  // boundary candidates per edge (see below)
+  std::vector<std::uint32_t> dfs_in, dfs_out;   // #N subtree of x = nodes y with in[x] <= in[y] < out[x]
+
+  [[nodiscard]] bool in_subtree(NodeId y, NodeId x) const {
+    return dfs_in[x.idx()] <= dfs_in[y.idx()] && dfs_in[y.idx()] < dfs_out[x.idx()];
+  }
 };
 
 Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_, const ContourParams& p_)
@@ -151,6 +163,25 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
   root_distance.assign(n, 0.0);
   for (std::size_t i = 1; i < n; ++i) root_distance[i] = root_distance[s.parent[i].idx()] + s.edge_length(NodeId(i));
   branch = s.branch_ids();
+  dfs_in.assign(n, 0);
+  dfs_out.assign(n, 0);
+  if (n > 0) {
+    std::vector<std::pair<std::uint32_t, bool>> stack{{0u, false}};
+    std::uint32_t clock = 0;
+    while (!stack.empty()) {
+      const auto [v, leaving] = stack.back();
+      stack.pop_back();
+      if (leaving) {
+        dfs_out[v] = clock;
+        continue;
+      }
+      dfs_in[v] = clock++;
+      stack.emplace_back(v, true);
+      for (const NodeId c : s.children[v]) {
+        if (c.valid()) stack.emplace_back(c.value, false);
+      }
+    }
+  }
 
   // Per node n: the local particle indices of n that may be on the boundary of a section of
   // n's edge: outer in n's own cloud, or outer in n's bundle inside its parent's cloud. And
@@ -349,7 +380,7 @@ class Walker {
         continue;
       }
       const auto& c = s_.children[y.idx()];
-      if (c[1].valid()) stack_.emplace_back(c[1], start + l);
+      if (c[1].valid() && !excluded(c[1])) stack_.emplace_back(c[1], start + l);
       if (c[0].valid()) stack_.emplace_back(c[0], start + l);
     }
   }
@@ -406,6 +437,23 @@ class Walker {
     return edge_geometry(edges.front().node, edges.front().t);
   }
   [[nodiscard]] double threshold() const { return p_.split_gap * spacing_; }
+  [[nodiscard]] bool excluded(NodeId n) const {
+    return !excluded_.empty() && std::find(excluded_.begin(), excluded_.end(), n) != excluded_.end();
+  }
+  /// A fork in the walk: two children, neither of them split off already.
+  [[nodiscard]] bool fork_here(NodeId n) const { return s_.is_fork(n) && !excluded(s_.children[n.idx()][1]); }
+  /// In the fused section of `fork` (sitting at fork_base above the anchor), after
+  /// split_gap_at(fork, fork_base, u): the lateral of a fork inside either child's subtree,
+  /// below u, whose bundle has come apart from everything else in the section (points and
+  /// cones, as for the fork's own split). Invalid if none. Its fork's distance above the
+  /// anchor goes to `base`.
+  NodeId nested_split(NodeId fork, double u, double& base);
+  /// Is the bundle of `lateral` (its edge starting at `base` above the anchor) apart from the
+  /// rest of `fork`'s fused section at distance u?
+  bool nested_apart(NodeId fork, double fork_base, NodeId lateral, double base, double u);
+  /// Junction::lower_side for a lateral split off inside a fused section: 1 for its strands,
+  /// 0 for every other.
+  std::vector<std::uint8_t> lateral_sides(NodeId lateral, std::uint32_t loop) const;
 
   const Skeleton& s_;
   const ParticleField& f_;
@@ -417,8 +465,10 @@ class Walker {
   ContourSet* out_ = nullptr;                 // the walk's Fragment::part
   mutable std::vector<std::pair<NodeId, double>> stack_;
   // scratch
-  SlicePoints pts_, pts_a_, pts_b_;
-  std::vector<CutEdge> cut_, cut_a_, cut_b_;
+  SlicePoints pts_, pts_a_, pts_b_, pts_l_, pts_rest_;
+  std::vector<CutEdge> cut_, cut_a_, cut_b_, cut_n_;
+  std::vector<NodeId> excluded_;   // of the task
+  double anchor_distance_ = 0;     // of the task's anchor, from the root
   std::vector<dvec2> flat_;
 };
 
@@ -625,7 +675,7 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
     const double l = len(y);
     if (start + l < reach) {
       for (const NodeId c : s_.children[y.idx()]) {
-        if (c.valid()) stack.emplace_back(c, start + l);
+        if (c.valid() && !excluded(c)) stack.emplace_back(c, start + l);
       }
     }
   }
@@ -645,6 +695,65 @@ double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi)
   return hi;
 }
 
+NodeId Walker::nested_split(NodeId fork, double u, double& base) {
+  if (!p_.split_nested_laterals) return {};
+  // Forks on the paths from the fork's children down to the cut (pts_a_ / pts_b_ and
+  // cut_a_ / cut_b_ hold the section at u), in cut order.
+  std::vector<NodeId> candidates;
+  for (const auto* edges : {&cut_a_, &cut_b_}) {
+    for (const CutEdge& e : *edges) {
+      for (NodeId y = s_.parent[e.node.idx()]; y.valid() && y != fork; y = s_.parent[y.idx()]) {
+        if (!fork_here(y)) continue;
+        const NodeId lateral = s_.children[y.idx()][1];
+        if (std::find(candidates.begin(), candidates.end(), lateral) == candidates.end()) candidates.push_back(lateral);
+      }
+    }
+  }
+  const double fork_base = tables_.root_distance[fork.idx()] - anchor_distance_;
+  for (const NodeId lateral : candidates) {
+    const double b = tables_.root_distance[s_.parent[lateral.idx()].idx()] - anchor_distance_;
+    if (nested_apart(fork, fork_base, lateral, b, u)) {
+      base = b;
+      return lateral;
+    }
+  }
+  return {};
+}
+
+bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double base, double u) {
+  cut_n_.clear();
+  cut(lateral, base, u, cut_n_);
+  pts_l_.clear();
+  evaluate_cut(cut_n_, pts_l_);
+  if (pts_l_.point.empty()) return false;
+  excluded_.push_back(lateral);
+  cut_n_.clear();
+  cut(s_.children[fork.idx()][0], fork_base, u, cut_n_);
+  cut(s_.children[fork.idx()][1], fork_base, u, cut_n_);
+  pts_rest_.clear();
+  evaluate_cut(cut_n_, pts_rest_);
+  excluded_.pop_back();
+  if (pts_rest_.point.empty()) return false;
+  if (!(gap(pts_l_.point, pts_rest_.point, threshold(), 0.25 * spacing_) > threshold())) return false;
+  const NodeId y = s_.parent[lateral.idx()];
+  const double reach = u + 2.0 * s_.radius[y.idx()];
+  const double clearance = std::min(cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach),
+                                    cone_clearance(pts_rest_, lateral, base, reach));
+  return clearance > 0.5 * p_.split_gap * spacing_;
+}
+
+std::vector<std::uint8_t> Walker::lateral_sides(NodeId lateral, std::uint32_t loop) const {
+  const std::uint32_t base = f_.node_begin[lateral.idx()];
+  std::unordered_set<std::uint32_t> mine;
+  mine.reserve(2 * f_.count(lateral));
+  for (std::uint32_t j = 0; j < f_.count(lateral); ++j) mine.insert(f_.strand[base + j].value);
+  std::vector<std::uint8_t> out(out_->loop_size(loop), 0);
+  for (std::uint32_t k = 0; k < out.size(); ++k) {
+    if (mine.count(out_->strand[out_->loop_begin[loop] + k].value)) out[k] = 1;
+  }
+  return out;
+}
+
 void Walker::walk(const Task& task, Fragment& fragment) {
   out_ = &fragment.part;
   out_->loop_begin.assign(1, 0);
@@ -653,10 +762,27 @@ void Walker::walk(const Task& task, Fragment& fragment) {
   const NodeId anchor = task.anchor;
   out_->tubes[tube].branch = NodeId(tables_.branch[task.x.idx()]);
   const double anchor_distance = anchor.valid() ? tables_.root_distance[anchor.idx()] : 0.0;
+  anchor_distance_ = anchor_distance;
+  excluded_ = task.excluded;
   // The tube's first loop: the root's section, or the split section above the anchor.
   double last = task.split;
   double d = 0;
-  if (!anchor.valid()) {
+  NodeId cur = task.x;
+  double cur_base = 0;  // distance above the anchor where cur's edge starts
+  if (task.fused) {
+    // The rest of anchor's fused section, from where a lateral inside it split off: its first
+    // loop is around both bundles there; the walk goes on at the fork (its edge ending at
+    // distance 0 above the anchor).
+    split_gap_at(anchor, 0.0, task.split);
+    pts_.clear();
+    pts_.append(pts_a_);
+    pts_.append(pts_b_);
+    const SliceGeometry g = cut_geometry(cut_a_.empty() ? cut_b_ : cut_a_);
+    add_loop(pts_, g, LoopKind::split, anchor_distance + task.split, tube);
+    d = task.split + step_at(g);
+    cur = anchor;
+    cur_base = -len(anchor);
+  } else if (!anchor.valid()) {
     pts_.clear();
     evaluate(task.x, 1.0, pts_);
     const SliceGeometry g = edge_geometry(task.x, 1.0);
@@ -671,8 +797,6 @@ void Walker::walk(const Task& task, Fragment& fragment) {
     add_loop(pts_, g, LoopKind::split, anchor_distance + task.split, tube);
     d = task.split + step_at(g);
   }
-  NodeId cur = task.x;
-  double cur_base = 0;  // distance above the anchor where cur's edge starts
   auto end_of = [&](NodeId n, double base) { return base + (s_.parent[n.idx()].valid() ? len(n) : 0.0); };
 
   for (;;) {
@@ -701,7 +825,7 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       }
       return;  // the tube ends at a tip: capped by the meshing stage
     }
-    if (!s_.is_fork(cur)) {
+    if (!fork_here(cur)) {
       const NodeId next = s_.children[cur.idx()][0];
       // A bend at cur: the strip between the loops on either side is a straight chord and
       // cuts the corner; on a thin twig sliced coarsely it can leave the node (and the
@@ -803,11 +927,52 @@ void Walker::walk(const Task& task, Fragment& fragment) {
         j.split_distance = split - fork_base;
         j.forced = forced;
         j.lower_side = bundle_sides(fork, j.lower);
-        fragment.next[0] = Task{fork, a, split - fork_base};
-        fragment.next[1] = Task{fork, b, split - fork_base};
+        for (std::size_t k = 0; k < 2; ++k) {
+          const NodeId child = k == 0 ? a : b;
+          Task next{fork, child, split - fork_base, false, {}};
+          for (const NodeId e : excluded_) {
+            if (tables_.in_subtree(e, child)) next.excluded.push_back(e);
+          }
+          fragment.next[k] = std::move(next);
+        }
         return;
       }
-      // Still together: one loop around both bundles.
+      // Still together. A lateral of a fork inside the section (a whorl: forks a tiny step
+      // apart) that has come apart from the rest splits off first, so it does not stay in the
+      // section's loops (or the child tube's split loop) far out along its own edge.
+      double nested_base = 0;
+      const NodeId lateral = nested_split(fork, d, nested_base);
+      if (lateral.valid()) {
+        const NodeId y = s_.parent[lateral.idx()];
+        double lo = std::max(last, nested_base), hi = d;
+        for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
+          const double mid = 0.5 * (lo + hi);
+          (nested_apart(fork, fork_base, lateral, nested_base, mid) ? hi : lo) = mid;
+        }
+        const double min_sep = 0.25 * step_at(cut_geometry(cut_a_.empty() ? cut_b_ : cut_a_));
+        const double split = std::min(d, std::max(hi, last + min_sep));
+        Junction& j = fragment.junction;
+        fragment.has_junction = true;
+        j.fork = y;
+        j.lower = out_->tubes[tube].loops.back();
+        j.lower_tube = tube;
+        j.split_distance = split - nested_base;
+        j.forced = false;
+        j.lower_side = lateral_sides(lateral, j.lower);
+        // The fused section goes on without the lateral: distances relative to `fork`.
+        const double abs_split = anchor_distance + split;
+        Task rest{fork, s_.children[fork.idx()][0], abs_split - tables_.root_distance[fork.idx()], true, excluded_};
+        rest.excluded.push_back(lateral);
+        Task side{y, lateral, abs_split - tables_.root_distance[y.idx()], false, {}};
+        for (const NodeId e : excluded_) {
+          if (tables_.in_subtree(e, lateral)) side.excluded.push_back(e);
+        }
+        fragment.next[0] = std::move(rest);
+        fragment.next[1] = std::move(side);
+        ++out_->stats.nested_splits;
+        return;
+      }
+      // One loop around both bundles.
       pts_.clear();
       pts_.append(pts_a_);
       pts_.append(pts_b_);
@@ -861,6 +1026,7 @@ ContourSet assemble(Fragment& root) {
     out.stats.evaluated_points += part.stats.evaluated_points;
     out.stats.fused_loops += part.stats.fused_loops;
     out.stats.forced_splits += part.stats.forced_splits;
+    out.stats.nested_splits += part.stats.nested_splits;
     out.stats.boundary_fallbacks += part.stats.boundary_fallbacks;
     out.stats.warnings.merge(part.stats.warnings);
     if (!fr.has_junction) continue;

@@ -79,6 +79,11 @@ struct ContourParams {
   /// radius: a whorl (a chain of forks a tiny step apart) would otherwise split each lateral
   /// while it is still inside the trunk.
   double min_fused_length = 2.0;
+  /// Inside the fused section above a fork, a lateral of a fork in either child's subtree (a
+  /// whorl: forks a tiny step apart) whose bundle has come apart from the rest splits off
+  /// there, with its own junction; otherwise it stays in the section's loops until the
+  /// fork's own split, however far it has gone by then (a web across the whorl).
+  bool split_nested_laterals = true;
   /// Bisection steps refining the split position between two slices (a count).
   std::uint32_t split_bisection_steps = 8;
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives
@@ -104,6 +109,7 @@ struct ContourStats {
   std::size_t evaluated_points = 0;     ///< strand evaluations (all slices and bisection)
   std::size_t fused_loops = 0;
   std::size_t forced_splits = 0;        ///< bundles that never separated within their edges
+  std::size_t nested_splits = 0;        ///< laterals split off inside another fork's fused section
   std::size_t boundary_fallbacks = 0;   ///< slices not star-shaped around their centroid
   Warnings warnings;
   Timings timings;

@@ -65,6 +65,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("split_gap", p.split_gap);
   v("fork_transition", p.fork_transition);
   v("min_fused_length", p.min_fused_length);
+  v("split_nested_laterals", p.split_nested_laterals);
   v("split_bisection_steps", p.split_bisection_steps);
   v("concave_turn_degrees", p.concave_turn_degrees);
   v("fallback_max_edge", p.fallback_max_edge);

@@ -35,6 +35,24 @@ RawSkeleton y_fork(double angle_degrees) {
   return raw;
 }
 
+RawSkeleton lateral_inside_fused_section() {
+  RawSkeleton raw;
+  raw.source = "lateral_inside_fused_section";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.15);
+  raw.add(1, 0, dvec3(0, 0, 0.5), 0.15);
+  raw.add(2, 1, dvec3(0, 0, 1.0), 0.15);   // the fork
+  raw.add(3, 2, dvec3(0, 0, 1.03), 0.14);  // the fork inside its fused section
+  raw.add(4, 3, dvec3(0, 0, 1.8), 0.12);
+  raw.add(5, 4, dvec3(0, 0, 2.6), 0.1);
+  const double b = 12.0 * std::numbers::pi / 180.0, l = 75.0 * std::numbers::pi / 180.0;
+  const dvec3 db(std::sin(b), 0, std::cos(b)), dl(0, std::sin(l), std::cos(l));
+  raw.add(6, 2, dvec3(0, 0, 1.0) + 0.8 * db, 0.08);
+  raw.add(7, 6, dvec3(0, 0, 1.0) + 1.6 * db, 0.07);
+  raw.add(8, 3, dvec3(0, 0, 1.03) + 0.4 * dl, 0.04);
+  raw.add(9, 8, dvec3(0, 0, 1.03) + 0.8 * dl, 0.035);
+  return raw;
+}
+
 RawSkeleton trifurcation() {
   RawSkeleton raw;
   raw.source = "trifurcation";

@@ -23,6 +23,10 @@ RawSkeleton six_children();
 RawSkeleton zero_length_edges();
 /// A fork whose lateral child is twice as thick as its parent.
 RawSkeleton thick_child();
+/// A trunk forking into a narrow (12 degree) main lateral that stays fused with the trunk for
+/// a long way, and 3 cm above that fork a small lateral leaving at 75 degrees, which comes
+/// apart from the fused section long before the fork's own split (a whorl in miniature).
+RawSkeleton lateral_inside_fused_section();
 /// A single chain of `nodes` nodes (deep tree: no recursion over depth allowed anywhere).
 RawSkeleton long_chain(int nodes = 100'000);
 /// A random binary tree grown by the default random grower with this seed.
