@@ -170,7 +170,7 @@ TEST(Pipeline, Samples) {
       {"qsm_simpleforest_rtwig.json", {550, 0.07, 4}},
       {"sapling_callistemon.json", {700, 0.08, 3}},
       {"sapling_quaking_aspen.json", {250, 0.085, 2}},
-      {"sapling_small_pine.json", {5500, 0.12, 25}}};
+      {"sapling_small_pine.json", {4700, 0.12, 20}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
