@@ -1088,7 +1088,7 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
   };
   fragments.push_back(std::make_unique<Fragment>());
   Fragment* root = fragments.front().get();
-  spawn(root, Task{NodeId{}, Skeleton::root(), 0.0});
+  spawn(root, Task{NodeId{}, Skeleton::root(), 0.0, false, {}});
   group.wait();
   const double t_walk = clock.lap();
 
