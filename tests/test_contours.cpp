@@ -207,8 +207,11 @@ TEST(Boundary, ConcaveHullOfRandomShapesIsOneSimpleLoop) {
       const double area = loop_area(p, loop), hull = loop_area(p, boundary_loop(p, 0.0, nullptr, 0.0));
       EXPECT_GT(area, 0);
       EXPECT_LE(area, hull * (1 + 1e-12));
-      if (shape == 0) EXPECT_NEAR(area, 4 - 1.4 * 1.4, 0.15);  // the L (hull: about 3)
-      if (shape == 1) EXPECT_NEAR(area, kPi, 0.3);  // the ring: its outer circle (holes are not carved)
+      if (shape == 0) {
+        EXPECT_NEAR(area, 4 - 1.4 * 1.4, 0.15);  // the L (hull: about 3)
+      } else if (shape == 1) {
+        EXPECT_NEAR(area, kPi, 0.3);  // the ring: its outer circle (holes are not carved)
+      }
     }
   }
   EXPECT_TRUE(concave_hull({{0, 0}, {1, 1}, {2, 2}}, 3.0).empty());
