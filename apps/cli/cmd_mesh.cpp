@@ -28,7 +28,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     // Required unless --print-config (checked below, so the config can be printed alone).
     sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc); required");
     sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
-    sub.add_option("--config", o->config, "Parameter file (JSON; see configs/ and docs/parameters.md)");
+    sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")->capture_default_str();
     auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
                         ->check(CLI::NonNegativeNumber);
