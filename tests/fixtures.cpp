@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "core/file_io.h"
+#include "core/rng.h"
 #include "skeleton/grow/random_grower.h"
 
 namespace sm::test {
@@ -50,6 +51,45 @@ RawSkeleton lateral_inside_fused_section() {
   raw.add(7, 6, dvec3(0, 0, 1.0) + 1.6 * db, 0.07);
   raw.add(8, 3, dvec3(0, 0, 1.03) + 0.4 * dl, 0.04);
   raw.add(9, 8, dvec3(0, 0, 1.03) + 0.8 * dl, 0.035);
+  return raw;
+}
+
+RawSkeleton random_whorl_tree(std::uint64_t seed) {
+  Rng rng(seed);
+  RawSkeleton raw;
+  raw.source = "random_whorl_tree";
+  std::int64_t id = 0;
+  double r = 0.12;
+  raw.add(id++, -1, dvec3(0), r);
+  std::int64_t below = 0;
+  dvec3 p(0);
+  for (int whorl = 0; whorl < 6; ++whorl) {
+    p += dvec3(rng.uniform(-0.015, 0.015), rng.uniform(-0.015, 0.015), rng.uniform(0.3, 0.5));
+    r *= 0.85;
+    const std::int64_t hub = id++;
+    raw.add(hub, below, p, r);
+    const auto laterals = static_cast<int>(1 + rng.below(4));
+    for (int l = 0; l < laterals; ++l) {
+      const double azimuth = 2 * std::numbers::pi * (l + rng.uniform(0, 0.3)) / laterals;
+      const double tilt = rng.uniform(30, 90) * std::numbers::pi / 180.0;
+      const dvec3 d(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
+      double rl = r * rng.uniform(0.2, 0.7);
+      std::int64_t parent = hub;
+      dvec3 q = p;
+      const auto segments = static_cast<int>(2 + rng.below(3));
+      for (int k = 0; k < segments; ++k) {
+        q += d * rng.uniform(0.15, 0.35);
+        rl *= 0.85;
+        raw.add(id, parent, q, rl);
+        parent = id++;
+        if (rng.chance(0.3)) {
+          const dvec3 e = glm::normalize(d + dvec3(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), 0.5));
+          raw.add(id++, parent, q + 0.2 * e, 0.6 * rl);
+        }
+      }
+    }
+    below = hub;
+  }
   return raw;
 }
 

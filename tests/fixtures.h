@@ -27,6 +27,9 @@ RawSkeleton thick_child();
 /// a long way, and 3 cm above that fork a small lateral leaving at 75 degrees, which comes
 /// apart from the fused section long before the fork's own split (a whorl in miniature).
 RawSkeleton lateral_inside_fused_section();
+/// A trunk of six whorls, each with 1 to 4 laterals at random azimuths and 30 to 90 degrees
+/// from vertical, some of them forking once more (random, but fixed for a seed).
+RawSkeleton random_whorl_tree(std::uint64_t seed);
 /// A single chain of `nodes` nodes (deep tree: no recursion over depth allowed anywhere).
 RawSkeleton long_chain(int nodes = 100'000);
 /// A random binary tree grown by the default random grower with this seed.

@@ -121,6 +121,29 @@ TEST(Pipeline, LateralInsideAFusedSectionSplitsOffFirst) {
   EXPECT_GT(widest_fused_loop(w.contours), 0.45);
 }
 
+TEST(Pipeline, RandomWhorlTreesAreSound) {
+  // Whorls of 1 to 4 laterals at random angles: binarized chains, nested splits, laterals
+  // leaving inside another fork's fused section. Every mesh closed, manifold, genus 0.
+  std::size_t nested = 0;
+  for (std::uint64_t seed = 1; seed <= 60; ++seed) {
+    SCOPED_TRACE(seed);
+    PipelineResult r = run_pipeline(test::random_whorl_tree(seed), {});
+    EXPECT_EQ(r.mesh.stats.bad_edges, 0u);
+    MeshCheckParams cp;
+    cp.skeleton = &r.skeleton.skeleton;
+    cp.self_intersections = false;  // the whorls still fold (see the file comment)
+    const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
+    EXPECT_TRUE(rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented);
+    EXPECT_EQ(rep.components, 1u);
+    ASSERT_TRUE(rep.genus.has_value());
+    EXPECT_EQ(*rep.genus, 0);
+    EXPECT_EQ(rep.degenerate_triangles, 0u);
+    EXPECT_GT(rep.signed_volume, 0);
+    nested += r.contours.stats.nested_splits;
+  }
+  EXPECT_GT(nested, 60u);  // the nested splits were exercised
+}
+
 TEST(Pipeline, BentTwigsKeepTheirSkeletonInside) {
   // Two 1 mm zig-zag twigs (50 degree bends) leaving a fork, sliced coarsely (at most 4
   // slices per 6 cm edge) with slices falling just past each node: a straight strip across
