@@ -77,20 +77,20 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
                      const std::vector<std::uint32_t>& loop, double tol) {
   const std::size_t m = loop.size();
   if (m < 3) return false;
-  std::vector<double> lk(m);
+  std::vector<double> lk(m), edge_length(m);
   for (std::size_t k = 0; k < m; ++k) {
     lk[k] = key[loop[k]];
     if (k > 0 && !(lk[k] > lk[k - 1])) return false;
     if (!(cross2(p[loop[k]] - c, p[loop[(k + 1) % m]] - c) > 0)) return false;
+    edge_length[k] = glm::length(p[loop[(k + 1) % m]] - p[loop[k]]);
   }
   for (std::uint32_t i = 0; i < p.size(); ++i) {
     // Sector k spans [lk[k], lk[k+1]) (the last one wraps around).
     const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
     const std::size_t k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1));
     const dvec2& a = p[loop[k]];
-    const dvec2& b = p[loop[(k + 1) % m]];
-    const dvec2 e = b - a;
-    const double len = glm::length(e);
+    const dvec2 e = p[loop[(k + 1) % m]] - a;
+    const double len = edge_length[k];
     if (len > 0 && cross2(e, p[i] - a) / len < -tol) return false;
   }
   return true;
