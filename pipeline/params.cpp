@@ -28,6 +28,7 @@ void visit_fields(SkeletonParams& p, V&& v) {
   v("collar_ratio", p.collar_ratio);
   v("collar_max_child_ratio", p.collar_max_child_ratio);
   v("max_lateral_angle", p.max_lateral_angle);
+  v("max_turn_back", p.max_turn_back);
   v("separate_branches", p.separate_branches);
   v("branch_clearance", p.branch_clearance);
 }

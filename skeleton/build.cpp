@@ -462,6 +462,63 @@ bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton&
   return rep.merged_inner > before;
 }
 
+/// Hairpins: a child that leaves its node turned back by more than max_turn_back (120
+/// degrees) from the branch arriving there (digitised regrowth below a pruned top, branches
+/// doubling back). No tube of the branch's radius turns like that, and the strands sweep it
+/// into a fold. The child is re-attached where it comes back to on the node's incoming edge
+/// (a new node there), or to the node's parent when it reaches back past it, so it leaves
+/// sideways and the node above becomes a stub. (Walking further down the branch was tried:
+/// it crowds the child into forks below and folds them; boutdenoylum2 593 -> 1191 pairs.)
+bool reattach_hairpins(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  const double max_angle = params.max_turn_back * std::numbers::pi / 180.0;
+  if (!(max_angle > 0) || max_angle >= std::numbers::pi) return false;
+  const double cos_max = std::cos(max_angle);
+  const std::size_t before = rep.hairpins;
+  std::vector<std::uint32_t> queue = t.bfs();
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const std::uint32_t v = queue[q];
+    if (t.removed[v] || t.parent[v] == kNone) continue;
+    // One child at a time: a re-attachment splits v's incoming edge.
+    for (bool changed = true; changed;) {
+      changed = false;
+      // The branch's direction arriving at v: from the nearest ancestor at least v's radius
+      // away (the nodes of an n-ary hub lie a tiny step apart, in no meaningful direction).
+      std::uint32_t a = t.parent[v];
+      while (t.parent[a] != kNone && glm::length(t.pos[v] - t.pos[a]) < t.radius[v]) a = t.parent[a];
+      dvec3 u = t.pos[v] - t.pos[a];
+      const double ul = glm::length(u);
+      if (!(ul > 0)) break;
+      u /= ul;
+      const std::uint32_t p = t.parent[v];
+      const double el = glm::length(t.pos[v] - t.pos[p]);
+      const double tol = 2.0 * params.merge_edge_ratio * t.radius[v];  // no edge merge_short_edges would undo
+      for (const std::uint32_t x : t.children[v]) {
+        const dvec3 w = t.pos[x] - t.pos[v];
+        const double wl = glm::length(w);
+        if (!(wl > 0) || glm::dot(w, u) >= cos_max * wl) continue;  // turns by less than max_turn_back
+        const double back = -glm::dot(w, u);  // how far x reaches back along the branch
+        if (back <= tol) continue;            // too little to move
+        std::uint32_t target = p;
+        if (back < el - tol) {
+          const double f = back / el;
+          target = t.insert_above(v, glm::mix(t.pos[v], t.pos[p], f), glm::mix(t.radius[v], t.radius[p], f));
+        }
+        auto& kids = t.children[v];
+        kids.erase(std::find(kids.begin(), kids.end(), x));
+        t.children[target].push_back(x);
+        t.parent[x] = target;
+        ++rep.hairpins;
+        rep.warnings.add("hairpin", "branch turning back by more than max_turn_back re-attached where it comes back to",
+                         x < raw.size() ? raw.place(x) : std::string("inserted node"));
+        queue.push_back(target);  // x may still turn back from there
+        changed = true;
+        break;
+      }
+    }
+  }
+  return rep.hairpins > before;
+}
+
 /// Lateral collars: a lateral edge from a fork of radius r to a much thinner child is, as a
 /// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
 /// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
@@ -561,6 +618,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   if (refine && params.merge_inner_branches) {
     bool folded = fold_backward_branches(t, rep, raw);
     folded = merge_inner_branches(t, rep, raw) || folded;
+    folded = reattach_hairpins(t, params, rep, raw) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);

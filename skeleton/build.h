@@ -64,6 +64,12 @@ struct SkeletonParams {
   /// own direction. Strand bundles cannot leave a branch sideways or backwards without
   /// folding the surface at the fork. 0 (or 180) keeps every lateral as it is.
   double max_lateral_angle = 60.0;
+  /// A child turning back from its node's incoming edge by more than this angle (degrees;
+  /// digitised regrowth below a pruned top, branches doubling back) is re-attached to that
+  /// edge at its projection, so it leaves sideways and the node above becomes a stub: no
+  /// tube of the branch's radius can turn like that, and its strands would fold the surface.
+  /// A repair (warning "hairpin"), part of the refinements; 0 (or 180) keeps them.
+  double max_turn_back = 120.0;
   /// Swing apart branches whose round cones intersect away from their common fork (no mesh
   /// can be free of self-intersections and genus 0 otherwise).
   bool separate_branches = true;
@@ -82,6 +88,7 @@ struct SkeletonReport {
   std::size_t binarized_nodes = 0;        ///< nodes with more than two children
   std::size_t inserted_nodes = 0;         ///< extra nodes created by binarizing or resampling
   std::size_t merged_inner = 0;           ///< nodes of branches running inside a sibling, merged into it
+  std::size_t hairpins = 0;               ///< children turning back > 120 degrees, re-attached below their node
   std::size_t collars = 0;                ///< collar nodes inserted at thin laterals (not a repair)
   std::size_t raised_laterals = 0;        ///< steep laterals given a raised base node (not a repair)
   std::size_t branch_collisions = 0;      ///< pairs of branches that ran into each other

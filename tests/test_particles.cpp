@@ -424,8 +424,10 @@ TEST(Particles, ChildrenCoincide) {
 }
 
 TEST(Particles, ChildPointingBackIntoTheParent) {
-  // (The skeleton stage would raise the backwards lateral's base: off, to test the particles.)
-  const Skeleton sk = built(fork_with(dvec3(0, 0.1, 0.5), dvec3(0.2, 0, -0.6)), {.max_lateral_angle = 0});
+  // (The skeleton stage would re-attach the backwards lateral lower down and raise its base:
+  // both off, to test the particles.)
+  const Skeleton sk =
+      built(fork_with(dvec3(0, 0.1, 0.5), dvec3(0.2, 0, -0.6)), {.max_lateral_angle = 0, .max_turn_back = 0});
   const ParticleField f = compute_particles(sk);
   expect_sane(sk, f, "backwards");
   EXPECT_GE(f.stats.warnings.count("child_points_backwards"), 1u);
@@ -434,8 +436,10 @@ TEST(Particles, ChildPointingBackIntoTheParent) {
   raw.add(0, -1, dvec3(0), 0.05);
   raw.add(1, 0, dvec3(0, 0, 1), 0.05);
   raw.add(2, 1, dvec3(0, 0, 0.5), 0.04);
-  const Skeleton hairpin = built(raw);
+  const Skeleton hairpin = built(raw, {.max_turn_back = 0});
   expect_sane(hairpin, compute_particles(hairpin), "hairpin");
+  const Skeleton repaired = built(raw);  // re-attached: a fork with a stub
+  expect_sane(repaired, compute_particles(repaired), "hairpin repaired");
 }
 
 TEST(Particles, OneParticleWorthOfRadius) {

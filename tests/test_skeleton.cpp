@@ -170,7 +170,7 @@ TEST(Skeleton, CollarsAtThinLaterals) {
 }
 
 TEST(Skeleton, SteepLateralsGetAnUpturnedBase) {
-  // A trunk with a horizontal lateral and a drooping one (90 and 120 degrees from the trunk):
+  // A trunk with a horizontal lateral and a drooping one (90 and 115 degrees from the trunk):
   // each gets a base node where it has cleared the trunk, its first stretch at 60 degrees,
   // and (with room) a second node halving the bend; the tips stay where they were.
   RawSkeleton raw;
@@ -179,7 +179,8 @@ TEST(Skeleton, SteepLateralsGetAnUpturnedBase) {
   raw.add(2, 1, dvec3(0, 0, 2), 0.09);
   raw.add(3, 1, dvec3(1, 0, 1), 0.03);  // horizontal
   raw.add(4, 2, dvec3(0, 0, 3), 0.08);
-  raw.add(5, 2, dvec3(0, 0.8660254037844386, 2 - 0.5), 0.03);  // drooping
+  raw.add(5, 2, dvec3(0, std::sin(115.0 * std::numbers::pi / 180), 2 + std::cos(115.0 * std::numbers::pi / 180)),
+          0.03);  // drooping
   raw.add(6, 4, dvec3(0.3, 0, 3.5), 0.05);                     // 31 degrees: as it is
   raw.add(7, 4, dvec3(0, 0, 4), 0.06);
   const auto r = build_skeleton(raw, {.collar_ratio = 0});
@@ -262,6 +263,38 @@ TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
     EXPECT_NEAR(base.y, 0.0, 1e-9);
     EXPECT_NEAR(base.z, 1.6, 0.01);
   }
+}
+
+TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
+  // A pruned top with regrowth: the trunk runs up to node 2, and its only child turns back
+  // down by 150 degrees (reaching 0.25 back down the 0.5 m edge) before going on sideways.
+  // The child is re-attached to the trunk edge 0.25 below node 2, which becomes a stub.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  raw.add(2, 1, dvec3(0, 0, 1.5), 0.09);
+  raw.add(3, 2, dvec3(0.25 * std::tan(30.0 * std::numbers::pi / 180), 0, 1.25), 0.05);
+  raw.add(4, 3, dvec3(0.6, 0, 1.35), 0.04);
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+  EXPECT_EQ(r.report.hairpins, 1u);
+  EXPECT_EQ(r.report.warnings.count("hairpin"), 1u);
+  const Skeleton& s = r.skeleton;
+  expect_valid(s);
+  auto node = [&](std::int64_t id) { return std::size_t(std::find(s.source_id.begin(), s.source_id.end(), id) - s.source_id.begin()); };
+  EXPECT_TRUE(s.is_tip(NodeId(node(2))));  // the pruned top is a stub
+  const NodeId base = s.parent[node(3)];
+  EXPECT_EQ(s.source_id[base.idx()], -1);  // a new node on the trunk edge
+  EXPECT_NEAR(s.position[base.idx()].z, 1.25, 1e-9);
+  EXPECT_NEAR(glm::length(dvec2(s.position[base.idx()])), 0.0, 1e-9);
+  EXPECT_EQ(s.position[node(3)], raw.position[3]);  // nothing else moved
+  EXPECT_EQ(s.position[node(4)], raw.position[4]);
+  // Turned off, the hairpin stays.
+  const auto kept = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .max_turn_back = 0});
+  EXPECT_EQ(kept.report.hairpins, 0u);
+  const Skeleton& k = kept.skeleton;
+  const auto k3 = std::size_t(std::find(k.source_id.begin(), k.source_id.end(), 3) - k.source_id.begin());
+  ASSERT_LT(k3, k.size());
+  EXPECT_EQ(k.source_id[k.parent[k3].idx()], 2);
 }
 
 TEST(Skeleton, ThickChildPolicies) {

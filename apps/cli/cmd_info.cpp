@@ -45,6 +45,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"binarized_nodes", r.binarized_nodes},
                          {"inserted_nodes", r.inserted_nodes},
                          {"merged_inner", r.merged_inner},
+                         {"hairpins", r.hairpins},
                          {"collars", r.collars},
                          {"raised_laterals", r.raised_laterals},
                          {"branch_collisions", r.branch_collisions},
