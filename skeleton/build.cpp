@@ -47,6 +47,15 @@ struct WorkTree {
     return static_cast<std::uint32_t>(pos.size() - 1);
   }
 
+  /// The node a branch arrives at v from: the nearest ancestor at least v's radius away (the
+  /// root if none is; the nodes of an n-ary hub lie a tiny step apart, in no meaningful
+  /// direction). kNone for the root.
+  [[nodiscard]] std::uint32_t arrival_ancestor(std::uint32_t v) const {
+    std::uint32_t a = parent[v];
+    while (a != kNone && parent[a] != kNone && glm::length(pos[v] - pos[a]) < radius[v]) a = parent[a];
+    return a;
+  }
+
   /// Inserts a node at `p` (radius `r`) on the edge from c's parent to c, in c's child slot.
   std::uint32_t insert_above(std::uint32_t c, dvec3 p, double r) {
     const std::uint32_t par = parent[c];
@@ -481,11 +490,7 @@ bool reattach_hairpins(WorkTree& t, const SkeletonParams& params, SkeletonReport
     // One child at a time: a re-attachment splits v's incoming edge.
     for (bool changed = true; changed;) {
       changed = false;
-      // The branch's direction arriving at v: from the nearest ancestor at least v's radius
-      // away (the nodes of an n-ary hub lie a tiny step apart, in no meaningful direction).
-      std::uint32_t a = t.parent[v];
-      while (t.parent[a] != kNone && glm::length(t.pos[v] - t.pos[a]) < t.radius[v]) a = t.parent[a];
-      dvec3 u = t.pos[v] - t.pos[a];
+      dvec3 u = t.pos[v] - t.pos[t.arrival_ancestor(v)];  // the branch's direction arriving at v
       const double ul = glm::length(u);
       if (!(ul > 0)) break;
       u /= ul;
@@ -554,8 +559,7 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
     // The parent's direction: from the nearest ancestor at least a radius away (the extra
     // nodes of a binarized node lie a tiny step apart, in no meaningful direction); at the
     // root, towards the main child.
-    std::uint32_t a = t.parent[v];
-    while (a != kNone && t.parent[a] != kNone && glm::length(t.pos[v] - t.pos[a]) < t.radius[v]) a = t.parent[a];
+    const std::uint32_t a = t.arrival_ancestor(v);
     const dvec3 from = a != kNone ? t.pos[v] - t.pos[a] : t.pos[main] - t.pos[v];
     const dvec3 up = normalize_or(from, dvec3(0));
     const dvec3 edge = t.pos[c] - t.pos[v];
