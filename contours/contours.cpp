@@ -496,13 +496,21 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   // Cell keys are linear in the cell coordinates (21 bits each, offset so they stay
   // positive), so shifting every cell of a by one neighbour offset shifts its keys by one
   // constant and keeps their order: each of the 27 offsets is one merge of two sorted lists.
-  auto sorted_cells = [&](const std::vector<dvec3>& pts) {
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> cells(pts.size());
-    for (std::uint32_t k = 0; k < pts.size(); ++k) cells[k] = {key(cell(pts[k])), k};
+  // Only the points within cap of the other set's box can be nearer than cap to it (bundles
+  // side by side: about the facing halves).
+  auto sorted_cells = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi) {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> cells;
+    cells.reserve(pts.size());
+    const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
+    for (std::uint32_t k = 0; k < pts.size(); ++k) {
+      const dvec3& p = pts[k];
+      if (p.x < lo_c.x || p.y < lo_c.y || p.z < lo_c.z || p.x > hi_c.x || p.y > hi_c.y || p.z > hi_c.z) continue;
+      cells.emplace_back(key(cell(p)), k);
+    }
     std::sort(cells.begin(), cells.end());
     return cells;
   };
-  const auto cb = sorted_cells(b), ca = sorted_cells(a);
+  const auto cb = sorted_cells(b, lo_a, hi_a), ca = sorted_cells(a, lo_b, hi_b);
   double best2 = cap * cap;
   const double enough2 = enough * enough;
   for (int dx = -1; dx <= 1 && best2 > enough2; ++dx)
