@@ -426,11 +426,14 @@ class Walker {
   double split_gap_at(NodeId fork, double fork_base, double u);
   /// Smallest distance from the surface points `pts` (strand point + offset) to the round cones
   /// of the subtree rooted at x (x's edge starting at `base` above the anchor), over the edges
-  /// starting below `reach`. Negative when a point is inside a cone.
-  double cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach) const;
+  /// starting below `reach`. Negative when a point is inside a cone. Returns as soon as it is
+  /// at most `enough` (callers only ask whether it is larger).
+  double cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const;
+  /// The clearance the split test asks for (surfaces clear of the other subtree's cones).
+  [[nodiscard]] double min_clearance() const { return 0.5 * p_.split_gap * spacing_; }
   /// After split_gap_at: are the bundles apart (points and cones)?
   [[nodiscard]] bool separated_now() const {
-    return last_gap_ > threshold() && last_clearance_ > 0.5 * p_.split_gap * spacing_;
+    return last_gap_ > threshold() && last_clearance_ > min_clearance();
   }
   /// Geometry of a slice through a cut: the first (main-chain) edge of the cut.
   SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
@@ -657,13 +660,18 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   // Bundles can also run into the other branch at a different distance from the fork (a
   // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
   // distance): each bundle's surface must also clear the other subtree's round cones.
+  // (Only asked once the points are apart.)
   const double reach = u + 2.0 * s_.radius[fork.idx()];
-  last_clearance_ =
-      std::min(cone_clearance(pts_b_, c[0], fork_base, reach), cone_clearance(pts_a_, c[1], fork_base, reach));
+  last_clearance_ = -std::numeric_limits<double>::infinity();
+  if (last_gap_ > threshold()) {
+    last_clearance_ = cone_clearance(pts_b_, c[0], fork_base, reach, min_clearance());
+    if (last_clearance_ > min_clearance())
+      last_clearance_ = std::min(last_clearance_, cone_clearance(pts_a_, c[1], fork_base, reach, min_clearance()));
+  }
   return last_gap_;
 }
 
-double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach) const {
+double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const {
   // Edges of x's subtree starting within `reach` above the anchor (x's edge starts at base).
   std::vector<std::pair<NodeId, double>> stack{{x, base}};
   double best = std::numeric_limits<double>::infinity();
@@ -680,6 +688,7 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
       const double d = glm::length(pts.point[k] - (a + t * ab)) - glm::mix(ra, rb, t) - pts.offset[k];
       best = std::min(best, d);
     }
+    if (best <= enough) return best;
     const double l = len(y);
     if (start + l < reach) {
       for (const NodeId c : s_.children[y.idx()]) {
@@ -745,9 +754,8 @@ bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double 
   if (!(gap(pts_l_.point, pts_rest_.point, threshold(), 0.25 * spacing_) > threshold())) return false;
   const NodeId y = s_.parent[lateral.idx()];
   const double reach = u + 2.0 * s_.radius[y.idx()];
-  const double clearance = std::min(cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach),
-                                    cone_clearance(pts_rest_, lateral, base, reach));
-  return clearance > 0.5 * p_.split_gap * spacing_;
+  return cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach, min_clearance()) > min_clearance() &&
+         cone_clearance(pts_rest_, lateral, base, reach, min_clearance()) > min_clearance();
 }
 
 std::vector<std::uint8_t> Walker::lateral_sides(NodeId lateral, std::uint32_t loop) const {
