@@ -129,6 +129,9 @@ struct Tube {
 
 /// Branch fusion above one fork: `lower` is the last loop of the parent's tube (around both
 /// bundles), `upper[0]` and `upper[1]` the first loops of the main and lateral child tubes.
+/// For a lateral split off inside another fork's fused section (a nested split), `upper[0]`
+/// starts the rest of that section and `lower_side` is 1 for the lateral's strands, 0 for all
+/// others.
 struct Junction {
   NodeId fork;
   std::uint32_t lower = 0;
