@@ -25,8 +25,12 @@
 namespace sm {
 namespace {
 
-/// Knot spacing |b - a|^alpha, and whether the two points are distinct enough to use it.
-double knot(const dvec3& a, const dvec3& b, double alpha) { return std::pow(glm::length(b - a), alpha); }
+/// Knot spacing |b - a|^alpha (the centripetal default, alpha = 1/2, is a square root; pow is
+/// several times slower).
+double knot(const dvec3& a, const dvec3& b, double alpha) {
+  const double l = glm::length(b - a);
+  return alpha == 0.5 ? std::sqrt(l) : std::pow(l, alpha);
+}
 
 /// Hermite tangents (per unit t of the segment P1 -> P2) of the Catmull-Rom curve through
 /// P0, P1, P2, P3 with knot exponent alpha. Degenerate neighbours (coincident with the
