@@ -497,7 +497,8 @@ bool reattach_hairpins(WorkTree& t, const SkeletonParams& params, SkeletonReport
       const std::uint32_t p = t.parent[v];
       const double el = glm::length(t.pos[v] - t.pos[p]);
       const double tol = 2.0 * params.merge_edge_ratio * t.radius[v];  // no edge merge_short_edges would undo
-      for (const std::uint32_t x : t.children[v]) {
+      const std::vector<std::uint32_t> ch = t.children[v];  // copy: t.add() may reallocate
+      for (const std::uint32_t x : ch) {
         const dvec3 w = t.pos[x] - t.pos[v];
         const double wl = glm::length(w);
         if (!(wl > 0) || glm::dot(w, u) >= cos_max * wl) continue;  // turns by less than max_turn_back
