@@ -56,6 +56,25 @@ struct WorkTree {
     return a;
   }
 
+  /// Where node x projects onto the line of the edge from node a to node b: parameter `t`
+  /// (0 at a, 1 at b, unclamped), the foot point, the edge's length, the round cone's radius
+  /// at t and x's distance from the axis.
+  struct Projection {
+    double t, length, radius, offset;
+    dvec3 foot;
+  };
+  [[nodiscard]] Projection project(std::uint32_t x, std::uint32_t a, std::uint32_t b) const {
+    const dvec3 ab = pos[b] - pos[a];
+    const double l2 = glm::dot(ab, ab);
+    Projection pr{};
+    pr.t = glm::dot(pos[x] - pos[a], ab) / l2;
+    pr.length = std::sqrt(l2);
+    pr.radius = glm::mix(radius[a], radius[b], pr.t);
+    pr.foot = pos[a] + pr.t * ab;
+    pr.offset = glm::length(pos[x] - pr.foot);
+    return pr;
+  }
+
   /// Inserts a node at `p` (radius `r`) on the edge from c's parent to c, in c's child slot.
   std::uint32_t insert_above(std::uint32_t c, dvec3 p, double r) {
     const std::uint32_t par = parent[c];
@@ -409,17 +428,14 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
         for (std::size_t yi = 0; !changed && yi < ch.size(); ++yi) {
           if (xi == yi) continue;
           const std::uint32_t x = ch[xi], y = ch[yi];
-          const dvec3 a = t.pos[v], b = t.pos[y];
-          const dvec3 ab = b - a;
-          const double l2 = glm::dot(ab, ab);
-          if (l2 <= glm::dot(t.pos[x] - a, t.pos[x] - a)) continue;  // y's edge must be the longer
-          const double tt = glm::dot(t.pos[x] - a, ab) / l2;
+          const dvec3 ay = t.pos[y] - t.pos[v], ax = t.pos[x] - t.pos[v];
+          if (glm::dot(ay, ay) <= glm::dot(ax, ax)) continue;  // y's edge must be the longer
+          const auto e = t.project(x, v, y);
           // Only nodes well beyond the fork's own sphere: near the fork every pair of
           // children overlaps, which the contour stage handles.
-          if (tt >= 0.98 || tt * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
-          const double r = glm::mix(t.radius[v], t.radius[y], tt);
-          if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
-          const std::uint32_t m = t.insert_above(y, a + tt * ab, r);
+          if (e.t >= 0.98 || e.t * e.length <= 1.5 * t.radius[v]) continue;
+          if (e.offset >= 0.5 * e.radius) continue;
+          const std::uint32_t m = t.insert_above(y, e.foot, e.radius);
           t.fold_into(x, m);
           ++rep.merged_inner;
           rep.warnings.add("inner_branch", "branch running inside its sibling's edge merged into it",
@@ -447,17 +463,13 @@ bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton&
     while (changed) {
       changed = false;
       const std::uint32_t p = t.parent[v];
-      const dvec3 a = t.pos[p], b = t.pos[v];
-      const dvec3 ab = b - a;
-      const double l2 = glm::dot(ab, ab);
-      if (!(l2 > 0)) break;
+      if (!(glm::length(t.pos[v] - t.pos[p]) > 0)) break;
       const std::vector<std::uint32_t> ch = t.children[v];  // copy: t.add() may reallocate
       for (const std::uint32_t x : ch) {
-        const double tt = glm::dot(t.pos[x] - a, ab) / l2;
-        if (tt <= 0.02 || tt >= 0.98 || (1.0 - tt) * std::sqrt(l2) <= 1.5 * t.radius[v]) continue;
-        const double r = glm::mix(t.radius[p], t.radius[v], tt);
-        if (glm::length(t.pos[x] - (a + tt * ab)) >= 0.5 * r) continue;
-        const std::uint32_t m = t.insert_above(v, a + tt * ab, r);
+        const auto e = t.project(x, p, v);
+        if (e.t <= 0.02 || e.t >= 0.98 || (1.0 - e.t) * e.length <= 1.5 * t.radius[v]) continue;
+        if (e.offset >= 0.5 * e.radius) continue;
+        const std::uint32_t m = t.insert_above(v, e.foot, e.radius);
         t.fold_into(x, m);
         ++rep.merged_inner;
         rep.warnings.add("inner_branch_back", "branch running back inside its parent's edge merged into it",
