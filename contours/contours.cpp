@@ -418,9 +418,43 @@ class Walker {
     }
     return out;
   }
-  /// Distance (above the anchor) where fork `fork`'s bundles become farther apart than the
-  /// threshold, by bisection between lo (not separated) and hi (separated).
-  double bisect_split(NodeId fork, double fork_base, double lo, double hi);
+  /// The distance in (lo, hi] where `apart` turns true (false at lo, true at hi), by
+  /// split_bisection_steps halvings: where two bundles come apart.
+  template <class Apart>
+  double bisect(double lo, double hi, Apart&& apart) const {
+    for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (apart(mid) ? hi : lo) = mid;
+    }
+    return hi;
+  }
+  /// After split_gap_at: the section's geometry (on the main side's cut, or the lateral's once
+  /// the main side has ended).
+  [[nodiscard]] SliceGeometry fused_geometry() const { return cut_geometry(cut_a_.empty() ? cut_b_ : cut_a_); }
+  /// After split_gap_at: both bundles' points into pts_.
+  void fuse_points() {
+    pts_.clear();
+    pts_.append(pts_a_);
+    pts_.append(pts_b_);
+  }
+  /// Makes the tube's last loop the lower loop of the fragment's end junction at `fork`.
+  Junction& open_junction(Fragment& fragment, NodeId fork, std::uint32_t tube, double split_distance) const {
+    Junction& j = fragment.junction;
+    fragment.has_junction = true;
+    j.fork = fork;
+    j.lower = out_->tubes[tube].loops.back();
+    j.lower_tube = tube;
+    j.split_distance = split_distance;
+    return j;
+  }
+  /// The task's exclusions inside x's subtree, for a child tube that walks it.
+  [[nodiscard]] std::vector<NodeId> excluded_within(NodeId x) const {
+    std::vector<NodeId> out;
+    for (const NodeId e : excluded_) {
+      if (tables_.in_subtree(e, x)) out.push_back(e);
+    }
+    return out;
+  }
   /// Gap between the bundles of fork's two children at distance u above the anchor (the
   /// fork sits at distance fork_base). Leaves the points in pts_a_ / pts_b_.
   double split_gap_at(NodeId fork, double fork_base, double u);
@@ -699,19 +733,6 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
   return best;
 }
 
-double Walker::bisect_split(NodeId fork, double fork_base, double lo, double hi) {
-  for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    split_gap_at(fork, fork_base, mid);
-    if (separated_now()) {
-      hi = mid;
-    } else {
-      lo = mid;
-    }
-  }
-  return hi;
-}
-
 NodeId Walker::nested_split(NodeId fork, double u, double& base) {
   if (!p_.split_nested_laterals) return {};
   // Forks on the paths from the fork's children down to the cut (pts_a_ / pts_b_ and
@@ -790,10 +811,8 @@ void Walker::walk(const Task& task, Fragment& fragment) {
     // loop is around both bundles there; the walk goes on at the fork (its edge ending at
     // distance 0 above the anchor).
     split_gap_at(anchor, 0.0, task.split);
-    pts_.clear();
-    pts_.append(pts_a_);
-    pts_.append(pts_b_);
-    const SliceGeometry g = cut_geometry(cut_a_.empty() ? cut_b_ : cut_a_);
+    fuse_points();
+    const SliceGeometry g = fused_geometry();
     add_loop(pts_, g, LoopKind::split, anchor_distance + task.split, tube);
     d = task.split + step_at(g);
     cur = anchor;
@@ -919,13 +938,16 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       }
       const bool separated = separated_now();
       const bool forced = !separated && d >= shorter_end && g_ab > 0.5 * spacing_;
+      const SliceGeometry g = fused_geometry();
+      const double step = step_at(g);
+      const double min_sep = 0.25 * step;
       if (separated || forced) {
-        const double step = step_at(cut_geometry(cut_a_));
-        const double min_sep = 0.25 * step;
         double split = d;
         if (separated) {
-          const double lo = std::max(last, fork_base);
-          split = bisect_split(fork, fork_base, lo, d);
+          split = bisect(std::max(last, fork_base), d, [&](double u) {
+            split_gap_at(fork, fork_base, u);
+            return separated_now();
+          });
         } else {
           ++out_->stats.forced_splits;
           out_->stats.warnings.add("forced_split",
@@ -935,22 +957,11 @@ void Walker::walk(const Task& task, Fragment& fragment) {
         split = std::min(d, std::max(split, last + min_sep));
         // The junction: the tube's last loop below; each child's tube starts with its own
         // section at the split (the junction's upper loops, linked on assembly).
-        Junction& j = fragment.junction;
-        fragment.has_junction = true;
-        j.fork = fork;
-        j.lower = out_->tubes[tube].loops.back();
-        j.lower_tube = tube;
-        j.split_distance = split - fork_base;
+        Junction& j = open_junction(fragment, fork, tube, split - fork_base);
         j.forced = forced;
         j.lower_side = bundle_sides(fork, j.lower);
-        for (std::size_t k = 0; k < 2; ++k) {
-          const NodeId child = k == 0 ? a : b;
-          Task next{fork, child, split - fork_base, false, {}};
-          for (const NodeId e : excluded_) {
-            if (tables_.in_subtree(e, child)) next.excluded.push_back(e);
-          }
-          fragment.next[k] = std::move(next);
-        }
+        fragment.next[0] = Task{fork, a, split - fork_base, false, excluded_within(a)};
+        fragment.next[1] = Task{fork, b, split - fork_base, false, excluded_within(b)};
         return;
       }
       // Still together. A lateral of a fork inside the section (a whorl: forks a tiny step
@@ -960,42 +971,27 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       const NodeId lateral = nested_split(fork, d, nested_base);
       if (lateral.valid()) {
         const NodeId y = s_.parent[lateral.idx()];
-        double lo = std::max(last, nested_base), hi = d;
-        for (std::uint32_t k = 0; k < p_.split_bisection_steps; ++k) {
-          const double mid = 0.5 * (lo + hi);
-          (nested_apart(fork, fork_base, lateral, nested_base, mid) ? hi : lo) = mid;
-        }
-        const double min_sep = 0.25 * step_at(cut_geometry(cut_a_.empty() ? cut_b_ : cut_a_));
-        const double split = std::min(d, std::max(hi, last + min_sep));
-        Junction& j = fragment.junction;
-        fragment.has_junction = true;
-        j.fork = y;
-        j.lower = out_->tubes[tube].loops.back();
-        j.lower_tube = tube;
-        j.split_distance = split - nested_base;
+        const double apart = bisect(std::max(last, nested_base), d, [&](double u) {
+          return nested_apart(fork, fork_base, lateral, nested_base, u);
+        });
+        const double split = std::min(d, std::max(apart, last + min_sep));
+        Junction& j = open_junction(fragment, y, tube, split - nested_base);
         j.forced = false;
         j.lower_side = lateral_sides(lateral, j.lower);
         // The fused section goes on without the lateral: distances relative to `fork`.
         const double abs_split = anchor_distance + split;
         Task rest{fork, s_.children[fork.idx()][0], abs_split - tables_.root_distance[fork.idx()], true, excluded_};
         rest.excluded.push_back(lateral);
-        Task side{y, lateral, abs_split - tables_.root_distance[y.idx()], false, {}};
-        for (const NodeId e : excluded_) {
-          if (tables_.in_subtree(e, lateral)) side.excluded.push_back(e);
-        }
         fragment.next[0] = std::move(rest);
-        fragment.next[1] = std::move(side);
+        fragment.next[1] = Task{y, lateral, abs_split - tables_.root_distance[y.idx()], false, excluded_within(lateral)};
         ++out_->stats.nested_splits;
         return;
       }
       // One loop around both bundles.
-      pts_.clear();
-      pts_.append(pts_a_);
-      pts_.append(pts_b_);
-      const SliceGeometry g = cut_geometry(cut_a_);
+      fuse_points();
       add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
       last = d;
-      d += step_at(g);
+      d += step;
     }
     if (absorbed) continue;
   }
