@@ -96,6 +96,26 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
   return true;
 }
 
+/// True when exactly one edge of the loop (of at least 4) is longer than both `relative` x its
+/// median edge and kLongBridge x `extent`: clusters a gap apart need two or more such bridges
+/// (one on each side of every gap), so a single one spans a concavity of one connected shape.
+/// No allocation unless some edge is longer than kLongBridge x extent (the common case).
+bool single_bridge(const std::vector<dvec2>& p, const std::vector<std::uint32_t>& loop, double relative,
+                   double extent) {
+  const std::size_t m = loop.size();
+  if (m < 4) return false;
+  auto edge = [&](std::size_t k) { return glm::length(p[loop[(k + 1) % m]] - p[loop[k]]); };
+  bool any = false;
+  for (std::size_t k = 0; k < m && !any; ++k) any = edge(k) > kLongBridge * extent;
+  if (!any) return false;
+  std::vector<double> len(m);
+  for (std::size_t k = 0; k < m; ++k) len[k] = edge(k);
+  std::vector<double> sorted = len;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(m / 2), sorted.end());
+  const double long_edge = std::max(relative * sorted[m / 2], kLongBridge * extent);
+  return std::count_if(len.begin(), len.end(), [&](double l) { return l > long_edge; }) == 1;
+}
+
 /// How far the loop turns backwards around c (radians, summed over its edges): 0 when it is
 /// star-shaped around c.
 double backward_turn(const std::vector<dvec2>& p, const dvec2& c, const std::vector<std::uint32_t>& loop) {
@@ -122,9 +142,10 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   dvec2 c(0);
   for (const auto& q : p) c += q;
   c /= double(n);
+  std::vector<double> dist(n);
+  for (std::uint32_t i = 0; i < n; ++i) dist[i] = glm::length(p[i] - c);
   // Scale for tolerances.
-  double extent = 0;
-  for (const auto& q : p) extent = std::max(extent, glm::length(q - c));
+  const double extent = *std::max_element(dist.begin(), dist.end());
   const double tol = 1e-9 * std::max(extent, 1e-300);
 
   // Start at the lowest point (ties: leftmost): it is a vertex of the convex hull, so it is
@@ -134,13 +155,12 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (p[i].y < p[start].y || (p[i].y == p[start].y && p[i].x < p[start].x)) start = i;
   }
   const double a0 = pseudo_angle(p[start].x - c.x, p[start].y - c.y);
-  std::vector<double> key(n), dist(n);
+  std::vector<double> key(n);
   for (std::uint32_t i = 0; i < n; ++i) {
     double a = pseudo_angle(p[i].x - c.x, p[i].y - c.y) - a0;
     if (a < 0) a += 4;
     if (a >= 4) a -= 4;
     key[i] = i == start ? 0.0 : a;
-    dist[i] = glm::length(p[i] - c);
   }
   // Large clouds: only points near the outside of their angular sector can be on the loop;
   // walk those (the result is verified against every point below, and redone without the
@@ -212,21 +232,12 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     // clusters (bundles a gap apart, which branch fusion wants bridged) and the notches of a
     // concave union (carving them into the loop was measured to add self-intersections at
     // forks: boutdenoylum2 879 -> 1262 pairs, small_pine 4695 -> 5864).
-    if (fallback_max_edge > 0 && max_concave > 0 && loop.size() >= 4) {
-      std::vector<double> len(loop.size());
-      for (std::size_t k = 0; k < loop.size(); ++k) len[k] = glm::length(p[loop[(k + 1) % loop.size()]] - p[loop[k]]);
-      std::vector<double> sorted = len;
-      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-      const double long_edge = std::max(fallback_max_edge * sorted[sorted.size() / 2], kLongBridge * extent);
-      // Exactly one bridge: clusters a gap apart need two or more (one on each side of every
-      // gap), so a single long edge spans a concavity of one connected shape.
-      if (std::count_if(len.begin(), len.end(), [&](double l) { return l > long_edge; }) == 1) {
-        bool connected = false;
-        std::vector<std::uint32_t> outline = concave_hull(p, fallback_max_edge, &connected);
-        if (outline.size() >= 3 && connected && backward_turn(p, c, outline) > kHiddenTurn) {
-          if (fallback) *fallback = true;
-          return outline;
-        }
+    if (fallback_max_edge > 0 && max_concave > 0 && single_bridge(p, loop, fallback_max_edge, extent)) {
+      bool connected = false;
+      std::vector<std::uint32_t> outline = concave_hull(p, fallback_max_edge, &connected);
+      if (outline.size() >= 3 && connected && backward_turn(p, c, outline) > kHiddenTurn) {
+        if (fallback) *fallback = true;
+        return outline;
       }
     }
     return loop;
