@@ -115,8 +115,9 @@ struct Task {
   NodeId anchor;     // the fork whose split starts the tube; invalid for the root tube
   NodeId x;          // subtree root carried by the tube
   double split = 0;  // distance above the anchor of the tube's first loop (the split section)
-  /// The tube resumes the fused section of fork `anchor` (both its bundles, `x` unused) from
-  /// distance `split` above it, after a lateral inside it split off (see nested_split).
+  /// The tube resumes the fused section of fork `anchor` (both its bundles; `x` is the fork's
+  /// main child, whose branch the tube belongs to) from distance `split` above it, after a
+  /// lateral inside it split off (see nested_split).
   bool fused = false;
   /// Laterals that already have their own tube: their subtrees are left out of every cut, and
   /// their fork is walked as a plain node.
