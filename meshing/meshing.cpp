@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <numbers>
 
 #include <tbb/blocked_range.h>
@@ -240,22 +241,31 @@ class Builder {
   /// carries (the one nearest other's start), or at the vertex closest to other[0].
   void align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const;
 
-  void strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch);
-  void fuse(const Junction& j, std::uint32_t branch);
-  void tip_cap(std::uint32_t loop, std::uint32_t branch);
-  void root_cap(std::uint32_t loop, std::uint32_t branch);
-  void emit(const std::vector<Mesh::Triangle>& tris, std::uint32_t branch, TriangleKind kind) {
-    mesh_.triangles.insert(mesh_.triangles.end(), tris.begin(), tris.end());
-    mesh_.triangle_branch.insert(mesh_.triangle_branch.end(), tris.size(), branch);
-    kind_.insert(kind_.end(), tris.size(), kind);
-  }
-  std::uint32_t add_vertex(const glm::dvec3& p, NodeId node, double u, double v) {
-    mesh_.positions.push_back(p);
-    mesh_.vertex_strand.push_back(StrandId{});
-    mesh_.vertex_node.push_back(node);
-    vertex_u_.push_back(u);
-    vertex_v_.push_back(v);
-    return static_cast<std::uint32_t>(mesh_.positions.size() - 1);
+  /// Triangles of a range of tubes, in tube order (each range is built on its own thread and
+  /// the ranges are concatenated in order, so the mesh does not depend on the thread count).
+  struct Part {
+    std::vector<Mesh::Triangle> triangles;
+    std::vector<std::uint32_t> branch;
+    std::vector<TriangleKind> kind;
+    std::vector<Mesh::Triangle> scratch;
+    void emit(std::uint32_t b, TriangleKind k) {
+      triangles.insert(triangles.end(), scratch.begin(), scratch.end());
+      branch.insert(branch.end(), scratch.size(), b);
+      kind.insert(kind.end(), scratch.size(), k);
+    }
+  };
+
+  void strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch, Part& out) const;
+  void fuse(const Junction& j, std::uint32_t branch, Part& out) const;
+  /// The cap's ring and apex are the vertices first .. first + loop size (allocated by run()).
+  void tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t first, Part& out);
+  void root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t centre, Part& out);
+  void set_vertex(std::uint32_t i, const glm::dvec3& p, NodeId node, double u, double v) {
+    mesh_.positions[i] = p;
+    mesh_.vertex_strand[i] = StrandId{};
+    mesh_.vertex_node[i] = node;
+    vertex_u_[i] = u;
+    vertex_v_[i] = v;
   }
   void compute_uvs();
   void check_topology();
@@ -268,7 +278,6 @@ class Builder {
   std::vector<double> loop_v_;               // per loop
   std::vector<double> vertex_u_, vertex_v_;  // per vertex
   std::vector<double> vertex_angle_;         // per loop vertex: angle around its loop's centroid
-  std::vector<Mesh::Triangle> scratch_;
   std::vector<TriangleKind> kind_;
 };
 
@@ -289,7 +298,7 @@ void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::ui
   std::rotate(upper.begin(), upper.begin() + static_cast<std::ptrdiff_t>(best), upper.end());
 }
 
-void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch) {
+void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch, Part& out) const {
   const auto lower = loop_ids(lower_loop);
   auto upper = loop_ids(upper_loop);
   align(upper, lower);
@@ -302,21 +311,19 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   guard.lower = unwrapped_angles(lower, vertex_angle_, ref);
   guard.upper = unwrapped_angles(upper, vertex_angle_, ref);
   guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
-  scratch_.clear();
-  stitch(lower, upper, c_.point, scratch_, &guard);
-  emit(scratch_, branch, TriangleKind::strip);
-  ++stats_.strips;
+  out.scratch.clear();
+  stitch(lower, upper, c_.point, out.scratch, &guard);
+  out.emit(branch, TriangleKind::strip);
 }
 
-void Builder::fuse(const Junction& j, std::uint32_t branch) {
-  scratch_.clear();
+void Builder::fuse(const Junction& j, std::uint32_t branch, Part& out) const {
+  out.scratch.clear();
   fuse_chains(loop_ids(j.lower), loop_ids(j.upper[0]), loop_ids(j.upper[1]), j.lower_side, c_.point,
-              c_.loop_frame[j.lower].tangent, scratch_);
-  emit(scratch_, branch, TriangleKind::fusion);
-  ++stats_.junctions;
+              c_.loop_frame[j.lower].tangent, out.scratch);
+  out.emit(branch, TriangleKind::fusion);
 }
 
-void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch) {
+void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t first, Part& out) {
   const auto ids = loop_ids(loop);
   const glm::dvec3 c = loop_centroid(loop);
   const glm::dvec3 t = c_.loop_frame[loop].tangent;
@@ -330,21 +337,22 @@ void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch) {
   // One intermediate ring on the sphere (37 degrees up), then the apex.
   std::vector<std::uint32_t> ring(ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k) {
-    ring[k] = add_vertex(c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv);
+    ring[k] = first + static_cast<std::uint32_t>(k);
+    set_vertex(ring[k], c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv);
   }
-  const std::uint32_t apex = add_vertex(c + h * t, node, 0.5 * p_.uv_repeat_u, v0 + h * dv);
-  scratch_.clear();
+  const std::uint32_t apex = first + static_cast<std::uint32_t>(ids.size());
+  set_vertex(apex, c + h * t, node, 0.5 * p_.uv_repeat_u, v0 + h * dv);
+  out.scratch.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const std::size_t k1 = (k + 1) % ids.size();
-    scratch_.push_back({ids[k], ids[k1], ring[k]});
-    scratch_.push_back({ids[k1], ring[k1], ring[k]});
-    scratch_.push_back({ring[k], ring[k1], apex});
+    out.scratch.push_back({ids[k], ids[k1], ring[k]});
+    out.scratch.push_back({ids[k1], ring[k1], ring[k]});
+    out.scratch.push_back({ring[k], ring[k1], apex});
   }
-  emit(scratch_, branch, TriangleKind::tip_cap);
-  ++stats_.tip_caps;
+  out.emit(branch, TriangleKind::tip_cap);
 }
 
-void Builder::root_cap(std::uint32_t loop, std::uint32_t branch) {
+void Builder::root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t centre, Part& out) {
   const auto ids = loop_ids(loop);
   // Base: the centre below the loop's plane.
   const Frame& f = c_.loop_frame[loop];
@@ -353,10 +361,10 @@ void Builder::root_cap(std::uint32_t loop, std::uint32_t branch) {
   // A very shallow dome downwards (5% of the radius), so the root node lies strictly inside
   // the mesh rather than exactly on its base, where float32 export could put it either side.
   c -= f.tangent * (0.05 * c_.loop_radius[loop]);
-  const std::uint32_t centre = add_vertex(c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
-  scratch_.clear();
-  for (std::size_t k = 0; k < ids.size(); ++k) scratch_.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
-  emit(scratch_, branch, TriangleKind::root_cap);
+  set_vertex(centre, c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
+  out.scratch.clear();
+  for (std::size_t k = 0; k < ids.size(); ++k) out.scratch.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
+  out.emit(branch, TriangleKind::root_cap);
 }
 
 void Builder::compute_uvs() {
@@ -382,18 +390,21 @@ void Builder::compute_uvs() {
   vertex_u_.assign(c_.point.size(), 0.0);
   vertex_v_.assign(c_.point.size(), 0.0);
   vertex_angle_.assign(c_.point.size(), 0.0);
-  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
-    const glm::dvec3 centre = loop_centroid(l);
-    const Frame& f = c_.loop_frame[l];
-    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
-      const dvec2 q = f.to_local(c_.point[v] - centre);
-      vertex_angle_[v] = std::atan2(q.y, q.x);
-      double a = vertex_angle_[v] / kTwoPi;
-      if (a < 0) a += 1;
-      vertex_u_[v] = a * repeat;
-      vertex_v_[v] = loop_v_[l];
-    }
-  }
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, c_.loop_count(), 1024),
+                    [&](const tbb::blocked_range<std::uint32_t>& range) {
+                      for (std::uint32_t l = range.begin(); l != range.end(); ++l) {
+                        const glm::dvec3 centre = loop_centroid(l);
+                        const Frame& f = c_.loop_frame[l];
+                        for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
+                          const dvec2 q = f.to_local(c_.point[v] - centre);
+                          vertex_angle_[v] = std::atan2(q.y, q.x);
+                          double a = vertex_angle_[v] / kTwoPi;
+                          if (a < 0) a += 1;
+                          vertex_u_[v] = a * repeat;
+                          vertex_v_[v] = loop_v_[l];
+                        }
+                      }
+                    });
 }
 
 void Builder::check_topology() {
@@ -446,20 +457,71 @@ MeshResult Builder::run(const ProgressFn& progress) {
     for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) mesh_.vertex_node[v] = c_.loop_node[l];
   }
   compute_uvs();
-  stats_.timings.add("setup", clock.lap());
+  // Vertices added by the caps: a ring and an apex per tip, after the loop vertices in tube
+  // order, then the root's base centre. Known up front, so tubes can be stitched in parallel.
   const std::size_t tubes = c_.tubes.size();
+  const bool has_root = tubes > 0 && !c_.tubes[0].loops.empty();
+  std::vector<std::uint32_t> cap_first(tubes + 1);
+  std::size_t nv = c_.point.size();
   for (std::size_t ti = 0; ti < tubes; ++ti) {
+    cap_first[ti] = static_cast<std::uint32_t>(nv);
     const Tube& t = c_.tubes[ti];
-    const std::uint32_t branch = t.branch.value;
-    for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strip(t.loops[k], t.loops[k + 1], branch);
-    if (t.end_junction != UINT32_MAX) {
-      fuse(c_.junctions[t.end_junction], branch);
-    } else if (!t.loops.empty()) {
-      tip_cap(t.loops.back(), branch);
-    }
-    if (progress && (ti & 255) == 0) progress("meshing", double(ti) / double(tubes));
+    if (t.end_junction == UINT32_MAX && !t.loops.empty()) nv += c_.loop_size(t.loops.back()) + 1;
   }
-  if (!c_.tubes.empty() && !c_.tubes[0].loops.empty()) root_cap(c_.tubes[0].loops.front(), c_.tubes[0].branch.value);
+  cap_first[tubes] = static_cast<std::uint32_t>(nv);
+  if (has_root) ++nv;
+  mesh_.positions.resize(nv);
+  mesh_.vertex_strand.resize(nv);
+  mesh_.vertex_node.resize(nv);
+  vertex_u_.resize(nv);
+  vertex_v_.resize(nv);
+  stats_.timings.add("setup", clock.lap());
+
+  // Fixed ranges of tubes (not the scheduler's), concatenated in order.
+  constexpr std::size_t kTubesPerPart = 256;
+  std::vector<Part> parts((tubes + kTubesPerPart - 1) / kTubesPerPart);
+  std::size_t done = 0;
+  std::mutex progress_mutex;
+  tbb::parallel_for(std::size_t{0}, parts.size(), [&](std::size_t pi) {
+    Part& part = parts[pi];
+    for (std::size_t ti = pi * kTubesPerPart; ti < std::min(tubes, (pi + 1) * kTubesPerPart); ++ti) {
+      const Tube& t = c_.tubes[ti];
+      const std::uint32_t branch = t.branch.value;
+      for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strip(t.loops[k], t.loops[k + 1], branch, part);
+      if (t.end_junction != UINT32_MAX) {
+        fuse(c_.junctions[t.end_junction], branch, part);
+      } else if (!t.loops.empty()) {
+        tip_cap(t.loops.back(), branch, cap_first[ti], part);
+      }
+    }
+    if (progress) {
+      const std::lock_guard lock(progress_mutex);
+      progress("meshing", double(++done) / double(parts.size()));
+    }
+  });
+  Part root;
+  if (has_root) root_cap(c_.tubes[0].loops.front(), c_.tubes[0].branch.value, cap_first[tubes], root);
+  std::size_t nt = root.triangles.size();
+  for (const Part& part : parts) nt += part.triangles.size();
+  mesh_.triangles.reserve(nt);
+  mesh_.triangle_branch.reserve(nt);
+  kind_.reserve(nt);
+  auto append = [&](Part& from) {
+    mesh_.triangles.insert(mesh_.triangles.end(), from.triangles.begin(), from.triangles.end());
+    mesh_.triangle_branch.insert(mesh_.triangle_branch.end(), from.branch.begin(), from.branch.end());
+    kind_.insert(kind_.end(), from.kind.begin(), from.kind.end());
+    from = Part{};
+  };
+  for (Part& part : parts) append(part);
+  append(root);
+  for (const Tube& t : c_.tubes) {
+    stats_.strips += t.loops.empty() ? 0 : t.loops.size() - 1;
+    if (t.end_junction != UINT32_MAX) {
+      ++stats_.junctions;
+    } else if (!t.loops.empty()) {
+      ++stats_.tip_caps;
+    }
+  }
   stats_.timings.add("stitching", clock.lap());
 
   if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_);
