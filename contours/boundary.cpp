@@ -71,10 +71,11 @@ double pseudo_angle(double x, double y) {
 
 /// True when the loop (vertices in increasing `key` around c, the first at key 0) turns
 /// less than pi between consecutive vertices as seen from c (so it is simple and star-shaped
-/// around c) and every point lies inside it or within `tol` of it. O(n log m): each point's
-/// sector is found by binary search on the keys.
+/// around c) and every point lies inside it or within `tol` of it. `sorted`, when not null,
+/// holds every point but the loop's first vertex in increasing key: each point's sector is
+/// then found by one sweep, O(n); otherwise by binary search on the keys, O(n log m).
 bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const dvec2& c,
-                     const std::vector<std::uint32_t>& loop, double tol) {
+                     const std::vector<std::uint32_t>& loop, double tol, const std::vector<std::uint32_t>* sorted) {
   const std::size_t m = loop.size();
   if (m < 3) return false;
   std::vector<double> lk(m), edge_length(m);
@@ -84,14 +85,24 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
     if (!(cross2(p[loop[k]] - c, p[loop[(k + 1) % m]] - c) > 0)) return false;
     edge_length[k] = glm::length(p[loop[(k + 1) % m]] - p[loop[k]]);
   }
-  for (std::uint32_t i = 0; i < p.size(); ++i) {
-    // Sector k spans [lk[k], lk[k+1]) (the last one wraps around).
-    const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
-    const std::size_t k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1));
+  // Sector k spans [lk[k], lk[k+1]) (the last one wraps around).
+  auto inside = [&](std::uint32_t i, std::size_t k) {
     const dvec2& a = p[loop[k]];
     const dvec2 e = p[loop[(k + 1) % m]] - a;
     const double len = edge_length[k];
-    if (len > 0 && cross2(e, p[i] - a) / len < -tol) return false;
+    return !(len > 0 && cross2(e, p[i] - a) / len < -tol);
+  };
+  if (sorted) {
+    std::size_t k = 0;
+    for (const std::uint32_t i : *sorted) {
+      while (k + 1 < m && lk[k + 1] <= key[i]) ++k;
+      if (!inside(i, k)) return false;
+    }
+    return inside(loop[0], 0);
+  }
+  for (std::uint32_t i = 0; i < p.size(); ++i) {
+    const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
+    if (!inside(i, static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1)))) return false;
   }
   return true;
 }
@@ -184,9 +195,17 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
       }
     }
     // By angle; on equal angles the nearer point first, so the farther one survives the scan.
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-      return key[a] != key[b] ? key[a] < key[b] : (dist[a] != dist[b] ? dist[a] < dist[b] : a < b);
+    // Sorted as (key, distance, index) records: no indirection in the comparisons.
+    struct Entry {
+      double key, dist;
+      std::uint32_t i;
+    };
+    std::vector<Entry> entries(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) entries[k] = {key[order[k]], dist[order[k]], order[k]};
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return a.key != b.key ? a.key < b.key : (a.dist != b.dist ? a.dist < b.dist : a.i < b.i);
     });
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = entries[k].i;
     return order;
   };
   const double max_concave = concave_turn_degrees * kPi / 180.0;
@@ -222,8 +241,9 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   const double valid_tol = tol + 1e-6 * extent;
   for (const bool filter : {true, false}) {
     if (filter && n <= 64) continue;
-    std::vector<std::uint32_t> loop = walk(candidates(filter));
-    if (loop.size() < 3 || !star_loop_valid(p, key, c, loop, valid_tol)) continue;
+    const std::vector<std::uint32_t> order = candidates(filter);
+    std::vector<std::uint32_t> loop = walk(order);
+    if (loop.size() < 3 || !star_loop_valid(p, key, c, loop, valid_tol, filter ? nullptr : &order)) continue;
     // The walk gives a star-shaped loop around every point. Where it bridges one gap much
     // wider than the spacing of its vertices and half as wide as the slice, the points may not be star-shaped around the centroid
     // (a "C"). When they are one connected shape at the spacing of the points (the concave
