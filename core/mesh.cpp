@@ -52,20 +52,28 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
   const VertexCorners vc = vertex_corners(mesh);
   const auto& begin = vc.begin;
   const auto& corners = vc.corner;
-  // Each corner contributes its triangle's unit normal times its angle, computed where it is
-  // summed (a triangle's normal three times, but no per-triangle arrays: on meshes of
-  // millions of triangles, filling and reading those cost more than the arithmetic).
-  // |a x b| is twice the area at every corner, i.e. the same length for all three; degenerate
-  // triangles contribute nothing.
-  auto contribution = [&](std::uint32_t corner) {
-    const auto& t = mesh.triangles[corner / 3];
-    const std::uint32_t k = corner % 3;
-    const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
-    const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
-    const double len = glm::length(fn);
-    if (!(len > 0)) return glm::dvec3(0);
-    return (fn / len) * fast_angle(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
-  };
+  // Per triangle: its unit normal and the angle at each corner (zero for degenerate faces).
+  // |a x b| is twice the area at every corner, i.e. the same length for all three.
+  const std::size_t nt = mesh.triangles.size();
+  std::vector<glm::dvec3> face_normal(nt);
+  std::vector<std::array<double, 3>> corner_angle(nt);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
+      const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
+      const double len = glm::length(fn);
+      if (!(len > 0)) {
+        face_normal[f] = glm::dvec3(0);
+        corner_angle[f] = {0, 0, 0};
+        continue;
+      }
+      face_normal[f] = fn / len;
+      for (std::uint32_t k = 0; k < 3; ++k)
+        corner_angle[f][k] = fast_angle(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
+    }
+  });
+  auto contribution = [&](std::uint32_t corner) { return face_normal[corner / 3] * corner_angle[corner / 3][corner % 3]; };
   std::vector<glm::dvec3> n(nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v) {
