@@ -8,6 +8,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <numeric>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -19,6 +20,8 @@ namespace sm {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
+/// Stacked junctions are merged only when every upper loop has at least this many vertices.
+constexpr std::size_t kMinMergedLoop = 6;
 
 /// Signed angle difference wrapped into (-pi, pi].
 double wrap_pi(double a) {
@@ -221,6 +224,170 @@ void fuse_chains(const std::vector<std::uint32_t>& lower, const std::vector<std:
   out.push_back({lower[lb], a[ia], b[ib]});
 }
 
+/// Branch fusion with k >= 3 upper loops: a junction whose child tube is a single loop that
+/// ends in another junction straight away (forks a fraction of a slice apart: whorls, stems
+/// of a binarized n-way fork that never came apart) is meshed as one junction, skipping the
+/// loop between them, whose binary crotches would otherwise overlap.
+///
+/// The generalisation of fuse_chains. Each lower vertex belongs to one upper loop: the one
+/// its strand is on (`label`, -1 when none is), else its predecessor's, else the nearest (by
+/// the distance to the circle of the loop's mean radius around its centroid, in the lower
+/// loop's plane). The lower loop is then made k runs, one per upper loop, which orders the
+/// upper loops around it: a loop with several runs keeps its longest (a main stem reaching
+/// the boundary between laterals around it), and a loop with none (a bundle inside) gets
+/// the two vertices at the change of runs nearest to it in angle. Chain i runs from the last vertex of run i-1 to the last vertex of run i and is
+/// stitched to loop i opened at its crotch vertex c_i (its vertex nearest the centroid of the
+/// other upper loops); the crotch triangle (cut_i, c_{i+1}, c_i) closes the gap between
+/// neighbouring strips, and a fan over c_1 .. c_k closes the hole the crotch edges leave in
+/// the middle (for k = 2 the two crotch triangles meet: fuse_chains). Every edge is used
+/// exactly twice.
+///
+/// Returns false (and emits nothing) when the lower loop cannot be made k runs; the caller
+/// then meshes the binary junctions one by one.
+bool fuse_many(const std::vector<std::uint32_t>& lower, const std::vector<std::vector<std::uint32_t>>& uppers,
+               const std::vector<int>& label, const std::vector<glm::dvec3>& pos, const Frame& frame,
+               std::vector<Mesh::Triangle>& out) {
+  const std::size_t k = uppers.size(), m = lower.size();
+  if (k < 3 || m < k || label.size() != m) return false;
+  std::vector<glm::dvec3> cu(k);
+  std::vector<double> radius(k, 0.0);
+  glm::dvec3 cl(0);
+  for (auto v : lower) cl += pos[v];
+  cl /= double(m);
+  for (std::size_t i = 0; i < k; ++i) {
+    glm::dvec3 c(0);
+    for (auto v : uppers[i]) c += pos[v];
+    cu[i] = c / double(uppers[i].size());
+    for (auto v : uppers[i]) radius[i] += glm::length(frame.to_local(pos[v] - cu[i]));
+    radius[i] /= double(uppers[i].size());
+  }
+  // The strands' labels, a vertex without one taking its predecessor's (as fuse_chains does),
+  // else the nearest loop.
+  std::vector<int> lab = label;
+  int last = -1;
+  for (std::size_t pass = 0; pass < 2; ++pass) {
+    for (std::size_t v = 0; v < m; ++v) {
+      if (label[v] >= 0) last = label[v];
+      if (lab[v] < 0) lab[v] = last;
+    }
+  }
+  auto angle = [&](const glm::dvec3& p) {
+    const dvec2 q = frame.to_local(p - cl);
+    return std::atan2(q.y, q.x);
+  };
+  for (std::size_t v = 0; v < m; ++v) {
+    if (lab[v] >= 0) continue;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < k; ++i) {
+      const double d = glm::length(frame.to_local(pos[lower[v]] - cu[i])) - radius[i];
+      if (d < best) {
+        best = d;
+        lab[v] = static_cast<int>(i);
+      }
+    }
+  }
+  // Repairs towards one run per loop. A loop with several runs (a main stem whose strands reach
+  // the boundary between the laterals around it) keeps its longest; the others go half to
+  // each neighbouring run.
+  struct Run {
+    std::size_t start, length;
+    int label;
+  };
+  auto cyclic_runs = [&] {
+    std::vector<Run> r;
+    std::size_t first = m;
+    for (std::size_t v = 0; v < m && first == m; ++v) {
+      if (lab[v] != lab[(v + m - 1) % m]) first = v;
+    }
+    if (first == m) return r;
+    for (std::size_t n = 0; n < m; ++n) {
+      const std::size_t v = (first + n) % m;
+      if (r.empty() || lab[v] != r.back().label) {
+        r.push_back({v, 1, lab[v]});
+      } else {
+        ++r.back().length;
+      }
+    }
+    return r;
+  };
+  for (std::size_t guard = 0; guard < m; ++guard) {
+    const std::vector<Run> r = cyclic_runs();
+    if (r.size() < 2) return false;
+    // The shortest run of a label with several (never the only longest one of its label).
+    std::vector<std::size_t> count(k, 0);
+    for (const Run& x : r) ++count[static_cast<std::size_t>(x.label)];
+    std::size_t pick = r.size();
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      if (count[static_cast<std::size_t>(r[i].label)] > 1 && (pick == r.size() || r[i].length < r[pick].length)) pick = i;
+    }
+    if (pick == r.size()) break;
+    const Run& x = r[pick];
+    const int before = r[(pick + r.size() - 1) % r.size()].label, after = r[(pick + 1) % r.size()].label;
+    for (std::size_t n = 0; n < x.length; ++n) lab[(x.start + n) % m] = 2 * n < x.length ? before : after;
+  }
+  // A loop without a run (a bundle inside the lower loop, its strands all off the boundary)
+  // takes the two vertices around the change of runs nearest to it in angle.
+  for (std::size_t i = 0; i < k; ++i) {
+    const std::vector<Run> r = cyclic_runs();
+    if (std::any_of(r.begin(), r.end(), [&](const Run& x) { return x.label == static_cast<int>(i); })) continue;
+    const double a = angle(cu[i]);
+    std::size_t best = r.size();
+    double best_d = std::numeric_limits<double>::infinity();
+    for (std::size_t q = 0; q < r.size(); ++q) {
+      const std::size_t v = r[q].start, u = (v + m - 1) % m;
+      const double d = std::abs(wrap_pi(angle(0.5 * (pos[lower[u]] + pos[lower[v]])) - a));
+      if (r[q].length >= 2 && r[(q + r.size() - 1) % r.size()].length >= 2 && d < best_d) {
+        best_d = d;
+        best = q;
+      }
+    }
+    if (best == r.size()) return false;
+    lab[r[best].start] = lab[(r[best].start + m - 1) % m] = static_cast<int>(i);
+  }
+  const std::vector<Run> r = cyclic_runs();
+  if (r.size() != k) return false;
+  std::vector<std::size_t> run_end(k);
+  std::vector<int> run_label(k);
+  std::vector<std::uint8_t> seen(k, 0);
+  for (std::size_t i = 0; i < k; ++i) {
+    if (seen[static_cast<std::size_t>(r[i].label)]++) return false;
+    run_end[i] = (r[i].start + r[i].length - 1) % m;
+    run_label[i] = r[i].label;
+  }
+
+  std::vector<std::uint32_t> crotch(k);
+  for (std::size_t i = 0; i < k; ++i) {
+    const auto& u = uppers[static_cast<std::size_t>(run_label[i])];
+    glm::dvec3 others(0);
+    for (std::size_t x = 0; x < k; ++x) {
+      if (x != static_cast<std::size_t>(run_label[i])) others += cu[x];
+    }
+    others /= double(k - 1);
+    double best = std::numeric_limits<double>::infinity();
+    for (auto v : u) {
+      const double d = glm::dot(pos[v] - others, pos[v] - others);
+      if (d < best) {
+        best = d;
+        crotch[i] = v;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < k; ++i) {
+    std::vector<std::uint32_t> chain, loop;
+    for (std::size_t v = run_end[(i + k - 1) % k];; v = (v + 1) % m) {
+      chain.push_back(lower[v]);
+      if (v == run_end[i]) break;
+    }
+    const auto& u = uppers[static_cast<std::size_t>(run_label[i])];
+    const std::size_t start = static_cast<std::size_t>(std::find(u.begin(), u.end(), crotch[i]) - u.begin());
+    for (std::size_t j = 0; j <= u.size(); ++j) loop.push_back(u[(start + j) % u.size()]);
+    stitch_open(chain, loop, pos, out);
+    out.push_back({lower[run_end[i]], crotch[(i + 1) % k], crotch[i]});
+  }
+  for (std::size_t i = 1; i + 1 < k; ++i) out.push_back({crotch[0], crotch[i], crotch[i + 1]});
+  return true;
+}
+
 class Builder {
  public:
   Builder(const Skeleton& s, const ContourSet& c, const MeshParams& p) : s_(s), c_(c), p_(p) {}
@@ -278,6 +445,14 @@ class Builder {
   std::vector<double> loop_v_;               // per loop
   std::vector<double> vertex_u_, vertex_v_;  // per vertex
   std::vector<double> vertex_angle_;         // per loop vertex: angle around its loop's centroid
+  /// Per junction: the triangles of its k-way fusion when stacked junctions above it were
+  /// merged into it (plan_stacked_junctions), else empty.
+  std::vector<std::vector<Mesh::Triangle>> merged_fusion_;
+  std::vector<std::uint8_t> folded_;  ///< per junction: meshed as part of a junction below it
+  void plan_stacked_junctions();
+  /// Removes the vertices no triangle uses (the loops between merged junctions), keeping the
+  /// others in order.
+  void drop_unused_vertices();
   std::vector<TriangleKind> kind_;
 };
 
@@ -314,6 +489,92 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   out.scratch.clear();
   stitch(lower, upper, c_.point, out.scratch, &guard);
   out.emit(branch, TriangleKind::strip);
+}
+
+void Builder::plan_stacked_junctions() {
+  const std::size_t nj = c_.junctions.size();
+  merged_fusion_.assign(nj, {});
+  folded_.assign(nj, 0);
+  if (!p_.merge_stacked_junctions) return;
+  std::vector<std::vector<std::uint32_t>> uppers;
+  std::vector<std::uint32_t> merged;
+  for (std::uint32_t ji = 0; ji < nj; ++ji) {
+    if (folded_[ji]) continue;
+    const Junction& j = c_.junctions[ji];
+    uppers.clear();
+    merged.clear();
+    // Depth first: an upper tube that is one loop ending in a junction is replaced by that
+    // junction's upper tubes.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> stack{{j.upper_tubes[1], j.upper[1]},
+                                                                 {j.upper_tubes[0], j.upper[0]}};
+    while (!stack.empty()) {
+      const auto [ti, first] = stack.back();
+      stack.pop_back();
+      const Tube& t = c_.tubes[ti];
+      if (t.loops.size() == 1 && t.end_junction != UINT32_MAX) {
+        const Junction& up = c_.junctions[t.end_junction];
+        merged.push_back(t.end_junction);
+        stack.emplace_back(up.upper_tubes[1], up.upper[1]);
+        stack.emplace_back(up.upper_tubes[0], up.upper[0]);
+      } else {
+        uppers.push_back(loop_ids(first));
+      }
+    }
+    if (merged.empty()) continue;
+    // Twigs of the fewest strands stay binary: merged, their crotches were measured to
+    // intersect more, not less (on mtg_agraf, stems with a row of 5-strand twigs).
+    if (std::any_of(uppers.begin(), uppers.end(), [](const auto& u) { return u.size() < kMinMergedLoop; })) continue;
+    // Label the lower vertices by the upper loop carrying their strand.
+    const std::vector<std::uint32_t> lower = loop_ids(j.lower);
+    std::vector<int> label(lower.size(), -1);
+    for (std::size_t i = 0; i < uppers.size(); ++i) {
+      for (const std::uint32_t v : uppers[i]) {
+        const StrandId st = c_.strand[v];
+        if (!st.valid()) continue;
+        for (std::size_t x = 0; x < lower.size(); ++x) {
+          if (c_.strand[lower[x]] == st) label[x] = static_cast<int>(i);
+        }
+      }
+    }
+    std::vector<Mesh::Triangle> tris;
+    if (!fuse_many(lower, uppers, label, c_.point, c_.loop_frame[j.lower], tris)) continue;
+    merged_fusion_[ji] = std::move(tris);
+    for (const std::uint32_t x : merged) {
+      folded_[x] = 1;
+      merged_fusion_[x].clear();  // (planned before this one, when junctions are not in tree order)
+    }
+  }
+  stats_.merged_junctions = static_cast<std::size_t>(std::count(folded_.begin(), folded_.end(), 1));
+}
+
+void Builder::drop_unused_vertices() {
+  const std::size_t nv = mesh_.positions.size();
+  std::vector<std::uint32_t> remap(nv, 0);
+  for (const auto& t : mesh_.triangles) {
+    for (const std::uint32_t v : t) remap[v] = 1;
+  }
+  std::uint32_t kept = 0;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!remap[v]) {
+      remap[v] = UINT32_MAX;
+      continue;
+    }
+    remap[v] = kept;
+    mesh_.positions[kept] = mesh_.positions[v];
+    mesh_.vertex_strand[kept] = mesh_.vertex_strand[v];
+    mesh_.vertex_node[kept] = mesh_.vertex_node[v];
+    vertex_u_[kept] = vertex_u_[v];
+    vertex_v_[kept] = vertex_v_[v];
+    ++kept;
+  }
+  mesh_.positions.resize(kept);
+  mesh_.vertex_strand.resize(kept);
+  mesh_.vertex_node.resize(kept);
+  vertex_u_.resize(kept);
+  vertex_v_.resize(kept);
+  for (auto& t : mesh_.triangles) {
+    for (std::uint32_t& v : t) v = remap[v];
+  }
 }
 
 void Builder::fuse(const Junction& j, std::uint32_t branch, Part& out) const {
@@ -475,6 +736,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   mesh_.vertex_node.resize(nv);
   vertex_u_.resize(nv);
   vertex_v_.resize(nv);
+  plan_stacked_junctions();
   stats_.timings.add("setup", clock.lap());
 
   // Fixed ranges of tubes (not the scheduler's), concatenated in order.
@@ -489,7 +751,13 @@ MeshResult Builder::run(const ProgressFn& progress) {
       const std::uint32_t branch = t.branch.value;
       for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strip(t.loops[k], t.loops[k + 1], branch, part);
       if (t.end_junction != UINT32_MAX) {
-        fuse(c_.junctions[t.end_junction], branch, part);
+        const std::uint32_t ji = t.end_junction;
+        if (!merged_fusion_[ji].empty()) {
+          part.scratch = merged_fusion_[ji];
+          part.emit(branch, TriangleKind::fusion);
+        } else if (!folded_[ji]) {
+          fuse(c_.junctions[ji], branch, part);
+        }
       } else if (!t.loops.empty()) {
         tip_cap(t.loops.back(), branch, cap_first[ti], part);
       }
@@ -514,6 +782,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   };
   for (Part& part : parts) append(part);
   append(root);
+  if (stats_.merged_junctions > 0) drop_unused_vertices();
   for (const Tube& t : c_.tubes) {
     stats_.strips += t.loops.empty() ? 0 : t.loops.size() - 1;
     if (t.end_junction != UINT32_MAX) {

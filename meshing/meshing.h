@@ -9,7 +9,9 @@
 ///    vertices between the two upper loops; the lower loop is cut at the two vertices on
 ///    either side of the crotch, each half is stitched to one upper loop (opened at its crotch
 ///    vertex), and two special triangles on the crotch edge close the gap: a pair of pants
-///    with no holes and no overlaps, manifold by construction (see fuse_loops).
+///    with no holes and no overlaps, manifold by construction (see fuse_loops). Junctions
+///    stacked a single loop apart are merged into one with three or more upper loops
+///    (MeshParams::merge_stacked_junctions; fuse_many in meshing.cpp).
 ///  - Caps: a dome on the last loop of every tube that ends at a tip, a nearly flat base
 ///    (5% of the radius deep) on the root's loop.
 ///  - Normals are computed on the finished mesh (angle-weighted), UVs follow the strands:
@@ -38,13 +40,18 @@ struct MeshParams {
   bool uvs = true;
   /// Compute smooth vertex normals.
   bool normals = true;
+  /// Mesh a junction whose child tube is a single loop ending in another junction (forks a
+  /// fraction of a slice apart) as one junction with three or more upper loops, skipping that
+  /// loop: the stacked binary crotches would overlap (see fuse_many in meshing.cpp).
+  bool merge_stacked_junctions = true;
 };
 
 struct MeshStats {
   std::size_t vertices = 0;
   std::size_t triangles = 0;
   std::size_t strips = 0;          ///< loop-to-loop strips
-  std::size_t junctions = 0;       ///< branch fusions
+  std::size_t junctions = 0;       ///< branch fusions (junctions of the contours, merged ones included)
+  std::size_t merged_junctions = 0;  ///< junctions meshed as part of the junction below them
   std::size_t tip_caps = 0;
   std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
   Warnings warnings;

@@ -77,6 +77,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("uv_repeat_u", p.uv_repeat_u);
   v("uvs", p.uvs);
   v("normals", p.normals);
+  v("merge_stacked_junctions", p.merge_stacked_junctions);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

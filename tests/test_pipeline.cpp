@@ -123,8 +123,9 @@ TEST(Pipeline, LateralInsideAFusedSectionSplitsOffFirst) {
 
 TEST(Pipeline, RandomWhorlTreesAreSound) {
   // Whorls of 1 to 4 laterals at random angles: binarized chains, nested splits, laterals
-  // leaving inside another fork's fused section. Every mesh closed, manifold, genus 0.
-  std::size_t nested = 0;
+  // leaving inside another fork's fused section, stacked junctions merged into junctions of
+  // three or more branches. Every mesh closed, manifold, genus 0, without unused vertices.
+  std::size_t nested = 0, merged = 0;
   for (std::uint64_t seed = 1; seed <= 60; ++seed) {
     SCOPED_TRACE(seed);
     PipelineResult r = run_pipeline(test::random_whorl_tree(seed), {});
@@ -139,9 +140,12 @@ TEST(Pipeline, RandomWhorlTreesAreSound) {
     EXPECT_EQ(*rep.genus, 0);
     EXPECT_EQ(rep.degenerate_triangles, 0u);
     EXPECT_GT(rep.signed_volume, 0);
+    EXPECT_EQ(rep.unreferenced_vertices, 0u);
     nested += r.contours.stats.nested_splits;
+    merged += r.mesh.stats.merged_junctions;
   }
   EXPECT_GT(nested, 60u);  // the nested splits were exercised
+  EXPECT_GT(merged, 100u);  // and the merged junctions
 }
 
 TEST(Pipeline, BentTwigsKeepTheirSkeletonInside) {
@@ -191,9 +195,9 @@ TEST(Pipeline, Samples) {
       {"mtg_agraf.json", {2600, 0.15, 6}},
       {"mtg_boutdenoylum2.json", {750, 0.19, 10}},
       {"qsm_simpleforest_rtwig.json", {550, 0.07, 4}},
-      {"sapling_callistemon.json", {350, 0.08, 2}},
+      {"sapling_callistemon.json", {270, 0.08, 2}},
       {"sapling_quaking_aspen.json", {20, 0.08, 1}},
-      {"sapling_small_pine.json", {3700, 0.11, 14}}};
+      {"sapling_small_pine.json", {2800, 0.11, 10}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);

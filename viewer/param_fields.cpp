@@ -271,6 +271,11 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .max = 8},
       {.key = "uvs", .help = "compute per-corner UVs", .value = &p.uvs, .min = 0, .max = 1},
       {.key = "normals", .help = "compute smooth vertex normals", .value = &p.normals, .min = 0, .max = 1},
+      {.key = "merge_stacked_junctions",
+       .help = "mesh junctions a single loop apart as one junction with three or more branches",
+       .value = &p.merge_stacked_junctions,
+       .min = 0,
+       .max = 1},
   };
 }
 
