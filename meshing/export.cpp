@@ -5,6 +5,11 @@
 // here, and only where the corners around a vertex really disagree (a UV seam, or a branch
 // boundary when `_BRANCH_ID` is written). Everything is done in a fixed order so that the same
 // mesh gives the same bytes.
+//
+// Speed: a grown tree has millions of vertices, so the loops over vertices and corners run in
+// parallel (oneTBB), each one writing only its own outputs or reducing fixed chunks combined in
+// order: the bytes do not depend on the thread count. Files are streamed (write_mesh) or
+// appended to one string reserved up front (encode_mesh), never copied whole.
 
 #include "meshing/export.h"
 
@@ -14,11 +19,18 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
-#include <sstream>
+#include <memory>
+#include <ostream>
+#include <streambuf>
 #include <string_view>
+#include <utility>
 
 #include <meshoptimizer.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <tiny_gltf.h>
 
 #include "core/errors.h"
@@ -33,6 +45,8 @@ constexpr int kGlElementArrayBuffer = 34963;
 // Largest integer a float represents exactly: _BRANCH_ID is a float attribute (glTF forbids
 // UNSIGNED_INT vertex attributes, and unsigned short would need padding to 4-byte strides).
 constexpr std::uint32_t kMaxExactFloatInt = 1u << 24;
+// Items per chunk of the parallel loops whose per-chunk results are combined in order.
+constexpr std::size_t kChunk = 1 << 14;
 
 // The key that decides whether two corners of one welded vertex may share an output vertex.
 struct CornerKey {
@@ -73,259 +87,391 @@ glm::vec3 unit_float(const glm::dvec3& n) {
   return glm::vec3(u);
 }
 
-// ---------------------------------------------------------------- glTF
-
-template <class T>
-std::size_t append_bytes(std::vector<unsigned char>& buf, const std::vector<T>& data) {
-  while (buf.size() % 4 != 0) buf.push_back(0);  // every view starts 4-byte aligned
-  const std::size_t offset = buf.size();
-  const std::size_t bytes = data.size() * sizeof(T);
-  buf.resize(offset + bytes);
-  if (bytes) std::memcpy(buf.data() + offset, data.data(), bytes);
-  return offset;
+// Componentwise minimum and maximum of f(0) .. f(n - 1) (+-infinity when n = 0). Equal to the
+// serial `lo = glm::min(lo, f(i)); hi = glm::max(hi, f(i))`, ties included (glm::min and max
+// keep the earlier of two equal values, e.g. of -0 and +0, and ignore NaN): fixed chunks are
+// reduced in parallel and combined in chunk order, whatever the thread count.
+template <class F>
+std::pair<glm::dvec3, glm::dvec3> bounds(std::size_t n, const F& f) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const std::pair<glm::dvec3, glm::dvec3> empty{glm::dvec3(inf), glm::dvec3(-inf)};
+  std::vector<std::pair<glm::dvec3, glm::dvec3>> part((n + kChunk - 1) / kChunk, empty);
+  tbb::parallel_for(std::size_t{0}, part.size(), [&](std::size_t k) {
+    auto& [lo, hi] = part[k];
+    for (std::size_t i = k * kChunk; i < std::min(n, (k + 1) * kChunk); ++i) {
+      const glm::dvec3 x = f(i);
+      lo = glm::min(lo, x);
+      hi = glm::max(hi, x);
+    }
+  });
+  std::pair<glm::dvec3, glm::dvec3> all = empty;
+  for (const auto& [lo, hi] : part) {
+    all.first = glm::min(all.first, lo);
+    all.second = glm::max(all.second, hi);
+  }
+  return all;
 }
 
-// Adds a buffer view and an accessor for `data` (tightly packed); returns the accessor index.
-template <class T>
-int add_accessor(tinygltf::Model& model, const std::vector<T>& data, int component_type, int type, int components,
-                 int target, bool with_min_max) {
-  tinygltf::Buffer& buffer = model.buffers[0];
+// A file ready to be written. Preparing it did every check (an invalid mesh throws
+// InvalidInputError there); writing only fails when the stream does.
+struct PreparedFile {
+  std::size_t size_hint = 0;                  // upper bound of the file size (the glTF JSON estimated)
+  std::function<void(std::ostream&)> write;  // writes the whole file
+};
+
+// Writes the bytes of items [0, n) in order: format(begin, end) returns those of items
+// [begin, end). Chunks of `chunk` items are formatted in parallel, a bounded number at a time,
+// and written in order, so the output is the serial one for any thread count.
+void write_chunks(std::ostream& out, std::size_t n, std::size_t chunk,
+                  const std::function<std::string(std::size_t, std::size_t)>& format) {
+  std::size_t next = 0;
+  tbb::parallel_pipeline(
+      16,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& fc) -> std::size_t {
+                                            if (next >= n) fc.stop();
+                                            const std::size_t begin = next;
+                                            next += chunk;
+                                            return begin;
+                                          }) &
+          tbb::make_filter<std::size_t, std::string>(
+              tbb::filter_mode::parallel,
+              [&](std::size_t begin) { return format(begin, std::min(n, begin + chunk)); }) &
+          tbb::make_filter<std::string, void>(tbb::filter_mode::serial_in_order, [&](const std::string& bytes) {
+            out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+          }));
+}
+
+// ---------------------------------------------------------------- glTF
+
+// Adds a tightly packed buffer view of `bytes` bytes at the end of the buffer layout `size`
+// (every view starts 4-byte aligned); returns its offset.
+std::size_t add_view(tinygltf::Model& model, std::size_t& size, std::size_t bytes, int target) {
+  size = (size + 3) / 4 * 4;
   tinygltf::BufferView view;
   view.buffer = 0;
-  view.byteOffset = append_bytes(buffer.data, data);
-  view.byteLength = data.size() * sizeof(T);
+  view.byteOffset = size;
+  view.byteLength = bytes;
   view.target = target;
   model.bufferViews.push_back(std::move(view));
+  size += bytes;
+  return model.bufferViews.back().byteOffset;
+}
 
+// Adds an accessor of `count` elements on the last buffer view; returns the accessor index.
+int add_accessor(tinygltf::Model& model, std::size_t count, int component_type, int type) {
   tinygltf::Accessor acc;
   acc.bufferView = static_cast<int>(model.bufferViews.size() - 1);
   acc.byteOffset = 0;
   acc.componentType = component_type;
   acc.type = type;
-  // Every component type written here (float, uint32) is 4 bytes wide.
-  acc.count = data.size() * sizeof(T) / (4 * static_cast<std::size_t>(components));
-  if (with_min_max) {
-    // The validator compares min/max with the stored float values exactly.
-    const auto* f = reinterpret_cast<const float*>(data.data());
-    std::vector<double> lo(static_cast<std::size_t>(components), std::numeric_limits<double>::infinity());
-    std::vector<double> hi(static_cast<std::size_t>(components), -std::numeric_limits<double>::infinity());
-    for (std::size_t i = 0; i < acc.count; ++i) {
-      for (std::size_t c = 0; c < static_cast<std::size_t>(components); ++c) {
-        const double x = f[i * static_cast<std::size_t>(components) + c];
-        lo[c] = std::min(lo[c], x);
-        hi[c] = std::max(hi[c], x);
-      }
-    }
-    acc.minValues = lo;
-    acc.maxValues = hi;
-  }
+  acc.count = count;
   model.accessors.push_back(std::move(acc));
   return static_cast<int>(model.accessors.size() - 1);
 }
 
-std::string encode_gltf(const Mesh& mesh, const ExportParams& params, bool binary) {
+// Writes f(0) .. f(n - 1) as consecutive values of type T at byte `offset` of `data`.
+template <class T, class F>
+void fill(std::vector<unsigned char>& data, std::size_t offset, std::size_t n, const F& f) {
+  unsigned char* out = data.data() + offset;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const T value = f(i);
+      std::memcpy(out + i * sizeof(T), &value, sizeof(T));
+    }
+  });
+}
+
+PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool binary) {
   const ExportBuffers b = build_export_buffers(mesh, params);
   const std::size_t n = b.positions.size();
-
-  std::vector<glm::dvec3> world(n);
-  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  for (std::size_t i = 0; i < n; ++i) {
-    world[i] = to_y_up(b.positions[i], params.up_axis);
-    lo = glm::min(lo, world[i]);
-    hi = glm::max(hi, world[i]);
+  const auto too_big = std::find_if(b.branch.begin(), b.branch.end(), [](std::uint32_t id) { return id > kMaxExactFloatInt; });
+  if (too_big != b.branch.end()) {
+    throw InvalidInputError("mesh: branch id " + std::to_string(*too_big) +
+                            " exceeds 2^24, the largest id _BRANCH_ID (a float attribute) stores exactly; "
+                            "export without branch ids");
   }
+
   // The origin is kept in double precision in the node translation; the bounding-box centre
   // makes the largest float offset half the extent, whatever the absolute coordinates are.
+  const auto [lo, hi] = bounds(n, [&](std::size_t i) { return to_y_up(b.positions[i], params.up_axis); });
   const glm::dvec3 origin = (params.recenter && n > 0) ? 0.5 * (lo + hi) : glm::dvec3(0);
 
-  std::vector<glm::vec3> pos(n);
-  for (std::size_t i = 0; i < n; ++i) pos[i] = glm::vec3(world[i] - origin);
+  auto model = std::make_shared<tinygltf::Model>();
+  model->asset.version = "2.0";
+  model->asset.generator = "strandmesh";
+  model->buffers.emplace_back();
 
-  tinygltf::Model model;
-  model.asset.version = "2.0";
-  model.asset.generator = "strandmesh";
-  model.buffers.emplace_back();
-
+  // Lay out the views (POSITION, NORMAL, TEXCOORD_0, _BRANCH_ID, indices), then fill the
+  // buffer in place.
+  std::size_t size = 0;
   tinygltf::Primitive prim;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
-  prim.attributes["POSITION"] =
-      add_accessor(model, pos, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 3, kGlArrayBuffer, true);
+  const std::size_t pos_at = add_view(*model, size, n * sizeof(glm::vec3), kGlArrayBuffer);
+  const int pos_acc = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3);
+  prim.attributes["POSITION"] = pos_acc;
+  std::size_t normal_at = 0, uv_at = 0, branch_at = 0;
   if (!b.normals.empty()) {
-    std::vector<glm::vec3> nrm(n);
-    for (std::size_t i = 0; i < n; ++i) nrm[i] = unit_float(to_y_up(glm::dvec3(b.normals[i]), params.up_axis));
-    prim.attributes["NORMAL"] =
-        add_accessor(model, nrm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 3, kGlArrayBuffer, false);
+    normal_at = add_view(*model, size, n * sizeof(glm::vec3), kGlArrayBuffer);
+    prim.attributes["NORMAL"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3);
   }
   if (!b.uvs.empty()) {
-    prim.attributes["TEXCOORD_0"] =
-        add_accessor(model, b.uvs, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 2, kGlArrayBuffer, false);
+    uv_at = add_view(*model, size, n * sizeof(glm::vec2), kGlArrayBuffer);
+    prim.attributes["TEXCOORD_0"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2);
   }
   if (!b.branch.empty()) {
-    std::vector<float> ids(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (b.branch[i] > kMaxExactFloatInt) {
-        throw InvalidInputError("mesh: branch id " + std::to_string(b.branch[i]) +
-                                " exceeds 2^24, the largest id _BRANCH_ID (a float attribute) stores exactly; "
-                                "export without branch ids");
-      }
-      ids[i] = static_cast<float>(b.branch[i]);
-    }
-    prim.attributes["_BRANCH_ID"] =
-        add_accessor(model, ids, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, 1, kGlArrayBuffer, false);
+    branch_at = add_view(*model, size, n * sizeof(float), kGlArrayBuffer);
+    prim.attributes["_BRANCH_ID"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR);
   }
-  prim.indices = add_accessor(model, b.indices, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, 1,
-                              kGlElementArrayBuffer, false);
+  const std::size_t index_at =
+      add_view(*model, size, b.indices.size() * sizeof(std::uint32_t), kGlElementArrayBuffer);
+  prim.indices = add_accessor(*model, b.indices.size(), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR);
   prim.material = 0;
+
+  std::vector<unsigned char>& data = model->buffers[0].data;
+  data.resize(size);
+  fill<glm::vec3>(data, pos_at, n, [&](std::size_t i) { return glm::vec3(to_y_up(b.positions[i], params.up_axis) - origin); });
+  if (!b.normals.empty()) {
+    fill<glm::vec3>(data, normal_at, n,
+                    [&](std::size_t i) { return unit_float(to_y_up(glm::dvec3(b.normals[i]), params.up_axis)); });
+  }
+  if (!b.uvs.empty()) fill<glm::vec2>(data, uv_at, n, [&](std::size_t i) { return b.uvs[i]; });
+  if (!b.branch.empty()) fill<float>(data, branch_at, n, [&](std::size_t i) { return static_cast<float>(b.branch[i]); });
+  fill<std::uint32_t>(data, index_at, b.indices.size(), [&](std::size_t i) { return b.indices[i]; });
+
+  // The validator compares min/max with the stored float values exactly.
+  const auto [pos_lo, pos_hi] = bounds(n, [&](std::size_t i) {
+    glm::vec3 p;
+    std::memcpy(&p, data.data() + pos_at + i * sizeof(glm::vec3), sizeof p);
+    return glm::dvec3(p);
+  });
+  model->accessors[static_cast<std::size_t>(pos_acc)].minValues = {pos_lo.x, pos_lo.y, pos_lo.z};
+  model->accessors[static_cast<std::size_t>(pos_acc)].maxValues = {pos_hi.x, pos_hi.y, pos_hi.z};
 
   tinygltf::Material material;
   material.name = "bark";
   material.pbrMetallicRoughness.baseColorFactor = {0.36, 0.25, 0.17, 1.0};
   material.pbrMetallicRoughness.metallicFactor = 0.0;
   material.pbrMetallicRoughness.roughnessFactor = 0.9;
-  model.materials.push_back(std::move(material));
+  model->materials.push_back(std::move(material));
 
   tinygltf::Mesh gmesh;
   gmesh.name = "tree";
   gmesh.primitives.push_back(std::move(prim));
-  model.meshes.push_back(std::move(gmesh));
+  model->meshes.push_back(std::move(gmesh));
 
   tinygltf::Node node;
   node.name = "tree";
   node.mesh = 0;
   if (origin != glm::dvec3(0)) node.translation = {origin.x, origin.y, origin.z};
-  model.nodes.push_back(std::move(node));
+  model->nodes.push_back(std::move(node));
 
   tinygltf::Scene scene;
   scene.nodes.push_back(0);
-  model.scenes.push_back(std::move(scene));
-  model.defaultScene = 0;
+  model->scenes.push_back(std::move(scene));
+  model->defaultScene = 0;
 
-  tinygltf::TinyGLTF writer;
-  std::ostringstream out;
-  if (!writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/!binary, /*writeBinary=*/binary) || !out) {
-    throw IoError("glTF serialization failed");
-  }
-  return std::move(out).str();
+  // The JSON is a few kilobytes; .gltf embeds the buffer as base64 (4 characters per 3 bytes).
+  constexpr std::size_t kJsonBytes = 1 << 16;
+  PreparedFile file;
+  file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
+  file.write = [model, binary](std::ostream& out) {
+    tinygltf::TinyGLTF writer;
+    if (!writer.WriteGltfSceneToStream(model.get(), out, /*prettyPrint=*/!binary, /*writeBinary=*/binary)) {
+      throw IoError("glTF serialization failed");
+    }
+  };
+  return file;
 }
 
 // ---------------------------------------------------------------- OBJ
 
-// Appends a number as `%.9g` would print it, independent of the C locale.
-void append_number(std::string& s, double x) {
-  char buf[40];
-  const auto res = std::to_chars(buf, buf + sizeof buf, x, std::chars_format::general, 9);
-  s.append(buf, res.ptr);
+// Longest `%.9g` of a double ("-1.23456789e-308", "-0.0000123456789") and longest 1-based
+// index (2^32, ten digits).
+constexpr std::size_t kMaxNumberChars = 16;
+constexpr std::size_t kMaxIndexChars = 10;
+
+// Writes a number as `%.9g` would print it, independent of the C locale; returns the end.
+char* put_number(char* p, double x) {
+  return std::to_chars(p, p + kMaxNumberChars, x, std::chars_format::general, 9).ptr;
 }
 
-void append_index(std::string& s, std::uint64_t i) {
-  char buf[24];
-  const auto res = std::to_chars(buf, buf + sizeof buf, i);
-  s.append(buf, res.ptr);
+char* put_text(char* p, std::string_view text) {
+  std::memcpy(p, text.data(), text.size());
+  return p + text.size();
 }
 
 const char* axis_name(UpAxis a) {
   return a == UpAxis::z ? "z" : "y";
 }
 
-std::string encode_obj(const Mesh& mesh, const ExportParams& params) {
-  const ExportBuffers b = build_export_buffers(mesh, params);
-  std::string s;
-  s.reserve(b.positions.size() * 96 + b.indices.size() * 12 + 128);
-  s += "# strandmesh\n# up axis ";
-  s += axis_name(params.up_axis);
-  s += " (coordinates as in the input, metres)\n";
-  for (const auto& p : b.positions) {
-    s += "v ";
-    append_number(s, p.x);
-    s += ' ';
-    append_number(s, p.y);
-    s += ' ';
-    append_number(s, p.z);
-    s += '\n';
+// The lines `prefix x y ...` of `dims`-dimensional items [begin, end) of `values`.
+template <class Vec>
+std::string obj_lines(std::string_view prefix, const std::vector<Vec>& values, std::size_t begin, std::size_t end) {
+  constexpr auto dims = static_cast<std::size_t>(Vec::length());
+  std::string text((end - begin) * (prefix.size() + dims * (kMaxNumberChars + 1) + 1), '\0');
+  char* p = text.data();
+  for (std::size_t i = begin; i < end; ++i) {
+    p = put_text(p, prefix);
+    for (std::size_t k = 0; k < dims; ++k) {
+      *p++ = ' ';
+      p = put_number(p, static_cast<double>(values[i][static_cast<glm::length_t>(k)]));
+    }
+    *p++ = '\n';
   }
-  for (const auto& t : b.uvs) {
-    s += "vt ";
-    append_number(s, static_cast<double>(t.x));
-    s += ' ';
-    append_number(s, static_cast<double>(t.y));
-    s += '\n';
-  }
-  for (const auto& n : b.normals) {
-    s += "vn ";
-    append_number(s, static_cast<double>(n.x));
-    s += ' ';
-    append_number(s, static_cast<double>(n.y));
-    s += ' ';
-    append_number(s, static_cast<double>(n.z));
-    s += '\n';
-  }
+  text.resize(static_cast<std::size_t>(p - text.data()));
+  return text;
+}
+
+// The lines `f a/a/a b/b/b c/c/c` (or `f a b c`, `f a/a b/b c/c`, `f a//a ...`) of triangles
+// [begin, end).
+std::string obj_faces(const ExportBuffers& b, std::size_t begin, std::size_t end) {
   const bool uv = !b.uvs.empty(), nrm = !b.normals.empty();
-  for (std::size_t i = 0; i < b.indices.size(); i += 3) {
-    s += 'f';
+  constexpr std::size_t kMaxLine = 2 + 3 * (3 * kMaxIndexChars + 3);
+  std::string text((end - begin) * kMaxLine, '\0');
+  char* p = text.data();
+  for (std::size_t t = begin; t < end; ++t) {
+    *p++ = 'f';
     for (std::size_t k = 0; k < 3; ++k) {
-      const std::uint64_t v = std::uint64_t(b.indices[i + k]) + 1;
-      s += ' ';
-      append_index(s, v);
+      char index[kMaxIndexChars];
+      const std::size_t len = static_cast<std::size_t>(
+          std::to_chars(index, index + sizeof index, std::uint64_t(b.indices[3 * t + k]) + 1).ptr - index);
+      *p++ = ' ';
+      p = put_text(p, {index, len});
       if (uv || nrm) {
-        s += '/';
-        if (uv) append_index(s, v);
+        *p++ = '/';
+        if (uv) p = put_text(p, {index, len});
         if (nrm) {
-          s += '/';
-          append_index(s, v);
+          *p++ = '/';
+          p = put_text(p, {index, len});
         }
       }
     }
-    s += '\n';
+    *p++ = '\n';
   }
-  return s;
+  text.resize(static_cast<std::size_t>(p - text.data()));
+  return text;
+}
+
+PreparedFile prepare_obj(const Mesh& mesh, const ExportParams& params) {
+  auto b = std::make_shared<const ExportBuffers>(build_export_buffers(mesh, params));
+  const std::string header = std::string("# strandmesh\n# up axis ") + axis_name(params.up_axis) +
+                             " (coordinates as in the input, metres)\n";
+  PreparedFile file;
+  file.size_hint = header.size() + b->positions.size() * (2 + 3 * (kMaxNumberChars + 1)) +
+                   b->uvs.size() * (3 + 2 * (kMaxNumberChars + 1)) +
+                   b->normals.size() * (3 + 3 * (kMaxNumberChars + 1)) +
+                   b->indices.size() / 3 * (2 + 3 * (3 * kMaxIndexChars + 3));
+  file.write = [b, header](std::ostream& out) {
+    out << header;
+    write_chunks(out, b->positions.size(), kChunk,
+                 [&](std::size_t i, std::size_t j) { return obj_lines("v", b->positions, i, j); });
+    write_chunks(out, b->uvs.size(), kChunk, [&](std::size_t i, std::size_t j) { return obj_lines("vt", b->uvs, i, j); });
+    write_chunks(out, b->normals.size(), kChunk,
+                 [&](std::size_t i, std::size_t j) { return obj_lines("vn", b->normals, i, j); });
+    write_chunks(out, b->indices.size() / 3, kChunk, [&](std::size_t i, std::size_t j) { return obj_faces(*b, i, j); });
+  };
+  return file;
 }
 
 // ---------------------------------------------------------------- PLY
 
+// Writes `value` little endian at p; returns the end.
 template <class T>
-void append_le(std::string& s, T value) {
+char* put_le(char* p, T value) {
   static_assert(std::is_trivially_copyable_v<T>);
-  char bytes[sizeof(T)];
-  std::memcpy(bytes, &value, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big) std::reverse(bytes, bytes + sizeof(T));
-  s.append(bytes, sizeof(T));
+  std::memcpy(p, &value, sizeof(T));
+  if constexpr (std::endian::native == std::endian::big) std::reverse(p, p + sizeof(T));
+  return p + sizeof(T);
 }
 
-std::string encode_ply(const Mesh& mesh, const ExportParams& params) {
-  const ExportBuffers b = build_export_buffers(mesh, params);
-  const bool uv = !b.uvs.empty(), nrm = !b.normals.empty();
-  std::string s = "ply\nformat binary_little_endian 1.0\ncomment strandmesh: up axis ";
-  s += axis_name(params.up_axis);
-  s += ", coordinates as in the input (metres)\nelement vertex " + std::to_string(b.positions.size()) + "\n";
-  s += "property double x\nproperty double y\nproperty double z\n";
-  if (nrm) s += "property float nx\nproperty float ny\nproperty float nz\n";
-  if (uv) s += "property float s\nproperty float t\n";
-  s += "element face " + std::to_string(b.indices.size() / 3) + "\n";
-  s += "property list uchar uint vertex_indices\nend_header\n";
-  const std::size_t vsize = 24 + (nrm ? 12 : 0) + (uv ? 8 : 0);
-  s.reserve(s.size() + b.positions.size() * vsize + b.indices.size() / 3 * 13);
-  for (std::size_t i = 0; i < b.positions.size(); ++i) {
-    append_le(s, b.positions[i].x);
-    append_le(s, b.positions[i].y);
-    append_le(s, b.positions[i].z);
-    if (nrm) {
-      append_le(s, b.normals[i].x);
-      append_le(s, b.normals[i].y);
-      append_le(s, b.normals[i].z);
-    }
-    if (uv) {
-      append_le(s, b.uvs[i].x);
-      append_le(s, b.uvs[i].y);
-    }
-  }
-  for (std::size_t i = 0; i < b.indices.size(); i += 3) {
-    append_le(s, std::uint8_t{3});
-    append_le(s, b.indices[i]);
-    append_le(s, b.indices[i + 1]);
-    append_le(s, b.indices[i + 2]);
-  }
-  return s;
+PreparedFile prepare_ply(const Mesh& mesh, const ExportParams& params) {
+  auto b = std::make_shared<const ExportBuffers>(build_export_buffers(mesh, params));
+  const bool uv = !b->uvs.empty(), nrm = !b->normals.empty();
+  std::string header = "ply\nformat binary_little_endian 1.0\ncomment strandmesh: up axis ";
+  header += axis_name(params.up_axis);
+  header += ", coordinates as in the input (metres)\nelement vertex " + std::to_string(b->positions.size()) + "\n";
+  header += "property double x\nproperty double y\nproperty double z\n";
+  if (nrm) header += "property float nx\nproperty float ny\nproperty float nz\n";
+  if (uv) header += "property float s\nproperty float t\n";
+  header += "element face " + std::to_string(b->indices.size() / 3) + "\n";
+  header += "property list uchar uint vertex_indices\nend_header\n";
+  const std::size_t vertex_bytes = 24 + (nrm ? 12 : 0) + (uv ? 8 : 0);
+  constexpr std::size_t kFaceBytes = 13;
+
+  PreparedFile file;
+  file.size_hint = header.size() + b->positions.size() * vertex_bytes + b->indices.size() / 3 * kFaceBytes;
+  file.write = [b, header, uv, nrm, vertex_bytes](std::ostream& out) {
+    out << header;
+    write_chunks(out, b->positions.size(), kChunk, [&](std::size_t begin, std::size_t end) {
+      std::string bytes((end - begin) * vertex_bytes, '\0');
+      char* p = bytes.data();
+      for (std::size_t i = begin; i < end; ++i) {
+        p = put_le(p, b->positions[i].x);
+        p = put_le(p, b->positions[i].y);
+        p = put_le(p, b->positions[i].z);
+        if (nrm) {
+          p = put_le(p, b->normals[i].x);
+          p = put_le(p, b->normals[i].y);
+          p = put_le(p, b->normals[i].z);
+        }
+        if (uv) {
+          p = put_le(p, b->uvs[i].x);
+          p = put_le(p, b->uvs[i].y);
+        }
+      }
+      return bytes;
+    });
+    write_chunks(out, b->indices.size() / 3, kChunk, [&](std::size_t begin, std::size_t end) {
+      std::string bytes((end - begin) * kFaceBytes, '\0');
+      char* p = bytes.data();
+      for (std::size_t t = begin; t < end; ++t) {
+        p = put_le(p, std::uint8_t{3});
+        for (std::size_t k = 0; k < 3; ++k) p = put_le(p, b->indices[3 * t + k]);
+      }
+      return bytes;
+    });
+  };
+  return file;
 }
+
+PreparedFile prepare_file(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
+  ExportParams p = params;
+  switch (format) {
+    case MeshFormat::glb:
+      return prepare_gltf(mesh, p, true);
+    case MeshFormat::gltf:
+      return prepare_gltf(mesh, p, false);
+    case MeshFormat::obj:
+      p.branch_ids = false;  // not stored in OBJ: no reason to split at branch boundaries
+      return prepare_obj(mesh, p);
+    case MeshFormat::ply:
+      p.branch_ids = false;
+      return prepare_ply(mesh, p);
+  }
+  throw InternalError("encode_mesh: unknown format");
+}
+
+// A stream buffer appending to a string (no copy of the whole file, unlike std::ostringstream).
+class StringSink : public std::streambuf {
+ public:
+  explicit StringSink(std::size_t reserve) { bytes_.reserve(reserve); }
+  std::string take() { return std::move(bytes_); }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    bytes_.push_back(traits_type::to_char_type(c));
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    bytes_.append(s, static_cast<std::size_t>(n));
+    return n;
+  }
+
+ private:
+  std::string bytes_;
+};
 
 }  // namespace
 
@@ -353,49 +499,42 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
 
   // Distinct keys per vertex, in the order of their first corner; the copies of vertex v are
   // numbered consecutively after those of v-1, so unsplit meshes keep their vertex order.
+  // corner_copy[c] is the copy corner c uses, among those of its vertex; base[v] the number of
+  // the first copy of v (base[v + 1] holds the number of copies of v until the prefix sum).
   std::vector<std::uint32_t> corner_copy(3 * nf);
-  std::vector<std::uint32_t> copies(nv, 0);
-  std::vector<CornerKey> seen;
-  for (std::size_t v = 0; v < nv; ++v) {
-    seen.clear();
-    for (std::uint32_t i = start[v]; i < start[v + 1]; ++i) {
-      const CornerKey key = key_of(corners[i]);
-      std::size_t j = 0;
-      while (j < seen.size() && !(seen[j] == key)) ++j;
-      if (j == seen.size()) seen.push_back(key);
-      corner_copy[corners[i]] = static_cast<std::uint32_t>(j);
-    }
-    copies[v] = static_cast<std::uint32_t>(seen.size());
-  }
   std::vector<std::uint64_t> base(nv + 1, 0);
-  for (std::size_t v = 0; v < nv; ++v) base[v + 1] = base[v] + copies[v];
+  const tbb::blocked_range<std::size_t> vertices(0, nv, 4096);
+  tbb::parallel_for(vertices, [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<CornerKey> seen;
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      seen.clear();
+      for (std::uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const CornerKey key = key_of(corners[i]);
+        std::size_t j = 0;
+        while (j < seen.size() && !(seen[j] == key)) ++j;
+        if (j == seen.size()) seen.push_back(key);
+        corner_copy[corners[i]] = static_cast<std::uint32_t>(j);
+      }
+      base[v + 1] = seen.size();
+    }
+  });
+  for (std::size_t v = 0; v < nv; ++v) base[v + 1] += base[v];
   const std::uint64_t out_count = base[nv];
   if (out_count > std::numeric_limits<std::uint32_t>::max()) {
     throw InvalidInputError("mesh: too many vertices after splitting seams for 32-bit indices");
   }
 
-  const std::vector<glm::dvec3> computed =
-      (params.normals && mesh.normals.empty()) ? angle_weighted_normals(mesh) : std::vector<glm::dvec3>{};
-  const std::vector<glm::dvec3>& normals = mesh.normals.empty() ? computed : mesh.normals;
-
   ExportBuffers b;
-  b.positions.resize(out_count);
-  b.source_vertex.resize(out_count);
-  if (params.normals) b.normals.resize(out_count);
-  if (with_uv) b.uvs.resize(out_count);
-  if (with_branch) b.branch.resize(out_count);
   b.indices.resize(3 * nf);
-  for (std::size_t c = 0; c < 3 * nf; ++c) {
-    const std::uint32_t v = mesh.triangles[c / 3][c % 3];
-    const auto out = static_cast<std::uint32_t>(base[v] + corner_copy[c]);
-    b.indices[c] = out;
-    b.positions[out] = mesh.positions[v];
-    b.source_vertex[out] = v;
-    if (params.normals) b.normals[out] = unit_float(normals[v]);
-    if (with_uv) b.uvs[out] = mesh.corner_uvs[c / 3][c % 3];
-    if (with_branch) b.branch[out] = mesh.triangle_branch[c / 3];
-  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, 3 * nf, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t c = r.begin(); c != r.end(); ++c) {
+      b.indices[c] = static_cast<std::uint32_t>(base[mesh.triangles[c / 3][c % 3]] + corner_copy[c]);
+    }
+  });
 
+  // The place of every copy in the output: its number, or with `optimize` its position in
+  // vertex-fetch order.
+  std::vector<unsigned int> remap;
   if (params.optimize && nf > 0) {
     // Vertex cache order for the triangles, then vertices in first-use order (both
     // deterministic functions of the index buffer). The FIFO variant: our strips are local
@@ -403,20 +542,39 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
     // 16 on a grown tree) at a fraction of its time (3.3 M triangles: about 0.4 vs 1.2 s).
     std::vector<unsigned int> reordered(b.indices.size());
     meshopt_optimizeVertexCacheFifo(reordered.data(), b.indices.data(), b.indices.size(), out_count, 16);
-    std::vector<unsigned int> remap(out_count);
+    remap.resize(out_count);
     meshopt_optimizeVertexFetchRemap(remap.data(), reordered.data(), reordered.size(), out_count);
     meshopt_remapIndexBuffer(b.indices.data(), reordered.data(), reordered.size(), remap.data());
-    auto apply = [&](auto& vec) {
-      if (vec.empty()) return;
-      auto copy = vec;
-      for (std::size_t i = 0; i < out_count; ++i) vec[remap[i]] = copy[i];
-    };
-    apply(b.positions);
-    apply(b.normals);
-    apply(b.uvs);
-    apply(b.branch);
-    apply(b.source_vertex);
   }
+
+  const std::vector<glm::dvec3> computed =
+      (params.normals && mesh.normals.empty()) ? angle_weighted_normals(mesh) : std::vector<glm::dvec3>{};
+  const std::vector<glm::dvec3>& normals = mesh.normals.empty() ? computed : mesh.normals;
+
+  // The attributes of each copy, taken from its first corner: all its corners have the same
+  // key, hence bit-identical UVs and branch ids. Every copy belongs to one welded vertex, so
+  // the vertices are independent.
+  b.positions.resize(out_count);
+  b.source_vertex.resize(out_count);
+  if (params.normals) b.normals.resize(out_count);
+  if (with_uv) b.uvs.resize(out_count);
+  if (with_branch) b.branch.resize(out_count);
+  tbb::parallel_for(vertices, [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      std::uint32_t copies = 0;
+      for (std::uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const std::uint32_t c = corners[i];
+        if (corner_copy[c] != copies) continue;  // not the first corner of its copy
+        const std::uint64_t copy = base[v] + copies++;
+        const std::size_t out = remap.empty() ? copy : remap[copy];
+        b.positions[out] = mesh.positions[v];
+        b.source_vertex[out] = static_cast<std::uint32_t>(v);
+        if (params.normals) b.normals[out] = unit_float(normals[v]);
+        if (with_uv) b.uvs[out] = mesh.corner_uvs[c / 3][c % 3];
+        if (with_branch) b.branch[out] = mesh.triangle_branch[c / 3];
+      }
+    }
+  });
   return b;
 }
 
@@ -432,31 +590,23 @@ MeshFormat mesh_format_from_path(const std::filesystem::path& path) {
 }
 
 std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
-  ExportParams p = params;
-  switch (format) {
-    case MeshFormat::glb:
-      return encode_gltf(mesh, p, true);
-    case MeshFormat::gltf:
-      return encode_gltf(mesh, p, false);
-    case MeshFormat::obj:
-      p.branch_ids = false;  // not stored in OBJ: no reason to split at branch boundaries
-      return encode_obj(mesh, p);
-    case MeshFormat::ply:
-      p.branch_ids = false;
-      return encode_ply(mesh, p);
-  }
-  throw InternalError("encode_mesh: unknown format");
+  const PreparedFile file = prepare_file(mesh, format, params);
+  StringSink sink(file.size_hint);
+  std::ostream out(&sink);
+  out.exceptions(std::ios::badbit);  // a failed allocation propagates instead of only failing the stream
+  file.write(out);
+  return sink.take();
 }
 
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params) {
   const MeshFormat format = mesh_format_from_path(path);
-  std::string bytes;
+  PreparedFile file;
   try {
-    bytes = encode_mesh(mesh, format, params);
+    file = prepare_file(mesh, format, params);
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(path.string() + ": " + e.what());
   }
-  write_file_atomically(path, bytes);
+  write_file_atomically(path, file.write);
 }
 
 }  // namespace sm

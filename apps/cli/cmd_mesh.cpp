@@ -69,7 +69,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                    " is required (strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}; see --help)");
         return int(kUsage);
       }
-      const MeshFormat format = mesh_format_from_path(o->output);  // fail before the long run
+      (void)mesh_format_from_path(o->output);  // an unknown extension fails before the long run
       const RawSkeleton raw = read_skeleton(o->input);
       ProgressBar bar(!global.quiet);
       std::mutex m;
@@ -88,7 +88,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       Stopwatch export_clock;
       ExportParams ep;
       ep.up_axis = r.skeleton.skeleton.up_axis;
-      write_file_atomically(o->output, encode_mesh(r.mesh.mesh, format, ep));
+      write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
       const double export_seconds = export_clock.elapsed();
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       char line[512];
