@@ -11,6 +11,7 @@
 // other triangle, other pairs when the triangles meet at all.
 
 #include "meshing/checks_cgal.h"
+#include "meshing/intersections.h"
 
 #include <algorithm>
 #include <mutex>
@@ -46,15 +47,23 @@ class SoupIntersector {
  public:
   SoupIntersector(const std::vector<Point>& points, const Mesh& mesh) : points_(points), mesh_(mesh) {}
 
+  /// The intersecting pairs among all triangles.
   std::vector<Pair> run() const {
+    std::vector<std::uint32_t> all(mesh_.triangles.size());
+    for (std::size_t t = 0; t < all.size(); ++t) all[t] = static_cast<std::uint32_t>(t);
+    return run(all);
+  }
+
+  /// The intersecting pairs among `triangles` (i < j), in any order.
+  std::vector<Pair> run(const std::vector<std::uint32_t>& triangles) const {
     using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::uint32_t>;
     std::vector<Box> boxes;
-    boxes.reserve(mesh_.triangles.size());
-    for (std::size_t t = 0; t < mesh_.triangles.size(); ++t) {
+    boxes.reserve(triangles.size());
+    for (const std::uint32_t t : triangles) {
       const auto& tri = mesh_.triangles[t];
       const Point &p = points_[tri[0]], &q = points_[tri[1]], &r = points_[tri[2]];
       if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r)) continue;  // degenerate
-      boxes.emplace_back(p.bbox() + q.bbox() + r.bbox(), static_cast<std::uint32_t>(t));
+      boxes.emplace_back(p.bbox() + q.bbox() + r.bbox(), t);
     }
     std::vector<const Box*> ptrs;
     ptrs.reserve(boxes.size());
@@ -72,7 +81,7 @@ class SoupIntersector {
     return pairs;
   }
 
- private:
+  /// Whether triangles i and j intersect other than in their shared vertex or edge.
   [[nodiscard]] bool intersect(std::uint32_t i, std::uint32_t j) const {
     const auto& a = mesh_.triangles[i];
     const auto& b = mesh_.triangles[j];
@@ -115,6 +124,8 @@ class SoupIntersector {
     }
   }
 
+
+ private:
   const std::vector<Point>& points_;
   const Mesh& mesh_;
 };
@@ -183,3 +194,30 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
 }
 
 }  // namespace sm::detail
+
+namespace sm {
+
+struct TriangleIntersections::Impl {
+  explicit Impl(const Mesh& mesh) : intersector(points, mesh) {
+    points.reserve(mesh.positions.size());
+    for (const auto& p : mesh.positions) points.emplace_back(p.x, p.y, p.z);
+  }
+  std::vector<detail::Point> points;  // declared first: the intersector refers to it
+  detail::SoupIntersector intersector;
+};
+
+TriangleIntersections::TriangleIntersections(const Mesh& mesh) : impl_(std::make_unique<Impl>(mesh)) {}
+TriangleIntersections::~TriangleIntersections() = default;
+
+bool TriangleIntersections::intersect(std::uint32_t i, std::uint32_t j) const {
+  return impl_->intersector.intersect(i, j);
+}
+
+std::vector<std::array<std::uint32_t, 2>> TriangleIntersections::pairs(const std::vector<std::uint32_t>& triangles) const {
+  std::vector<std::array<std::uint32_t, 2>> found = impl_->intersector.run(triangles);
+  std::sort(found.begin(), found.end());  // found in parallel, in any order
+  found.erase(std::unique(found.begin(), found.end()), found.end());
+  return found;
+}
+
+}  // namespace sm

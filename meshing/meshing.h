@@ -44,6 +44,11 @@ struct MeshParams {
   /// fraction of a slice apart) as one junction with three or more upper loops, skipping that
   /// loop: the stacked binary crotches would overlap (see fuse_many in meshing.cpp).
   bool merge_stacked_junctions = true;
+  /// Rounds of fold repair (fold_repair.h): triangles near junctions are tested for
+  /// self-intersections (exact predicates) and intersecting pairs are untangled by edge flips
+  /// where another triangulation of the same vertices is free of the crossing. Vertices never
+  /// move. 0 disables.
+  std::uint32_t fold_repair_rounds = 4;
 };
 
 struct MeshStats {
@@ -53,6 +58,8 @@ struct MeshStats {
   std::size_t junctions = 0;       ///< branch fusions (junctions of the contours, merged ones included)
   std::size_t merged_junctions = 0;  ///< junctions meshed as part of the junction below them
   std::size_t tip_caps = 0;
+  std::size_t fold_pairs = 0;            ///< self-intersecting pairs the fold repair found near junctions and caps
+  std::size_t fold_flips = 0;            ///< edge flips it made
   std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
   Warnings warnings;
   Timings timings;

@@ -78,6 +78,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("uvs", p.uvs);
   v("normals", p.normals);
   v("merge_stacked_junctions", p.merge_stacked_junctions);
+  v("fold_repair_rounds", p.fold_repair_rounds);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

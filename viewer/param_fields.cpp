@@ -276,6 +276,11 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.merge_stacked_junctions,
        .min = 0,
        .max = 1},
+      {.key = "fold_repair_rounds",
+       .help = "rounds of edge flips untangling self-intersections near junctions and caps (0 = off)",
+       .value = &p.fold_repair_rounds,
+       .min = 0,
+       .max = 16},
   };
 }
 

@@ -1,0 +1,222 @@
+// Fold repair by edge flips (see fold_repair.h).
+//
+// A flip replaces the edge (a, b) of triangles (a, b, c) and (b, a, d) by (c, d): the same
+// four vertices, the quad's outline unchanged, so the mesh stays closed and manifold with the
+// same Euler characteristic. It is made only when (c, d) is not an edge already (that would
+// make the mesh non-manifold), both new triangles face the way the pair did, and the number
+// of intersecting pairs among the triangles within two rings of the intersecting pair drops.
+
+#include "meshing/fold_repair.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <utility>
+
+#include <glm/glm.hpp>
+
+#include "meshing/intersections.h"
+
+namespace sm {
+
+namespace {
+
+constexpr int kMaxFlipsPerPair = 8;
+// Folds show as creases: the examined triangles are the suspect ones where the surface turns
+// by more than this across an edge, and those within two rings of them. (Large grown tree:
+// every pair found among the suspect triangles is found among these, 600 k of 1.4 M
+// triangles; at 120 degrees the same pairs, at 150 degrees 93% of them.)
+constexpr double kCreaseDegrees = 90.0;
+
+class FoldRepair {
+ public:
+  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect) : mesh_(mesh), suspect_(suspect), test_(mesh) {}
+
+  // Round 0 examines the suspect triangles; each later round only the triangles within two
+  // rings of those the previous round flipped (elsewhere nothing changed).
+  FoldRepairStats run(int max_rounds) {
+    FoldRepairStats stats;
+    build_around();
+    std::vector<std::uint32_t> examine = creased();
+    for (int round = 0; round < max_rounds && !examine.empty(); ++round) {
+      const auto pairs = test_.pairs(examine);
+      ++stats.rounds;
+      if (round == 0) stats.found = pairs.size();
+      if (pairs.empty()) break;
+      flipped_.clear();
+      for (const auto& [a, b] : pairs) {
+        // Flip while that lowers the crossings around the pair, even once a and b are
+        // apart: their neighbours often cross too.
+        if (!test_.intersect(a, b)) continue;  // untangled by an earlier flip
+        for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {}
+      }
+      stats.flips += flipped_.size() / 2;
+      examine = within_two_rings(flipped_);
+    }
+    return stats;
+  }
+
+ private:
+  void build_around() {
+    around_.resize(mesh_.positions.size());
+    for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
+      for (const std::uint32_t v : mesh_.triangles[f]) around_[v].push_back(f);
+    }
+  }
+
+  // The suspect triangles with a crease (an edge where the surface turns by more than
+  // kCreaseDegrees) and the triangles within two rings of them.
+  [[nodiscard]] std::vector<std::uint32_t> creased() const {
+    const double cos_crease = std::cos(kCreaseDegrees * std::numbers::pi / 180.0);
+    std::vector<std::uint32_t> seeds;
+    for (std::uint32_t f = 0; f < suspect_.size(); ++f) {
+      if (!suspect_[f]) continue;
+      const auto& t = mesh_.triangles[f];
+      const glm::dvec3 n = normal(t);
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t g = across(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)]);
+        if (g == UINT32_MAX) continue;
+        const glm::dvec3 m = normal(mesh_.triangles[g]);
+        const double len = glm::length(n) * glm::length(m);
+        if (!(glm::dot(n, m) > cos_crease * len)) {
+          seeds.push_back(f);
+          break;
+        }
+      }
+    }
+    return within_two_rings(seeds);
+  }
+
+  // Tries the edges of triangles a and b in order; makes the first flip that lowers the
+  // number of intersections around it.
+  bool flip_one_edge_of(std::uint32_t a, std::uint32_t b) {
+    const std::vector<std::uint32_t> region = around_pair(a, b);
+    for (const std::uint32_t f : {a, b}) {
+      for (int e = 0; e < 3; ++e) {
+        const Mesh::Triangle t = mesh_.triangles[f];
+        if (try_flip(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)], region)) return true;
+      }
+    }
+    return false;
+  }
+
+  // The triangles within two rings of triangles a and b, sorted: a flip of an edge of a or b
+  // is judged by the crossings of its two triangles with these. (Two rings around the pair
+  // rather than around the flipped quad measured better: boutdenoylum2 110 vs 253 pairs left.)
+  [[nodiscard]] std::vector<std::uint32_t> around_pair(std::uint32_t a, std::uint32_t b) const {
+    return within_two_rings({a, b});
+  }
+
+  // The triangles sharing a vertex with `faces` or with those, sorted.
+  [[nodiscard]] std::vector<std::uint32_t> within_two_rings(const std::vector<std::uint32_t>& faces) const {
+    std::vector<std::uint32_t> verts, out = faces;
+    for (int ring = 0; ring < 2; ++ring) {
+      verts.clear();
+      for (const std::uint32_t g : out) verts.insert(verts.end(), mesh_.triangles[g].begin(), mesh_.triangles[g].end());
+      std::sort(verts.begin(), verts.end());
+      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      out.clear();
+      for (const std::uint32_t v : verts) out.insert(out.end(), around_[v].begin(), around_[v].end());
+      std::sort(out.begin(), out.end());
+      out.erase(std::unique(out.begin(), out.end()), out.end());
+    }
+    return out;
+  }
+
+  // The other triangle with the directed edge (v, u), or UINT32_MAX.
+  [[nodiscard]] std::uint32_t across(std::uint32_t f, std::uint32_t u, std::uint32_t v) const {
+    for (const std::uint32_t g : around_[u]) {
+      if (g == f) continue;
+      const auto& t = mesh_.triangles[g];
+      for (int k = 0; k < 3; ++k) {
+        if (t[std::size_t(k)] == v && t[std::size_t((k + 1) % 3)] == u) return g;
+      }
+    }
+    return UINT32_MAX;
+  }
+
+  [[nodiscard]] static std::uint32_t third(const Mesh::Triangle& t, std::uint32_t u, std::uint32_t v) {
+    for (const std::uint32_t w : t) {
+      if (w != u && w != v) return w;
+    }
+    return UINT32_MAX;
+  }
+
+  [[nodiscard]] glm::dvec3 normal(const Mesh::Triangle& t) const {
+    const glm::dvec3& p = mesh_.positions[t[0]];
+    return glm::cross(mesh_.positions[t[1]] - p, mesh_.positions[t[2]] - p);
+  }
+
+  // The intersecting pairs among `region` that involve f1 or f2 (the others do not change
+  // when f1 and f2 are flipped).
+  [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region) const {
+    const auto box = [&](std::uint32_t f) {
+      const auto& t = mesh_.triangles[f];
+      const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
+      return std::pair{glm::min(p, glm::min(q, r)), glm::max(p, glm::max(q, r))};
+    };
+    const auto b1 = box(f1), b2 = box(f2);
+    const auto overlap = [](const auto& x, const auto& y) {
+      return glm::all(glm::lessThanEqual(x.first, y.second)) && glm::all(glm::lessThanEqual(y.first, x.second));
+    };
+    std::size_t n = overlap(b1, b2) && test_.intersect(f1, f2) ? 1 : 0;
+    for (const std::uint32_t g : region) {
+      if (g == f1 || g == f2) continue;
+      const auto bg = box(g);
+      if (overlap(b1, bg) && test_.intersect(f1, g)) ++n;
+      if (overlap(b2, bg) && test_.intersect(f2, g)) ++n;
+    }
+    return n;
+  }
+
+  // Flips the edge (a, b) of triangle f1 if that lowers the crossings among `region`.
+  bool try_flip(std::uint32_t f1, std::uint32_t a, std::uint32_t b, const std::vector<std::uint32_t>& region) {
+    const std::uint32_t f2 = across(f1, a, b);
+    if (f2 == UINT32_MAX) return false;
+    const std::uint32_t c = third(mesh_.triangles[f1], a, b), d = third(mesh_.triangles[f2], a, b);
+    if (c == d || c == UINT32_MAX || d == UINT32_MAX) return false;
+    for (const std::uint32_t g : around_[c]) {
+      const auto& t = mesh_.triangles[g];
+      if (t[0] == d || t[1] == d || t[2] == d) return false;  // (c, d) is an edge already
+    }
+    const Mesh::Triangle old1 = mesh_.triangles[f1], old2 = mesh_.triangles[f2];
+    const glm::dvec3 facing = normal(old1) + normal(old2);
+    // (a, b, c) and (b, a, d) become (a, d, c) and (d, b, c): the outline a d b c is kept.
+    const Mesh::Triangle new1{a, d, c}, new2{d, b, c};
+    const glm::dvec3 n1 = normal(new1), n2 = normal(new2);
+    if (!(glm::dot(n1, facing) > 0) || !(glm::dot(n2, facing) > 0)) return false;
+
+    const std::size_t before = crossings(f1, f2, region);
+    mesh_.triangles[f1] = new1;
+    mesh_.triangles[f2] = new2;
+    if (crossings(f1, f2, region) >= before) {
+      mesh_.triangles[f1] = old1;
+      mesh_.triangles[f2] = old2;
+      return false;
+    }
+    // a leaves f2, b leaves f1, c joins f2, d joins f1.
+    flipped_.push_back(f1);
+    flipped_.push_back(f2);
+    std::erase(around_[a], f2);
+    std::erase(around_[b], f1);
+    around_[c].push_back(f2);
+    around_[d].push_back(f1);
+    return true;
+  }
+
+  Mesh& mesh_;
+  const std::vector<std::uint8_t>& suspect_;
+  std::vector<std::uint32_t> flipped_;  // the triangles flipped in this round (two per flip)
+  TriangleIntersections test_;
+  std::vector<std::vector<std::uint32_t>> around_;  // triangles around each vertex
+};
+
+}  // namespace
+
+FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, int max_rounds) {
+  if (max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
+  return FoldRepair(mesh, suspect).run(max_rounds);
+}
+
+}  // namespace sm

@@ -1,0 +1,36 @@
+#pragma once
+/// \file fold_repair.h
+/// Fold repair: removes local self-intersections of a closed triangle mesh by edge flips
+/// (internal to the meshing stage; the only meshing file that compiles CGAL).
+///
+/// Where loops of very different shape are stitched (fused loops above a fork, split loops,
+/// crotches), the greedy strips can fold: a triangle dips behind its neighbours and crosses
+/// them. Most such pairs lie within a ring or two of each other (measured: 60-80% on the
+/// sample skeletons), and another triangulation of the same vertices is free of the crossing.
+/// The repair finds the intersecting pairs around the creases of the `suspect` triangles
+/// (exact predicates) and flips an edge of either triangle whenever that lowers the number of crossings with the
+/// triangles around it, keeping both new triangles facing the way the old pair did.
+/// Vertices never move (fidelity is unchanged) and a flip keeps the mesh closed, manifold and
+/// of the same genus. Deterministic: pairs are visited in sorted order, serially.
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace sm {
+
+struct FoldRepairStats {
+  std::size_t found = 0;      ///< intersecting pairs among the suspect triangles before the repair
+  std::size_t flips = 0;      ///< edge flips made
+  std::size_t rounds = 0;     ///< detection rounds run
+};
+
+/// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of
+/// the edge, which keep their branch ids). `suspect[f]` marks the triangles that may fold
+/// (#F); those with a crease and the triangles within two rings of them are examined, and
+/// each flip is judged against every triangle within two rings of the pair. At most `max_rounds` detection rounds (after the first, only around the
+/// triangles the previous round flipped).
+FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, int max_rounds);
+
+}  // namespace sm
