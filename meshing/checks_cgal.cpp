@@ -212,6 +212,10 @@ struct TriangleIntersections::Impl {
 TriangleIntersections::TriangleIntersections(const Mesh& mesh) : impl_(std::make_unique<Impl>(mesh)) {}
 TriangleIntersections::~TriangleIntersections() = default;
 
+void TriangleIntersections::set_position(std::uint32_t v, const glm::dvec3& p) {
+  impl_->points[v] = detail::Point(p.x, p.y, p.z);
+}
+
 bool TriangleIntersections::intersect(std::uint32_t i, std::uint32_t j) const {
   return impl_->intersector.intersect(i, j);
 }

@@ -1,10 +1,13 @@
-// Fold repair by edge flips (see fold_repair.h).
+// Fold repair by edge flips and bounded vertex moves (see fold_repair.h).
 //
 // A flip replaces the edge (a, b) of triangles (a, b, c) and (b, a, d) by (c, d): the same
 // four vertices, the quad's outline unchanged, so the mesh stays closed and manifold with the
 // same Euler characteristic. It is made only when (c, d) is not an edge already (that would
 // make the mesh non-manifold), both new triangles face the way the pair did, and the number
 // of intersecting pairs among the triangles within two rings of the intersecting pair drops.
+// A vertex move (towards the centroid of the vertex's neighbours, 1, 1/2 or 1/4 of the way,
+// within max_move of where stitching put it) is judged the same way and refused when it
+// turns a triangle around the vertex over.
 
 #include "meshing/fold_repair.h"
 
@@ -35,7 +38,8 @@ constexpr double kCreaseDegrees = 90.0;
 
 class FoldRepair {
  public:
-  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect) : mesh_(mesh), suspect_(suspect), test_(mesh) {}
+  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move)
+      : mesh_(mesh), suspect_(suspect), max_move_(max_move), test_(mesh) {}
 
   // Round 0 examines the suspect triangles; each later round only the triangles within two
   // rings of those the previous round flipped (elsewhere nothing changed).
@@ -54,8 +58,11 @@ class FoldRepair {
         // apart: their neighbours often cross too.
         if (!test_.intersect(a, b)) continue;  // untangled by an earlier flip
         for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {}
+        for (int k = 0; k < kMaxFlipsPerPair && test_.intersect(a, b) && move_one_vertex_of(a, b); ++k) ++stats.moves;
       }
-      stats.flips += flipped_.size() / 2;
+      stats.flips += flipped_.size() / 2;  // before the moved triangles join the list
+      flipped_.insert(flipped_.end(), moved_.begin(), moved_.end());
+      moved_.clear();
       examine = within_two_rings(flipped_);
     }
     return stats;
@@ -163,6 +170,91 @@ class FoldRepair {
     return out;
   }
 
+  // Tries the vertices of a and b in order; moves the first whose move towards the centroid
+  // of its neighbours lowers the crossings around the pair.
+  bool move_one_vertex_of(std::uint32_t a, std::uint32_t b) {
+    const std::vector<std::uint32_t> region = around_pair(a, b);
+    for (const std::uint32_t f : {a, b}) {
+      const Mesh::Triangle t = mesh_.triangles[f];
+      for (const std::uint32_t v : t) {
+        if (try_move(v, region)) return true;
+      }
+    }
+    return false;
+  }
+
+  // Intersecting pairs of a triangle of `faces` (sorted) with a triangle of `others` (each
+  // pair once).
+  [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
+                                             const std::vector<std::uint32_t>& others) const {
+    std::size_t n = 0;
+    for (const std::uint32_t f : faces) {
+      const Box bf = box(f);
+      for (const std::uint32_t g : others) {
+        if (g == f || !overlap(bf, box(g))) continue;
+        if (g < f && std::binary_search(faces.begin(), faces.end(), g)) continue;  // counted from g
+        if (test_.intersect(f, g)) ++n;
+      }
+    }
+    return n;
+  }
+
+  bool try_move(std::uint32_t v, const std::vector<std::uint32_t>& region) {
+    const double limit = v < max_move_.size() ? max_move_[v] : 0.0;
+    if (!(limit > 0)) return false;
+    const auto here = around(v);
+    std::vector<std::uint32_t> faces(here.begin(), here.end());
+    std::sort(faces.begin(), faces.end());
+    glm::dvec3 centroid(0);
+    std::size_t count = 0;
+    for (const std::uint32_t f : faces) {
+      for (const std::uint32_t w : mesh_.triangles[f]) {
+        if (w == v) continue;
+        centroid += mesh_.positions[w];  // each neighbour twice on a closed mesh: same mean
+        ++count;
+      }
+    }
+    if (count == 0) return false;
+    centroid /= double(count);
+    const glm::dvec3 old = mesh_.positions[v];
+    const glm::dvec3 origin = origin_.try_emplace(v, old).first->second;
+    std::vector<glm::dvec3> facing(faces.size());
+    for (std::size_t i = 0; i < faces.size(); ++i) facing[i] = normal(mesh_.triangles[faces[i]]);
+    // Only the region's triangles near the fan around v, wherever v moves within the limit.
+    Box reach = box(faces.front());
+    for (const std::uint32_t f : faces) {
+      const Box b = box(f);
+      reach = {glm::min(reach.first, b.first), glm::max(reach.second, b.second)};
+    }
+    reach = {reach.first - glm::dvec3(limit), reach.second + glm::dvec3(limit)};
+    std::vector<std::uint32_t> near;
+    for (const std::uint32_t g : region) {
+      if (overlap(reach, box(g))) near.push_back(g);
+    }
+    const std::size_t before = crossings_around(faces, near);
+    for (const double lambda : {1.0, 0.5, 0.25}) {
+      // The limit holds for the total move from where stitching put v.
+      glm::dvec3 target = old + lambda * (centroid - old);
+      const glm::dvec3 offset = target - origin;
+      const double len = glm::length(offset);
+      if (len > limit) target = origin + offset * (limit / len);
+      if (!(glm::length(target - old) > 0)) break;
+      mesh_.positions[v] = target;
+      test_.set_position(v, mesh_.positions[v]);
+      bool ok = true;
+      for (std::size_t i = 0; i < faces.size() && ok; ++i) {
+        ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
+      }
+      if (ok && crossings_around(faces, near) < before) {
+        moved_.insert(moved_.end(), faces.begin(), faces.end());
+        return true;
+      }
+    }
+    mesh_.positions[v] = old;
+    test_.set_position(v, old);
+    return false;
+  }
+
   // The other triangle with the directed edge (v, u), or UINT32_MAX.
   [[nodiscard]] std::uint32_t across(std::uint32_t f, std::uint32_t u, std::uint32_t v) const {
     for (const std::uint32_t g : around(u)) {
@@ -189,16 +281,18 @@ class FoldRepair {
 
   // The intersecting pairs among `region` that involve f1 or f2 (the others do not change
   // when f1 and f2 are flipped).
+  using Box = std::pair<glm::dvec3, glm::dvec3>;
+  [[nodiscard]] Box box(std::uint32_t f) const {
+    const auto& t = mesh_.triangles[f];
+    const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
+    return {glm::min(p, glm::min(q, r)), glm::max(p, glm::max(q, r))};
+  }
+  [[nodiscard]] static bool overlap(const Box& x, const Box& y) {
+    return glm::all(glm::lessThanEqual(x.first, y.second)) && glm::all(glm::lessThanEqual(y.first, x.second));
+  }
+
   [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region) const {
-    const auto box = [&](std::uint32_t f) {
-      const auto& t = mesh_.triangles[f];
-      const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
-      return std::pair{glm::min(p, glm::min(q, r)), glm::max(p, glm::max(q, r))};
-    };
     const auto b1 = box(f1), b2 = box(f2);
-    const auto overlap = [](const auto& x, const auto& y) {
-      return glm::all(glm::lessThanEqual(x.first, y.second)) && glm::all(glm::lessThanEqual(y.first, x.second));
-    };
     std::size_t n = overlap(b1, b2) && test_.intersect(f1, f2) ? 1 : 0;
     for (const std::uint32_t g : region) {
       if (g == f1 || g == f2) continue;
@@ -246,6 +340,9 @@ class FoldRepair {
 
   Mesh& mesh_;
   const std::vector<std::uint8_t>& suspect_;
+  const std::vector<double>& max_move_;
+  std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
+  std::vector<std::uint32_t> moved_;    // the triangles around the vertices moved in this round
   std::vector<std::uint32_t> flipped_;  // the triangles flipped in this round (two per flip)
   TriangleIntersections test_;
   std::vector<std::size_t> around_begin_;  // #V + 1 offsets into around_flat_
@@ -255,9 +352,10 @@ class FoldRepair {
 
 }  // namespace
 
-FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, int max_rounds) {
+FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
+                             int max_rounds) {
   if (max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
-  return FoldRepair(mesh, suspect).run(max_rounds);
+  return FoldRepair(mesh, suspect, max_move).run(max_rounds);
 }
 
 }  // namespace sm

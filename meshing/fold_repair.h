@@ -1,17 +1,20 @@
 #pragma once
 /// \file fold_repair.h
-/// Fold repair: removes local self-intersections of a closed triangle mesh by edge flips
-/// (internal to the meshing stage; the only meshing file that compiles CGAL).
+/// Fold repair: removes local self-intersections of a closed triangle mesh by edge flips and,
+/// where no flip helps, small vertex moves (internal to the meshing stage; the exact tests
+/// come from sm_meshcheck's TriangleIntersections, so no meshing file compiles CGAL).
 ///
 /// Where loops of very different shape are stitched (fused loops above a fork, split loops,
 /// crotches), the greedy strips can fold: a triangle dips behind its neighbours and crosses
 /// them. Most such pairs lie within a ring or two of each other (measured: 60-80% on the
 /// sample skeletons), and another triangulation of the same vertices is free of the crossing.
 /// The repair finds the intersecting pairs around the creases of the `suspect` triangles
-/// (exact predicates) and flips an edge of either triangle whenever that lowers the number of crossings with the
-/// triangles around it, keeping both new triangles facing the way the old pair did.
-/// Vertices never move (fidelity is unchanged) and a flip keeps the mesh closed, manifold and
-/// of the same genus. Deterministic: pairs are visited in sorted order, serially.
+/// (exact predicates) and flips an edge of either triangle whenever that lowers the number of
+/// crossings with the triangles around it, keeping both new triangles facing the way the old
+/// pair did; a flip keeps the mesh closed, manifold and of the same genus. Where no flip helps,
+/// a vertex of the pair moves a bounded step towards the centroid of its neighbours under the
+/// same rule (no triangle turned over). Deterministic: pairs are visited in sorted order,
+/// serially.
 
 #include <cstdint>
 #include <vector>
@@ -23,6 +26,7 @@ namespace sm {
 struct FoldRepairStats {
   std::size_t found = 0;      ///< intersecting pairs among the suspect triangles before the repair
   std::size_t flips = 0;      ///< edge flips made
+  std::size_t moves = 0;      ///< vertices moved
   std::size_t rounds = 0;     ///< detection rounds run
 };
 
@@ -31,6 +35,10 @@ struct FoldRepairStats {
 /// (#F); those with a crease and the triangles sharing a vertex with them are examined, and
 /// each flip is judged against every triangle within two rings of the pair. At most `max_rounds` detection rounds (after the first, only around the
 /// triangles the previous round flipped).
-FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, int max_rounds);
+/// Where no flip helps, a vertex of the pair may move towards the centroid of its neighbours
+/// by at most `max_move[v]` (#V; 0 keeps it in place) when that lowers the crossings the same
+/// way.
+FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
+                             int max_rounds);
 
 }  // namespace sm

@@ -570,9 +570,16 @@ void Builder::repair_folds() {
       }
     }
   }
-  const FoldRepairStats r = sm::repair_folds(mesh_, suspect, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)));
+  std::vector<double> max_move(mesh_.positions.size(), 0.0);
+  for (std::size_t v = 0; v < max_move.size(); ++v) {
+    const NodeId n = mesh_.vertex_node[v];
+    if (n.valid()) max_move[v] = std::max(0.0, p_.fold_repair_max_move) * s_.radius[n.idx()];
+  }
+  const FoldRepairStats r =
+      sm::repair_folds(mesh_, suspect, max_move, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)));
   stats_.fold_pairs = r.found;
   stats_.fold_flips = r.flips;
+  stats_.fold_moves = r.moves;
 }
 
 void Builder::drop_unused_vertices() {

@@ -281,6 +281,11 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.fold_repair_rounds,
        .min = 0,
        .max = 16},
+      {.key = "fold_repair_max_move",
+       .help = "largest vertex move of the fold repair, relative to the local radius (0 = flips only)",
+       .value = &p.fold_repair_max_move,
+       .min = 0,
+       .max = 1},
   };
 }
 
