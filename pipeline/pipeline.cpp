@@ -134,6 +134,11 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                {"vertices", r.mesh.mesh.vertex_count()},
                {"triangles", r.mesh.mesh.triangle_count()},
                {"bad_edges", r.mesh.stats.bad_edges},
+               {"merged_junctions", r.mesh.stats.merged_junctions},
+               {"fold_repair",
+                {{"pairs_found", r.mesh.stats.fold_pairs},
+                 {"flips", r.mesh.stats.fold_flips},
+                 {"moved_vertices", r.mesh.stats.fold_moves}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";

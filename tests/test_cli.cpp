@@ -117,7 +117,7 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   const std::string stats = read_file(dir / "stats.json");
   for (const char* key : {"\"nodes\"", "\"strands\"", "\"particles\"", "\"slices\"", "\"vertices\"",
                           "\"triangles\"", "\"seconds\"", "\"skeleton\"", "\"contours\"", "\"meshing\"",
-                          "\"export\"", "\"total\""}) {
+                          "\"export\"", "\"total\"", "\"fold_repair\"", "\"flips\""}) {
     EXPECT_NE(stats.find(key), std::string::npos) << key;
   }
   // The mesh passes its own check against the skeleton.
