@@ -41,8 +41,9 @@ class FoldRepair {
   FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move)
       : mesh_(mesh), suspect_(suspect), max_move_(max_move), test_(mesh) {}
 
-  // Round 0 examines the suspect triangles; each later round only the triangles within two
-  // rings of those the previous round flipped (elsewhere nothing changed).
+  // Round 0 examines the creased suspect triangles and their neighbours (creased()); each
+  // later round only the triangles within two rings of those the previous round flipped or
+  // moved (elsewhere nothing changed).
   FoldRepairStats run(int max_rounds) {
     FoldRepairStats stats;
     build_around();
@@ -70,7 +71,8 @@ class FoldRepair {
 
  private:
   // Triangles around each vertex: a compressed table of the stitched mesh, and a copy per
-  // vertex that a flip changed (a few thousand at most; far cheaper than a list per vertex).
+  // vertex whose triangles a flip changed (a few thousand at most; far cheaper than a list
+  // per vertex).
   void build_around() {
     const std::size_t nv = mesh_.positions.size();
     around_begin_.assign(nv + 1, 0);
