@@ -244,7 +244,7 @@ TEST(Pipeline, Samples) {
       {"mtg_agraf.json", {450, 0.15, 6}},
       {"mtg_boutdenoylum2.json", {80, 0.19, 10}},
       {"qsm_simpleforest_rtwig.json", {90, 0.07, 4}},
-      {"sapling_callistemon.json", {170, 0.08, 2}},
+      {"sapling_callistemon.json", {60, 0.08, 2}},
       {"sapling_quaking_aspen.json", {3, 0.08, 1}},
       {"sapling_small_pine.json", {1050, 0.11, 10}}};
   for (const auto& f : files) {
