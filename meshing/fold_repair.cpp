@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <map>
 #include <span>
 #include <cmath>
@@ -189,9 +190,11 @@ class FoldRepair {
   // Intersecting pairs of a triangle of `faces` (sorted) with a triangle of `others` (each
   // pair once).
   [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
-                                             const std::vector<std::uint32_t>& others) const {
+                                             const std::vector<std::uint32_t>& others,
+                                             std::size_t stop = SIZE_MAX) const {
     std::size_t n = 0;
     for (const std::uint32_t f : faces) {
+      if (n >= stop) break;
       const Box bf = box(f);
       for (const std::uint32_t g : others) {
         if (g == f || !overlap(bf, box(g))) continue;
@@ -259,7 +262,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
       }
-      if (ok && crossings_around(faces, near) < before) {
+      if (ok && crossings_around(faces, near, before) < before) {
         moved_.insert(moved_.end(), faces.begin(), faces.end());
         return true;
       }
@@ -305,10 +308,13 @@ class FoldRepair {
     return glm::all(glm::lessThanEqual(x.first, y.second)) && glm::all(glm::lessThanEqual(y.first, x.second));
   }
 
-  [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region) const {
+  // Counting stops at `stop` (the caller only asks whether it stays below that).
+  [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region,
+                                      std::size_t stop = SIZE_MAX) const {
     const auto b1 = box(f1), b2 = box(f2);
     std::size_t n = overlap(b1, b2) && test_.intersect(f1, f2) ? 1 : 0;
     for (const std::uint32_t g : region) {
+      if (n >= stop) break;
       if (g == f1 || g == f2) continue;
       const auto bg = box(g);
       if (overlap(b1, bg) && test_.intersect(f1, g)) ++n;
@@ -337,7 +343,7 @@ class FoldRepair {
     const std::size_t before = crossings(f1, f2, region);
     mesh_.triangles[f1] = new1;
     mesh_.triangles[f2] = new2;
-    if (crossings(f1, f2, region) >= before) {
+    if (crossings(f1, f2, region, before) >= before) {
       mesh_.triangles[f1] = old1;
       mesh_.triangles[f2] = old2;
       return false;
