@@ -72,6 +72,8 @@ class FoldRepair {
   }
 
  private:
+  using Box = std::pair<glm::dvec3, glm::dvec3>;
+
   // Triangles around each vertex: a compressed table of the stitched mesh, and a copy per
   // vertex whose triangles a flip changed (a few thousand at most; far cheaper than a list
   // per vertex).
@@ -191,14 +193,17 @@ class FoldRepair {
   // pair once).
   [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
                                              const std::vector<std::uint32_t>& others,
-                                             std::size_t stop = SIZE_MAX) const {
+                                             const std::vector<Box>& other_boxes, std::size_t stop = SIZE_MAX) const {
     std::size_t n = 0;
     for (const std::uint32_t f : faces) {
       if (n >= stop) break;
       const Box bf = box(f);
-      for (const std::uint32_t g : others) {
-        if (g == f || !overlap(bf, box(g))) continue;
-        if (g < f && std::binary_search(faces.begin(), faces.end(), g)) continue;  // counted from g
+      for (std::size_t k = 0; k < others.size(); ++k) {
+        const std::uint32_t g = others[k];
+        if (g == f) continue;
+        const bool mine = std::binary_search(faces.begin(), faces.end(), g);
+        if (mine && g < f) continue;  // counted from g
+        if (!overlap(bf, mine ? box(g) : other_boxes[k])) continue;  // a fan triangle's box moved with v
         if (test_.intersect(f, g)) ++n;
       }
     }
@@ -234,11 +239,17 @@ class FoldRepair {
     }
     const double travel = glm::length(old - origin) + limit;  // farthest v can get from here
     reach = {reach.first - glm::dvec3(travel), reach.second + glm::dvec3(travel)};
+    // Boxes of the fan's own triangles change with v; they are recomputed in the count.
     std::vector<std::uint32_t> near;
+    std::vector<Box> near_boxes;
     for (const std::uint32_t g : region) {
-      if (overlap(reach, box(g))) near.push_back(g);
+      const Box b = box(g);
+      if (overlap(reach, b)) {
+        near.push_back(g);
+        near_boxes.push_back(b);
+      }
     }
-    const std::size_t before = crossings_around(faces, near);
+    const std::size_t before = crossings_around(faces, near, near_boxes);
     glm::dvec3 outward(0);
     for (const auto& n : facing) outward += n;
     const double olen = glm::length(outward);
@@ -262,7 +273,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
       }
-      if (ok && crossings_around(faces, near, before) < before) {
+      if (ok && crossings_around(faces, near, near_boxes, before) < before) {
         moved_.insert(moved_.end(), faces.begin(), faces.end());
         return true;
       }
@@ -298,7 +309,6 @@ class FoldRepair {
 
   // The intersecting pairs among `region` that involve f1 or f2 (the others do not change
   // when f1 and f2 are flipped).
-  using Box = std::pair<glm::dvec3, glm::dvec3>;
   [[nodiscard]] Box box(std::uint32_t f) const {
     const auto& t = mesh_.triangles[f];
     const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
