@@ -173,10 +173,15 @@ void stage_stats(const RunData& run, Stage s) {
                     c.stats.boundary_fallbacks);
       break;
     }
-    case Stage::meshing:
-      std::snprintf(line, sizeof line, "%zu vertices, %zu triangles", r.mesh.mesh.vertex_count(),
-                    r.mesh.mesh.triangle_count());
+    case Stage::meshing: {
+      const auto& st = r.mesh.stats;
+      std::snprintf(line, sizeof line,
+                    "%zu vertices, %zu triangles, %zu merged junctions; fold repair: %zu crossing pairs found, %zu "
+                    "flips, %zu vertices moved",
+                    r.mesh.mesh.vertex_count(), r.mesh.mesh.triangle_count(), st.merged_junctions, st.fold_pairs,
+                    st.fold_flips, st.fold_moves);
       break;
+    }
   }
   ImGui::TextWrapped("%s", line);
 }
