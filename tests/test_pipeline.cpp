@@ -246,7 +246,7 @@ TEST(Pipeline, Samples) {
       {"qsm_simpleforest_rtwig.json", {90, 0.07, 4}},
       {"sapling_callistemon.json", {60, 0.08, 2}},
       {"sapling_quaking_aspen.json", {3, 0.08, 1}},
-      {"sapling_small_pine.json", {1050, 0.11, 10}}};
+      {"sapling_small_pine.json", {330, 0.11, 8}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);

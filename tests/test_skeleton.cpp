@@ -238,6 +238,44 @@ TEST(Skeleton, BranchRunningInsideItsSiblingIsMerged) {
   }
 }
 
+TEST(Skeleton, WhorlHubJustAboveAForkIsMerged) {
+  // sapling_small_pine's whorls: the trunk continues from node 1 in one long edge, and the
+  // whorl hangs off a hub that starts 0.07 above node 1 on the trunk's axis (inside the fork's
+  // own sphere) and carries its laterals on nodes a few millimetres apart. The hub chain is
+  // folded into the trunk; the laterals leave from trunk nodes on the axis.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.07);
+  raw.add(1, 0, dvec3(0, 0, 1.76), 0.065);
+  raw.add(2, 1, dvec3(0, 0, 2.34), 0.053);        // trunk, one long edge
+  raw.add(3, 1, dvec3(0, 0.001, 1.83), 0.031);    // hub, along the trunk
+  raw.add(4, 3, dvec3(0.3, 0.07, 1.80), 0.026);   // lateral
+  raw.add(5, 3, dvec3(0, 0.001, 1.837), 0.031);   // hub continues a hair above
+  raw.add(6, 5, dvec3(-0.3, 0.05, 1.85), 0.026);  // lateral
+  raw.add(7, 5, dvec3(0.05, -0.3, 1.86), 0.025);  // lateral
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+  const Skeleton& s = r.skeleton;
+  expect_valid(s);
+  EXPECT_GE(r.report.merged_inner, 2u);
+  for (const std::int64_t hub : {3, 5}) EXPECT_EQ(std::count(s.source_id.begin(), s.source_id.end(), hub), 0);
+  for (const std::int64_t lateral : {4, 6, 7}) {
+    const auto it = std::find(s.source_id.begin(), s.source_id.end(), lateral);
+    ASSERT_NE(it, s.source_id.end());
+    const std::size_t p = s.parent[std::size_t(it - s.source_id.begin())].idx();
+    EXPECT_LT(glm::length(glm::dvec2(s.position[p])), 1e-3) << lateral;  // on the trunk's axis
+    EXPECT_NEAR(s.position[p].z, 1.83, 0.03) << lateral;
+  }
+  // A lateral leaving the same fork at 40 degrees is an ordinary fork: kept.
+  RawSkeleton fork;
+  fork.add(0, -1, dvec3(0), 0.07);
+  fork.add(1, 0, dvec3(0, 0, 1.76), 0.065);
+  fork.add(2, 1, dvec3(0, 0, 2.34), 0.053);
+  fork.add(3, 1, dvec3(0, 0, 1.76) + 0.08 * dvec3(std::sin(0.7), 0, std::cos(0.7)), 0.03);
+  fork.add(4, 3, dvec3(0.6, 0, 2.4), 0.025);
+  const auto kept = build_skeleton(fork, {.collar_ratio = 0, .max_lateral_angle = 0});
+  EXPECT_EQ(kept.report.merged_inner, 0u);
+  EXPECT_EQ(std::count(kept.skeleton.source_id.begin(), kept.skeleton.source_id.end(), 3), 1);
+}
+
 TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
   // A whorl hub as Sapling writes it: a child of node 2 that starts back down inside the
   // trunk edge 1 -> 2 (0.4 below node 2, on the axis), its two laterals leaving from there.
