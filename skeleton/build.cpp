@@ -547,6 +547,39 @@ bool reattach_hairpins(WorkTree& t, const SkeletonParams& params, SkeletonReport
   return rep.hairpins > before;
 }
 
+/// Hidden tips: a tip whose whole sphere lies inside one of its parent's other round cones
+/// (the parent's incoming edge or the edge to a sibling) adds nothing to the surface, but its
+/// particles must still leave the parent sideways within a fraction of a radius, which folds
+/// the surface around it (a pruned stump digitised as a short knob inside the trunk). Such a
+/// tip is removed (warning "hidden_tip"); repeated, so a chain of hidden knobs goes too.
+bool drop_hidden_tips(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
+  const std::size_t before = rep.hidden_tips;
+  std::vector<std::uint32_t> queue = t.bfs();
+  for (std::size_t q = queue.size(); q-- > 0;) {  // leaves first
+    const std::uint32_t x = queue[q];
+    if (t.removed[x] || !t.children[x].empty() || t.parent[x] == kNone) continue;
+    const std::uint32_t v = t.parent[x];
+    if (t.children[v].size() < 2) continue;  // the end of a branch, not a knob beside it
+    auto inside = [&](std::uint32_t a, std::uint32_t b) {
+      if (!(glm::length(t.pos[b] - t.pos[a]) > 0)) return false;
+      const auto e = t.project(x, a, b);
+      return e.t >= 0.0 && e.t <= 1.0 && e.offset + t.radius[x] <= e.radius;
+    };
+    bool hidden = t.parent[v] != kNone && inside(t.parent[v], v);
+    for (const std::uint32_t y : t.children[v]) {
+      if (!hidden && y != x) hidden = inside(v, y);
+    }
+    if (!hidden) continue;
+    auto& siblings = t.children[v];
+    siblings.erase(std::find(siblings.begin(), siblings.end(), x));
+    t.removed[x] = true;
+    ++rep.hidden_tips;
+    rep.warnings.add("hidden_tip", "tip lying wholly inside its parent's branch removed",
+                     x < raw.size() ? raw.place(x) : std::string("inserted node"));
+  }
+  return rep.hidden_tips > before;
+}
+
 /// Lateral collars: a lateral edge from a fork of radius r to a much thinner child is, as a
 /// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
 /// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
@@ -646,6 +679,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     bool folded = fold_backward_branches(t, rep, raw);
     folded = merge_inner_branches(t, rep, raw) || folded;
     folded = reattach_hairpins(t, params, rep, raw) || folded;
+    folded = drop_hidden_tips(t, rep, raw) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);

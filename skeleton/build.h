@@ -50,7 +50,8 @@ struct SkeletonParams {
   /// Step between the extra nodes of a binarized n-ary node, relative to the node's radius.
   double binarize_step_ratio = 0.02;
   /// Merge a branch that runs inside its sibling's round cone into the sibling's edge (see
-  /// build.cpp, merge_inner_branches); Sapling output needs it.
+  /// build.cpp, merge_inner_branches); Sapling output needs it. Also removes tips lying
+  /// wholly inside their parent's branch (drop_hidden_tips).
   bool merge_inner_branches = true;
   /// Where a lateral much thinner than its fork leaves, insert a node at this distance from
   /// the fork (relative to the fork's radius: 1 = on the parent's surface) so the lateral's
@@ -89,6 +90,7 @@ struct SkeletonReport {
   std::size_t inserted_nodes = 0;         ///< extra nodes created by binarizing or resampling
   std::size_t merged_inner = 0;           ///< nodes of branches running inside a sibling, merged into it
   std::size_t hairpins = 0;               ///< children turning back > 120 degrees, re-attached below their node
+  std::size_t hidden_tips = 0;            ///< tips wholly inside their parent's branch, removed
   std::size_t collars = 0;                ///< collar nodes inserted at thin laterals (not a repair)
   std::size_t raised_laterals = 0;        ///< steep laterals given a raised base node (not a repair)
   std::size_t branch_collisions = 0;      ///< pairs of branches that ran into each other

@@ -241,8 +241,8 @@ TEST(Pipeline, Samples) {
   // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
   // with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {450, 0.15, 6}},
-      {"mtg_boutdenoylum2.json", {80, 0.19, 10}},
+      {"mtg_agraf.json", {400, 0.15, 14}},
+      {"mtg_boutdenoylum2.json", {50, 0.20, 10}},
       {"qsm_simpleforest_rtwig.json", {90, 0.07, 4}},
       {"sapling_callistemon.json", {60, 0.08, 2}},
       {"sapling_quaking_aspen.json", {3, 0.08, 1}},

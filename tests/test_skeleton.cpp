@@ -276,6 +276,31 @@ TEST(Skeleton, WhorlHubJustAboveAForkIsMerged) {
   EXPECT_EQ(std::count(kept.skeleton.source_id.begin(), kept.skeleton.source_id.end(), 3), 1);
 }
 
+TEST(Skeleton, TipWhollyInsideItsParentIsRemoved) {
+  // A pruned trunk digitised with a knob: tip 3 (radius 0.04) 4 cm from trunk node 1
+  // (radius 0.09) lies wholly inside the trunk and is removed; tip 4 (radius 0.04, reaching
+  // 0.3 out of the trunk) is a real stub and stays.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.09);
+  raw.add(2, 1, dvec3(0, 0, 2), 0.08);
+  raw.add(3, 1, dvec3(0.02, 0, 1.03), 0.04);   // hidden knob
+  raw.add(4, 1, dvec3(0.3, 0, 1.1), 0.04);     // stub outside
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+  const Skeleton& s = r.skeleton;
+  expect_valid(s);
+  EXPECT_EQ(r.report.hidden_tips, 1u);
+  EXPECT_EQ(r.report.warnings.count("hidden_tip"), 1u);
+  EXPECT_EQ(std::count(s.source_id.begin(), s.source_id.end(), 3), 0);
+  EXPECT_EQ(std::count(s.source_id.begin(), s.source_id.end(), 4), 1);
+  // The end of a branch is never removed, however short.
+  RawSkeleton end;
+  end.add(0, -1, dvec3(0), 0.1);
+  end.add(1, 0, dvec3(0, 0, 1), 0.09);
+  end.add(2, 1, dvec3(0, 0, 1.01), 0.05);
+  EXPECT_EQ(build_skeleton(end).report.hidden_tips, 0u);
+}
+
 TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
   // A whorl hub as Sapling writes it: a child of node 2 that starts back down inside the
   // trunk edge 1 -> 2 (0.4 below node 2, on the axis), its two laterals leaving from there.

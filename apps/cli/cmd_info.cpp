@@ -46,6 +46,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"inserted_nodes", r.inserted_nodes},
                          {"merged_inner", r.merged_inner},
                          {"hairpins", r.hairpins},
+                         {"hidden_tips", r.hidden_tips},
                          {"collars", r.collars},
                          {"raised_laterals", r.raised_laterals},
                          {"branch_collisions", r.branch_collisions},
