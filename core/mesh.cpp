@@ -47,33 +47,25 @@ double fast_angle(double y, double x) {
 
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
   // Each vertex sums the contributions of its corners in triangle order, so the vertices are
-  // independent and the result is the same for any number of threads.
+  // independent and the result is the same for any number of threads. A corner's face normal
+  // and angle are computed where they are summed: three times per triangle, but without two
+  // per-triangle arrays (on a 3.4 M-triangle tree, filling and reading them took 0.55 s of the
+  // 0.8 s; computed in place, 0.3 s). The values are the same bit for bit either way.
   const std::size_t nv = mesh.positions.size();
   const VertexCorners vc = vertex_corners(mesh);
   const auto& begin = vc.begin;
   const auto& corners = vc.corner;
-  // Per triangle: its unit normal and the angle at each corner (zero for degenerate faces).
-  // |a x b| is twice the area at every corner, i.e. the same length for all three.
-  const std::size_t nt = mesh.triangles.size();
-  std::vector<glm::dvec3> face_normal(nt);
-  std::vector<std::array<double, 3>> corner_angle(nt);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t f = r.begin(); f != r.end(); ++f) {
-      const auto& t = mesh.triangles[f];
-      const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
-      const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
-      const double len = glm::length(fn);
-      if (!(len > 0)) {
-        face_normal[f] = glm::dvec3(0);
-        corner_angle[f] = {0, 0, 0};
-        continue;
-      }
-      face_normal[f] = fn / len;
-      for (std::uint32_t k = 0; k < 3; ++k)
-        corner_angle[f][k] = fast_angle(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
-    }
-  });
-  auto contribution = [&](std::uint32_t corner) { return face_normal[corner / 3] * corner_angle[corner / 3][corner % 3]; };
+  // |a x b| is twice the area at every corner, i.e. the same length for all three; a
+  // degenerate triangle contributes nothing.
+  auto contribution = [&](std::uint32_t corner) {
+    const auto& t = mesh.triangles[corner / 3];
+    const std::uint32_t k = corner % 3;
+    const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
+    const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
+    const double len = glm::length(fn);
+    if (!(len > 0)) return glm::dvec3(0);
+    return (fn / len) * fast_angle(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
+  };
   std::vector<glm::dvec3> n(nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v) {

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <mutex>
+#include <string_view>
 
 #include "apps/cli/commands.h"
 #include "apps/cli/skeleton_options.h"
@@ -96,9 +97,18 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
+      // Per stage, and the phases of the two costliest (contours, meshing) under them.
+      auto phases = [&](const Timings& t) {
+        for (const auto& e : t.entries) {
+          std::snprintf(line, sizeof line, "    %-12s %8.3f s", e.name.c_str(), e.seconds);
+          log::verbose(line);
+        }
+      };
       for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) {
         std::snprintf(line, sizeof line, "  %-10s %8.3f s", s, r.timings.get(s));
         log::verbose(line);
+        if (std::string_view(s) == "contours") phases(r.contours.stats.timings);
+        if (std::string_view(s) == "meshing") phases(r.mesh.stats.timings);
       }
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
