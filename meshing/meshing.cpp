@@ -746,15 +746,9 @@ void Builder::check_topology() {
 
 MeshResult Builder::run(const ProgressFn& progress) {
   Stopwatch clock;
-  mesh_.positions = c_.point;
-  mesh_.vertex_strand = c_.strand;
-  mesh_.vertex_node.resize(c_.point.size());
-  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
-    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) mesh_.vertex_node[v] = c_.loop_node[l];
-  }
-  compute_uvs();
   // Vertices added by the caps: a ring and an apex per tip, after the loop vertices in tube
-  // order, then the root's base centre. Known up front, so tubes can be stitched in parallel.
+  // order, then the root's base centre. Known up front, so tubes can be stitched in parallel
+  // (and the vertex arrays are allocated once, at their final size).
   const std::size_t tubes = c_.tubes.size();
   const bool has_root = tubes > 0 && !c_.tubes[0].loops.empty();
   std::vector<std::uint32_t> cap_first(tubes + 1);
@@ -766,9 +760,19 @@ MeshResult Builder::run(const ProgressFn& progress) {
   }
   cap_first[tubes] = static_cast<std::uint32_t>(nv);
   if (has_root) ++nv;
+  mesh_.positions.reserve(nv);
+  mesh_.positions.assign(c_.point.begin(), c_.point.end());
+  mesh_.vertex_strand.reserve(nv);
+  mesh_.vertex_strand.assign(c_.strand.begin(), c_.strand.end());
+  mesh_.vertex_node.resize(nv);
+  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
+    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) mesh_.vertex_node[v] = c_.loop_node[l];
+  }
+  vertex_u_.reserve(nv);
+  vertex_v_.reserve(nv);
+  compute_uvs();
   mesh_.positions.resize(nv);
   mesh_.vertex_strand.resize(nv);
-  mesh_.vertex_node.resize(nv);
   vertex_u_.resize(nv);
   vertex_v_.resize(nv);
   plan_stacked_junctions();
