@@ -179,10 +179,12 @@ std::filesystem::path temp_dir(const std::string& name) {
   return dir;
 }
 
-CmdResult run_cli(const std::string& args) {
+CmdResult run_cli(const std::string& args) { return run_cli_env("", args); }
+
+CmdResult run_cli_env(const std::string& env, const std::string& args) {
   const std::filesystem::path dir = temp_dir("cli_run");
-  const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh " + args + " >" + (dir / "out").string() +
-                          " 2>" + (dir / "err").string();
+  const std::string cmd = (env.empty() ? std::string() : "env " + env + " ") + std::string(STRANDMESH_BINARY_DIR) +
+                          "/strandmesh " + args + " >" + (dir / "out").string() + " 2>" + (dir / "err").string();
   const int status = std::system(cmd.c_str());
   CmdResult r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

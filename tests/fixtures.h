@@ -51,5 +51,7 @@ struct CmdResult {
 };
 /// Runs `build/strandmesh ARGS` through the shell, capturing both streams.
 CmdResult run_cli(const std::string& args);
+/// The same with environment assignments ("NAME=value ...", passed to env(1)).
+CmdResult run_cli_env(const std::string& env, const std::string& args);
 
 }  // namespace sm::test

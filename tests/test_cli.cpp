@@ -59,6 +59,31 @@ TEST(Cli, GrowIsDeterministicAcrossThreadCounts) {
   EXPECT_EQ(info.err, "");  // a grown tree needs no repairs
 }
 
+TEST(Cli, HugePagesChangeNoByte) {
+  // The CLI re-executes itself with glibc's huge-page tunable (core/huge_pages.h); opting out
+  // with STRANDMESH_HUGE_PAGES=0 must give the same file, and so must a user's own tunable.
+  const fs::path dir = test::temp_dir("cli_huge");
+  const std::string tree = (dir / "tree.json").string();
+  ASSERT_EQ(run("grow --seed 3 -o " + tree).code, 0);
+  const std::string mesh = "mesh " + tree + " -q -o ";
+  ASSERT_EQ(run(mesh + (dir / "on.glb").string()).code, 0);
+  const CmdResult off = test::run_cli_env("STRANDMESH_HUGE_PAGES=0", mesh + (dir / "off.glb").string());
+  ASSERT_EQ(off.code, 0) << off.err;
+  const CmdResult user = test::run_cli_env("GLIBC_TUNABLES=glibc.malloc.hugetlb=0", mesh + (dir / "user.glb").string());
+  ASSERT_EQ(user.code, 0) << user.err;
+  const std::string on = read_file(dir / "on.glb");
+  EXPECT_GT(on.size(), 1000u);
+  EXPECT_EQ(on, read_file(dir / "off.glb"));
+  EXPECT_EQ(on, read_file(dir / "user.glb"));
+  // Where the kernel offers transparent huge pages, the default run uses them; opted out, not.
+  std::string thp = read_file("/sys/kernel/mm/transparent_hugepage/enabled");
+  const std::string note = "transparent huge pages";
+  if (!thp.empty() && thp.find("[never]") == std::string::npos) {
+    EXPECT_NE(run("-v info " + tree).err.find(note), std::string::npos);
+  }
+  EXPECT_EQ(test::run_cli_env("STRANDMESH_HUGE_PAGES=0", "-v info " + tree).err.find(note), std::string::npos);
+}
+
 TEST(Cli, MalformedInputExitsOneWithoutOutput) {
   const fs::path dir = test::temp_dir("cli_bad");
   const std::pair<const char*, const char*> cases[] = {

@@ -10,9 +10,11 @@
 #include "apps/cli/cli.h"
 #include "apps/cli/commands.h"
 #include "core/errors.h"
+#include "core/huge_pages.h"
 #include "core/log.h"
 
 int main(int argc, char** argv) {
+  sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
   using namespace sm::cli;
   CLI::App app{"strandmesh: watertight strand-based tree meshes (Interactive Invigoration method)", "strandmesh"};
   app.require_subcommand(1);
@@ -45,6 +47,7 @@ int main(int argc, char** argv) {
   }
 
   sm::log::set_level(global.quiet ? sm::log::Level::quiet : global.verbose ? sm::log::Level::verbose : sm::log::Level::normal);
+  if (sm::running_with_huge_pages()) sm::log::verbose("memory: transparent huge pages (glibc.malloc.hugetlb=1)");
   std::unique_ptr<tbb::global_control> threads;
   if (global.threads > 0) {
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,

@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
+#include "core/huge_pages.h"
 #include "core/log.h"
 #include "viewer/app.h"
 #include "viewer/window.h"
@@ -22,6 +23,7 @@ enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kNoDisp
 }  // namespace
 
 int main(int argc, char** argv) {
+  sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
   using namespace sm::viewer;
   CLI::App cli{"strandmesh-view: see what each stage of strandmesh did, layer by layer", "strandmesh-view"};
   cli.set_version_flag("--version", std::string("strandmesh-view ") + STRANDMESH_VERSION);

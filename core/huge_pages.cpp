@@ -1,0 +1,42 @@
+#include "core/huge_pages.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#if defined(__linux__) && defined(__GLIBC__)
+#include <unistd.h>
+#endif
+
+namespace sm {
+
+namespace {
+constexpr const char* kDone = "STRANDMESH_HUGE_PAGES_SET";
+}  // namespace
+
+bool running_with_huge_pages() { return std::getenv(kDone) != nullptr; }
+
+void reexec_with_huge_pages(char** argv) {
+#if defined(__linux__) && defined(__GLIBC__)
+  constexpr const char* kTunable = "glibc.malloc.hugetlb=1";
+  if (argv == nullptr || argv[0] == nullptr) return;
+  if (const char* opt = std::getenv("STRANDMESH_HUGE_PAGES"); opt != nullptr && std::string(opt) == "0") return;
+  if (std::getenv(kDone) != nullptr) return;  // this is the re-executed process
+  std::string tunables = std::getenv("GLIBC_TUNABLES") ? std::getenv("GLIBC_TUNABLES") : "";
+  if (tunables.find("glibc.malloc.hugetlb") != std::string::npos) return;  // the user chose
+  {
+    std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string mode;
+    if (!thp || !std::getline(thp, mode) || mode.find("[never]") != std::string::npos) return;
+  }
+  tunables = tunables.empty() ? std::string(kTunable) : tunables + ":" + kTunable;
+  if (setenv("GLIBC_TUNABLES", tunables.c_str(), 1) != 0 || setenv(kDone, "1", 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Only reached when exec failed: run on without huge pages.
+  unsetenv(kDone);
+#else
+  (void)argv;
+#endif
+}
+
+}  // namespace sm
