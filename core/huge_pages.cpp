@@ -31,7 +31,14 @@ void reexec_with_huge_pages(char** argv) {
   }
   tunables = tunables.empty() ? std::string(kTunable) : tunables + ":" + kTunable;
   if (setenv("GLIBC_TUNABLES", tunables.c_str(), 1) != 0 || setenv(kDone, "1", 1) != 0) return;
-  execv("/proc/self/exe", argv);
+  // The program's own path (readlink rather than exec of /proc/self/exe itself: tools that run
+  // the program, such as valgrind, report the program's path there, not their own).
+  std::string self(4096, '\0');
+  const ssize_t n = readlink("/proc/self/exe", self.data(), self.size() - 1);
+  if (n > 0 && static_cast<std::size_t>(n) < self.size() - 1) {
+    self.resize(static_cast<std::size_t>(n));
+    execv(self.c_str(), argv);
+  }
   // Only reached when exec failed: run on without huge pages.
   unsetenv(kDone);
 #else

@@ -12,7 +12,7 @@
 
 namespace sm {
 
-/// Call first thing in main(). Re-executes `/proc/self/exe` with `argv` and
+/// Call first thing in main(). Re-executes the program (the path /proc/self/exe names) with `argv` and
 /// GLIBC_TUNABLES extended by `glibc.malloc.hugetlb=1`, unless: not Linux with glibc, the
 /// kernel's transparent huge pages are off ("[never]"), the tunable is already set, this is
 /// the re-executed process, or the environment has STRANDMESH_HUGE_PAGES=0. Returns normally
