@@ -158,6 +158,24 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   }
 }
 
+TEST(Cli, CheckListsAsManyExamplesAsAsked) {
+  // Three separate triangles: nine boundary edges.
+  const fs::path dir = test::temp_dir("cli_check_examples");
+  write_file_atomically(dir / "open.obj",
+                        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nv 2 1 0\nv 4 0 0\nv 5 0 0\nv 4 1 0\n"
+                        "f 1 2 3\nf 4 5 6\nf 7 8 9\n");
+  auto listed = [&](const std::string& extra) {
+    const CmdResult r = run("check --json " + (dir / "open.obj").string() + extra);
+    EXPECT_EQ(r.code, 4) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["boundary_edges"], 9);
+    return j["examples"]["boundary_edges"].size();
+  };
+  EXPECT_EQ(listed(""), 5u);  // the default
+  EXPECT_EQ(listed(" --examples 2"), 2u);
+  EXPECT_EQ(listed(" --examples 100"), 9u);
+}
+
 TEST(Cli, MeshFailuresLeaveNoOutput) {
   const fs::path dir = test::temp_dir("cli_mesh_bad");
   write_file_atomically(dir / "bad.json", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":-1}]})");

@@ -33,6 +33,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           bool json = false;
           bool no_self_intersections = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
+          std::size_t examples = MeshCheckParams{}.max_examples;
         };
         auto o = std::make_shared<Opts>();
         sub.add_option("MESH", o->mesh, "Mesh file (.glb, .gltf, .obj or .ply)")->required();
@@ -46,11 +47,16 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
                        "Largest accepted 95th percentile of |distance to skeleton| / local radius")
             ->check(CLI::NonNegativeNumber)
             ->capture_default_str();
+        sub.add_option("--examples", o->examples,
+                       "Offending edges, triangle pairs and skeleton nodes listed per kind (a count)")
+            ->capture_default_str();
         sub.footer(
             "Exit codes: 0 all checks passed, 4 the mesh fails a check, 1 unreadable or malformed input,\n"
             "            2 usage error.");
         return [o, &global] {
-          MeshCheckParams params{.self_intersections = !o->no_self_intersections, .fidelity_tolerance = o->tolerance};
+          MeshCheckParams params{.self_intersections = !o->no_self_intersections,
+                                 .fidelity_tolerance = o->tolerance,
+                                 .max_examples = o->examples};
           MeshReadParams read;
           SkeletonResult skeleton;
           if (!o->skeleton.empty()) {
