@@ -551,7 +551,8 @@ bool reattach_hairpins(WorkTree& t, const SkeletonParams& params, SkeletonReport
 /// (the parent's incoming edge or the edge to a sibling) adds nothing to the surface, but its
 /// particles must still leave the parent sideways within a fraction of a radius, which folds
 /// the surface around it (a pruned stump digitised as a short knob inside the trunk). Such a
-/// tip is removed (warning "hidden_tip"); repeated, so a chain of hidden knobs goes too.
+/// tip is removed (warning "hidden_tip"). Only tips beside a sibling: the end of a branch stays,
+/// however short.
 bool drop_hidden_tips(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
   const std::size_t before = rep.hidden_tips;
   std::vector<std::uint32_t> queue = t.bfs();
