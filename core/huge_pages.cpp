@@ -22,7 +22,8 @@ void reexec_with_huge_pages(char** argv) {
   if (argv == nullptr || argv[0] == nullptr) return;
   if (const char* opt = std::getenv("STRANDMESH_HUGE_PAGES"); opt != nullptr && std::string(opt) == "0") return;
   if (std::getenv(kDone) != nullptr) return;  // this is the re-executed process
-  std::string tunables = std::getenv("GLIBC_TUNABLES") ? std::getenv("GLIBC_TUNABLES") : "";
+  const char* user_tunables = std::getenv("GLIBC_TUNABLES");
+  std::string tunables = user_tunables != nullptr ? user_tunables : "";
   if (tunables.find("glibc.malloc.hugetlb") != std::string::npos) return;  // the user chose
   {
     std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");

@@ -1,6 +1,5 @@
 #include "core/mesh.h"
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numbers>

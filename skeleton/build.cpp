@@ -422,6 +422,7 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
 /// self-intersecting pairs 900/798/694 -> 214/174/205; the other samples within their noise.)
 bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
   const std::size_t before = rep.merged_inner;
+  const double cos_along = std::cos(kInnerNearForkDegrees * std::numbers::pi / 180.0);
   std::vector<std::uint32_t> queue = t.bfs();
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const std::uint32_t v = queue[q];
@@ -441,8 +442,7 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
           if (e.offset >= 0.5 * e.radius) continue;
           if (e.t * e.length <= 1.5 * t.radius[v]) {
             // Within the fork's sphere: only a hub along y or a hair from v (see above).
-            const double cos_xy = glm::dot(ax, ay) / std::sqrt(glm::dot(ax, ax) * glm::dot(ay, ay));
-            const bool along = cos_xy > std::cos(kInnerNearForkDegrees * std::numbers::pi / 180.0);
+            const bool along = glm::dot(normalize_or(ax, dvec3(0)), normalize_or(ay, dvec3(0))) > cos_along;
             if (!along && !(glm::length(ax) < 0.5 * t.radius[x])) continue;
           }
           const std::uint32_t m = t.insert_above(y, e.foot, e.radius);

@@ -2,7 +2,7 @@
 
 #include <cstdio>
 #include <mutex>
-#include <string_view>
+#include <utility>
 
 #include "apps/cli/commands.h"
 #include "apps/cli/skeleton_options.h"
@@ -98,17 +98,19 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
-      auto phases = [&](const Timings& t) {
-        for (const auto& e : t.entries) {
+      const std::pair<const char*, const Timings*> stages[] = {{"skeleton", nullptr},
+                                                               {"particles", nullptr},
+                                                               {"strands", nullptr},
+                                                               {"contours", &r.contours.stats.timings},
+                                                               {"meshing", &r.mesh.stats.timings}};
+      for (const auto& [stage, phases] : stages) {
+        std::snprintf(line, sizeof line, "  %-10s %8.3f s", stage, r.timings.get(stage));
+        log::verbose(line);
+        for (std::size_t k = 0; phases != nullptr && k < phases->entries.size(); ++k) {
+          const auto& e = phases->entries[k];
           std::snprintf(line, sizeof line, "    %-12s %8.3f s", e.name.c_str(), e.seconds);
           log::verbose(line);
         }
-      };
-      for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) {
-        std::snprintf(line, sizeof line, "  %-10s %8.3f s", s, r.timings.get(s));
-        log::verbose(line);
-        if (std::string_view(s) == "contours") phases(r.contours.stats.timings);
-        if (std::string_view(s) == "meshing") phases(r.mesh.stats.timings);
       }
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
