@@ -39,6 +39,11 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
   shot stage_wireframe   mesh,wireframe,legend          "$CLOSE"
   shot stage_uv          uv,legend                      "$CLOSE"
   SHOT_SIZE=1200x720 shot viewer_ui mesh,legend "yaw=35,pitch=12,dist=0.9" --ui --select "$FORK"
+  # The problems layer needs a tree with problems (the aspen has none): a folded whorl of the
+  # small pine (docs/viewer.md).
+  "$VIEW" "$STRANDMESH_ROOT/../shared/skeletons/sapling_small_pine.json" --quiet --screenshot "$OUT/problems.png" \
+    --size 640x400 --layers mesh,problems,legend --camera node=1012,around=3,yaw=0
+  printf '  %-24s %7d bytes\n' "problems.png" "$(stat -c %s "$OUT/problems.png")" >&2
   exit 0
 fi
 

@@ -246,6 +246,58 @@ TEST(ViewerScene, MeshWireframeNormals) {
   EXPECT_EQ(mesh_batches(m, glm::dvec3(0))[0].uvs.size(), 36u);
 }
 
+// The unit box and a loose triangle through its top face: 3 boundary edges, and the loose
+// triangle crosses the two triangles of the top face.
+Mesh box_with_stray_triangle() {
+  Mesh m = unit_box();
+  const auto v = static_cast<std::uint32_t>(m.positions.size());
+  m.positions.push_back({0.5, 0.5, 0.5});
+  m.positions.push_back({0.6, 0.5, 1.5});
+  m.positions.push_back({0.4, 0.55, 1.5});
+  m.triangles.push_back({v, v + 1, v + 2});
+  return m;
+}
+
+TEST(ViewerScene, ProblemsShowWhatTheChecksFound) {
+  const Mesh m = box_with_stray_triangle();
+  MeshCheckParams p;
+  p.max_examples = 1000;
+  const MeshCheckReport r = check_mesh(m, p);
+  ASSERT_GT(r.self_intersecting_pairs, 0u);
+  ASSERT_EQ(r.boundary_edges, 3u);
+  const auto batches = problem_batches(m, nullptr, r, glm::dvec3(0));
+  std::set<std::uint32_t> crossing;
+  for (const auto& [a, b] : r.self_intersection_examples) crossing.insert({a, b});
+  std::size_t fill = 0, edges = 0;
+  for (const Batch& b : batches) {
+    if (b.label == "self-intersecting triangles") {
+      EXPECT_EQ(b.primitive, Primitive::triangles);
+      EXPECT_EQ(b.normals.size(), b.vertex_count());
+      fill += b.vertex_count();
+    }
+    if (b.label.find("boundary") != std::string::npos) edges += b.vertex_count();
+  }
+  EXPECT_EQ(fill, 3 * crossing.size());  // each crossing triangle once
+  EXPECT_EQ(edges, 3u * 2);
+  // Nothing listed, nothing drawn; indices out of range are skipped.
+  EXPECT_TRUE(problem_batches(m, nullptr, MeshCheckReport{}, glm::dvec3(0)).empty());
+  MeshCheckReport bad;
+  bad.self_intersection_examples = {{0u, 999u}};
+  bad.outside_node_examples = {5u};
+  bad.boundary_edge_examples = {{0u, 999u}};
+  const auto few = problem_batches(m, nullptr, bad, glm::dvec3(0));
+  ASSERT_EQ(few.size(), 2u);  // triangle 0 filled and outlined; no nodes without a skeleton
+  EXPECT_EQ(few[0].vertex_count(), 3u);
+  // Thick nodes outside the mesh are points at the node.
+  const Skeleton s = built(test::straight_branch(3));
+  bad.outside_node_examples = {1u, 77u};
+  const auto with_nodes = problem_batches(m, &s, bad, glm::dvec3(1));
+  ASSERT_EQ(with_nodes.size(), 3u);
+  EXPECT_EQ(with_nodes[2].primitive, Primitive::points);
+  ASSERT_EQ(with_nodes[2].vertex_count(), 1u);
+  EXPECT_LT(glm::length(glm::dvec3(with_nodes[2].positions[0]) - (s.position[1] - glm::dvec3(1))), 1e-6);
+}
+
 TEST(ViewerScene, BuildSceneFillsOnlyLayersWithData) {
   const Mesh m = unit_box(glm::dvec3(10), glm::dvec3(12));
   const Scene s = build_scene({.mesh = &m});
@@ -702,6 +754,31 @@ TEST_F(ViewerAppTest, LoadsRendersSelectsAndReruns) {
   app.wait_idle();
   EXPECT_NE(app.error().find("failed"), std::string::npos);
   EXPECT_EQ(app.run(), before);
+}
+
+TEST_F(ViewerAppTest, ProblemsLayerShowsTheChecksOnceTheyRan) {
+  write_mesh(box_with_stray_triangle(), dir_ / "bad.ply");
+  MockBackend mock;
+  Renderer renderer(mock);
+  {
+    ViewerApp app(options_for(dir_ / "bad.ply", false));
+    app.start();
+    app.wait_idle();
+    ASSERT_NE(app.run(), nullptr) << app.error();
+    EXPECT_TRUE(app.view().visible[li(Layer::problems)]);  // on by default with a mesh
+    app.render(renderer, 320, 240);
+    EXPECT_EQ(mock.drawn_vertices("self-intersecting"), 0u);  // checks off: nothing to show
+  }
+  ViewerApp app(options_for(dir_ / "bad.ply"));
+  app.start();
+  app.wait_idle();
+  ASSERT_TRUE(app.check());
+  app.render(renderer, 320, 240);
+  EXPECT_GT(mock.drawn_vertices("self-intersecting"), 0u);
+  EXPECT_EQ(mock.drawn_vertices("boundary"), 3u * 2);
+  app.set_layer_visible(Layer::problems, false);
+  app.render(renderer, 320, 240);
+  EXPECT_EQ(mock.drawn_vertices("boundary"), 0u);
 }
 
 TEST_F(ViewerAppTest, BadInputsShowErrorsInsteadOfCrashing) {

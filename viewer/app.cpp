@@ -83,6 +83,7 @@ ViewState default_view(const RunData& run) {
   if (run.has_stage(Stage::meshing)) {
     v.visible[li(Layer::mesh)] = true;
     v.visible[li(Layer::skeleton)] = run.has_stage(Stage::skeleton);
+    v.visible[li(Layer::problems)] = true;  // empty until the checks find something
   } else if (run.has_stage(Stage::contours)) {
     v.visible[li(Layer::contours)] = true;
     v.visible[li(Layer::skeleton)] = true;
@@ -249,6 +250,16 @@ void ViewerApp::on_outcome(JobOutcome outcome) {
   }
   if (outcome.kind == JobOutcome::Kind::checks) {
     check_ = std::move(outcome.check);
+    if (run_ && check_ && run_->has_stage(Stage::meshing)) {
+      const StageView v = view_of(*run_);
+      auto batches = problem_batches(*v.mesh, v.skeleton, *check_, origin_);
+      if (pending_scene_) {
+        pending_scene_->layer(Layer::problems) = std::move(batches);
+      } else {
+        pending_layers_.emplace_back(Layer::problems, std::move(batches));
+      }
+      ++scene_version_;
+    }
     return;
   }
   const bool first = run_ == nullptr;

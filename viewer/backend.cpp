@@ -123,13 +123,16 @@ void Renderer::draw(int width, int height, const glm::mat4& view, const glm::mat
   params.shading = options.shading;
   // Opaque surfaces first, then everything that lies on them with a depth bias so that
   // wireframe and contours drawn exactly on the surface are not hidden by it.
-  static constexpr Layer kOrder[] = {Layer::mesh,      Layer::skeleton, Layer::discs,     Layer::frames, Layer::strands,
-                                     Layer::particles, Layer::contours, Layer::wireframe, Layer::normals};
+  static constexpr Layer kOrder[] = {Layer::mesh,     Layer::skeleton,  Layer::discs,   Layer::frames,  Layer::strands,
+                                     Layer::particles, Layer::contours, Layer::wireframe, Layer::normals, Layer::problems};
   const bool mesh_visible = options.visible[static_cast<std::size_t>(Layer::mesh)];
   for (Layer l : kOrder) {
     if (!options.visible[static_cast<std::size_t>(l)]) continue;
     ensure_uploaded(l);
     params.depth_bias = l != Layer::mesh && mesh_visible;
+    // Problems often lie inside the surface (a fold, a node outside a thin twig's wall):
+    // drawn over everything, like the selection.
+    params.on_top = l == Layer::problems;
     for (BatchHandle h : slots_[static_cast<std::size_t>(l)].handles) backend_.draw(h, params);
   }
   if (overlay_dirty_) {

@@ -91,6 +91,12 @@ std::vector<LegendEntry> legend_entries(const std::array<bool, kLayerCount>& vis
   }
   if (on(Layer::wireframe)) out.push_back({palette::wireframe, "mesh edges"});
   if (on(Layer::normals)) out.push_back({palette::normal_line, "vertex normals"});
+  if (on(Layer::problems)) {
+    out.push_back({palette::problem_crossing, "self-intersecting triangle (checks)"});
+    out.push_back({palette::problem_degenerate, "degenerate triangle (checks)"});
+    out.push_back({palette::problem_edge, "open / non-manifold / misoriented edge (checks)"});
+    out.push_back({palette::problem_node, "thick node outside the mesh (checks)"});
+  }
   return out;
 }
 

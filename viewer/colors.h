@@ -35,6 +35,10 @@ inline constexpr Rgba8 loop_plain{20, 140, 150, 255};
 inline constexpr Rgba8 loop_fused{240, 140, 0, 255};
 inline constexpr Rgba8 loop_split{225, 20, 40, 255};
 inline constexpr Rgba8 loop_tip{110, 60, 200, 255};
+inline constexpr Rgba8 problem_crossing{235, 0, 60, 255};    ///< self-intersecting triangles
+inline constexpr Rgba8 problem_degenerate{255, 120, 0, 255};  ///< degenerate triangles
+inline constexpr Rgba8 problem_edge{250, 200, 0, 255};        ///< boundary / non-manifold / misoriented edges
+inline constexpr Rgba8 problem_node{0, 160, 255, 255};        ///< thick nodes outside the mesh
 }  // namespace palette
 
 /// The colour of a contour loop of this kind.

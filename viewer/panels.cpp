@@ -62,6 +62,7 @@ bool stage_has_layer_data(const RunData* run, Layer l) {
     case Layer::mesh:
     case Layer::wireframe:
     case Layer::normals:
+    case Layer::problems:
       return run->has_stage(Stage::meshing);
     case Layer::count:
       break;
@@ -384,6 +385,7 @@ void status_panel(ViewerApp& app, PanelState& state, int height) {
     if (c.inside_checked) ImGui::Text("thick nodes inside: %zu of %zu", c.thick_nodes_inside, c.thick_nodes);
     ImGui::TextColored(c.ok() ? kOkColor : kErrorColor, "result: %s", c.ok() ? "ok" : "FAILED");
     for (const auto& f : c.failures()) ImGui::BulletText("%s", f.c_str());
+    if (!c.ok()) ImGui::TextDisabled("the 'problems' layer marks them on the mesh");
   }
   const Warnings w = run->result.warnings();
   if (!w.empty() && ImGui::CollapsingHeader("Warnings")) {

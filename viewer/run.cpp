@@ -356,6 +356,7 @@ MeshCheckReport run_checks(const RunData& run, bool self_intersections) {
   SM_CHECK(run.has_stage(Stage::meshing), "run_checks: no mesh");
   MeshCheckParams p;
   p.self_intersections = self_intersections;
+  p.max_examples = kMaxProblemsShown;
   if (run.has_stage(Stage::skeleton)) p.skeleton = &run.result.skeleton.skeleton;
   return check_mesh(run.result.mesh.mesh, p);
 }

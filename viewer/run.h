@@ -83,7 +83,11 @@ RunData load_input(const std::filesystem::path& path, const PipelineParams& para
 /// updated, so callers work on a copy (the viewer keeps showing the previous run).
 void rerun(RunData& run, const PipelineParams& params, Stage from, const ProgressFn& progress = {});
 
-/// Runs the mesh checks (with the skeleton for fidelity when there is one).
+/// Offenders of each kind the viewer's checks list for the problems layer (count).
+inline constexpr std::size_t kMaxProblemsShown = 100'000;
+
+/// Runs the mesh checks (with the skeleton for fidelity when there is one), listing up to
+/// kMaxProblemsShown offenders of each kind (the problems layer shows them).
 /// Precondition: the mesh stage is present.
 MeshCheckReport run_checks(const RunData& run, bool self_intersections = true);
 

@@ -14,8 +14,8 @@ namespace sm::viewer {
 
 namespace {
 
-constexpr const char* kLayerNames[kLayerCount] = {"skeleton", "discs", "frames",    "particles", "strands",
-                                                  "contours", "mesh",  "wireframe", "normals"};
+constexpr const char* kLayerNames[kLayerCount] = {"skeleton", "discs",     "frames",  "particles", "strands",
+                                                  "contours", "mesh",      "wireframe", "normals", "problems"};
 
 glm::vec3 local(const glm::dvec3& p, const glm::dvec3& origin) {
   return glm::vec3(p - origin);
@@ -358,6 +358,74 @@ Batch selection_batch(const Skeleton& s, NodeId node, const glm::dvec3& origin, 
   if (s.parent[n].valid())
     add_line(b, local(s.position[s.parent[n].idx()], origin), local(c, origin), palette::selection);
   return b;
+}
+
+std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshCheckReport& report,
+                                   const glm::dvec3& origin) {
+  const std::size_t nv = m.positions.size();
+  std::vector<Batch> out;
+  // Triangles: filled (both sides face the viewer's light the same way: flat normals) and
+  // outlined, so a sliver inside the surface still shows.
+  auto add_triangles = [&](const std::vector<std::uint32_t>& faces, Rgba8 color, const char* label) {
+    Batch fill, outline;
+    fill.primitive = Primitive::triangles;
+    fill.label = label;
+    outline.primitive = Primitive::lines;
+    outline.line_width = 2.0f;
+    outline.label = std::string(label) + " (outlines)";
+    for (const std::uint32_t f : faces) {
+      if (f >= m.triangles.size()) continue;
+      const auto& t = m.triangles[f];
+      if (t[0] >= nv || t[1] >= nv || t[2] >= nv) continue;
+      const glm::dvec3 n = glm::cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
+      const double len = glm::length(n);
+      const glm::vec3 normal = len > 0 ? glm::vec3(n / len) : glm::vec3(0, 0, 1);
+      for (int k = 0; k < 3; ++k) {
+        fill.positions.push_back(local(m.positions[t[k]], origin));
+        fill.normals.push_back(normal);
+        fill.colors.push_back(color);
+        add_line(outline, local(m.positions[t[k]], origin), local(m.positions[t[(k + 1) % 3]], origin), color);
+      }
+    }
+    if (fill.empty()) return;
+    out.push_back(std::move(fill));
+    out.push_back(std::move(outline));
+  };
+  std::vector<std::uint32_t> crossing;
+  for (const auto& [a, b] : report.self_intersection_examples) {
+    crossing.push_back(a);
+    crossing.push_back(b);
+  }
+  std::sort(crossing.begin(), crossing.end());
+  crossing.erase(std::unique(crossing.begin(), crossing.end()), crossing.end());
+  add_triangles(crossing, palette::problem_crossing, "self-intersecting triangles");
+  add_triangles(report.degenerate_triangle_examples, palette::problem_degenerate, "degenerate triangles");
+
+  Batch edges;
+  edges.primitive = Primitive::lines;
+  edges.line_width = 3.0f;
+  edges.label = "boundary, non-manifold and misoriented edges";
+  for (const auto* list :
+       {&report.boundary_edge_examples, &report.nonmanifold_edge_examples, &report.misoriented_edge_examples}) {
+    for (const auto& [a, b] : *list) {
+      if (a < nv && b < nv) add_line(edges, local(m.positions[a], origin), local(m.positions[b], origin), palette::problem_edge);
+    }
+  }
+  if (!edges.empty()) out.push_back(std::move(edges));
+
+  if (s) {
+    Batch nodes;
+    nodes.primitive = Primitive::points;
+    nodes.point_size = 10.0f;
+    nodes.label = "thick nodes outside the mesh";
+    for (const std::uint32_t n : report.outside_node_examples) {
+      if (n >= s->size()) continue;
+      nodes.positions.push_back(local(s->position[n], origin));
+      nodes.colors.push_back(palette::problem_node);
+    }
+    if (!nodes.empty()) out.push_back(std::move(nodes));
+  }
+  return out;
 }
 
 Scene build_scene(const StageView& view, const SceneOptions& options) {

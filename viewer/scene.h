@@ -23,6 +23,7 @@
 
 #include "contours/contours.h"
 #include "core/mesh.h"
+#include "meshing/checks.h"
 #include "particles/particles.h"
 #include "skeleton/skeleton.h"
 #include "strands/strands.h"
@@ -46,6 +47,8 @@ enum class Layer : std::uint8_t {
   mesh,       ///< the mesh, shaded with smooth normals or the UV checker (triangles)
   wireframe,  ///< mesh edges (lines, drawn over the shaded mesh)
   normals,    ///< mesh vertex normals as short lines
+  problems,   ///< what the mesh checks found: self-intersecting triangles, open and non-manifold
+              ///< edges, degenerate triangles, thick nodes outside the mesh (drawn over everything)
   count
 };
 inline constexpr std::size_t kLayerCount = static_cast<std::size_t>(Layer::count);
@@ -168,6 +171,14 @@ std::vector<Batch> contour_batches(const ContourSet& c, const glm::dvec3& origin
 std::vector<Batch> mesh_batches(const Mesh& m, const glm::dvec3& origin);
 std::vector<Batch> wireframe_batches(const Mesh& m, const glm::dvec3& origin);
 std::vector<Batch> normal_batches(const Mesh& m, const glm::dvec3& origin, const SceneOptions& options = {});
+
+/// The problems layer: the offenders `report` lists (its `*_examples`; run the checks with a
+/// large `max_examples` to see them all) on `m`, the mesh it checked: self-intersecting and
+/// degenerate triangles (filled, outlined), boundary, non-manifold and misoriented edges (lines)
+/// and thick skeleton nodes outside the mesh (points; needs `s`, the checked skeleton). Indices
+/// out of range are skipped. Empty when the report lists nothing.
+std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshCheckReport& report,
+                                   const glm::dvec3& origin);
 
 /// A highlight for the selected node: its disc in a bright colour, a cross at its centre and
 /// its edge to the parent (lines; empty when the node does not exist).

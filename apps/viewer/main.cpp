@@ -43,7 +43,8 @@ int main(int argc, char** argv) {
   cli.add_option("--screenshot", screenshot, "Render one frame without a window into this PNG and exit");
   cli.add_option("--layers", layers,
                  "Layers to show, comma-separated: skeleton, discs, frames, particles, strands, contours, mesh, "
-                 "wireframe, normals, uv (mesh with UV checker), legend, all");
+                 "wireframe, normals, problems (what the mesh checks found, marked on the mesh), uv (mesh with UV "
+                 "checker), legend, all");
   cli.add_option("--size", size, "Screenshot size (or initial window size) WIDTHxHEIGHT")->capture_default_str();
   cli.add_option("--camera", camera,
                  "Camera: key=value list of yaw, pitch (degrees), dist (relative to the framed distance), "
@@ -91,8 +92,10 @@ int main(int argc, char** argv) {
     classify_input(opts.input);  // a missing input fails before any window opens
 
     if (!screenshot.empty()) {
-      // Checks only matter when the status panel is drawn.
-      opts.checks = ui && !no_checks;
+      // Checks only matter when the status panel or the problems layer is drawn (asked for
+      // by name: the default layers of a screenshot skip the checks' time).
+      const bool problems = view && view->visible[static_cast<std::size_t>(Layer::problems)];
+      opts.checks = (ui || problems) && !no_checks;
       opts.self_intersections = !no_self_intersections;
       ViewerApp app(opts);
       ScreenshotOptions so;
