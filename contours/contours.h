@@ -23,7 +23,9 @@
 /// around the union; the first distance where they are farther apart is found by bisection
 /// and becomes the split: from there on each bundle has its own tube. Bundles that do not
 /// separate before the shorter child's segment ends (and min_fused_length x the fork's radius)
-/// are split there (counted warning). Inside a fused section, a lateral of a fork in either
+/// are split there (counted warning) once their points are loosely apart and each bundle's
+/// surface clears the other subtree's round cones; branches whose cones still overlap stay
+/// fused. Inside a fused section, a lateral of a fork in either
 /// child's subtree (a whorl: forks a tiny step apart) whose bundle has come apart from the
 /// rest splits off first, with its own junction (`split_nested_laterals`); the section then
 /// resumes in a new tube without it, and that lateral's fork is walked as a plain node.

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <numbers>
@@ -235,18 +236,79 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   }
 }
 
+// Distance from p to the surface of the round cone of edge (parent(n), n); negative inside.
+double cone_distance(const Skeleton& s, NodeId n, const dvec3& p) {
+  const NodeId par = s.parent[n.idx()];
+  const dvec3 a = s.position[par.idx()], b = s.position[n.idx()];
+  const double l2 = glm::dot(b - a, b - a);
+  const double t = l2 > 0 ? std::clamp(glm::dot(p - a, b - a) / l2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * (b - a))) - ((1 - t) * s.radius[par.idx()] + t * s.radius[n.idx()]);
+}
+
+TEST(Pipeline, ForcedSplitsWaitUntilTheBranchesClearEachOther) {
+  // A lateral leaving at 11 degrees that forks 0.25 m above its fork, where its round cone
+  // still overlaps its sibling's; a thin twig elsewhere sets a fine particle spacing, so the
+  // thick bundles are "loosely apart" (half a spacing) there long before their cones are.
+  // Split there, the two tubes would run through each other (2 crossing pairs, the first
+  // loops inside the other child's cones): the split waits until each child's first loop
+  // clears the other child's cones. (The lateral's main child runs beside the trunk to its
+  // tip and is absorbed: its tip node may lie outside, hence expect_sound, not perfect.)
+  RawSkeleton raw;
+  raw.source = "near_parallel_siblings";
+  const double a = 11.0 * std::numbers::pi / 180.0, seg = 0.25, rb = 0.045;
+  const dvec3 fork(0, 0, 0.5), b = fork + seg * dvec3(std::sin(a), 0, std::cos(a));
+  raw.add(0, -1, dvec3(0, 0, 0), 0.05);
+  raw.add(1, 0, fork, 0.05);
+  raw.add(2, 1, dvec3(0, 0, 1.0), 0.045);
+  raw.add(3, 2, dvec3(0, 0, 1.6), 0.04);
+  raw.add(4, 1, b, rb);
+  raw.add(5, 4, b + dvec3(0.05, 0, 0.5), 0.7 * rb);
+  raw.add(6, 4, b + dvec3(0.45, 0.1, 0.3), 0.5 * rb);
+  raw.add(7, 2, dvec3(-0.3, 0, 1.2), 0.004);
+  PipelineResult r;
+  const MeshCheckReport rep = run_and_check(raw, &r);
+  expect_sound(rep);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  const Skeleton& s = r.skeleton.skeleton;
+  const ContourSet& c = r.contours;
+  auto subtree = [&](NodeId x) {
+    std::vector<NodeId> out{x};
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      for (const NodeId ch : s.children[out[k].idx()]) {
+        if (ch.valid()) out.push_back(ch);
+      }
+    }
+    return out;
+  };
+  std::size_t forks = 0;
+  for (const Junction& j : c.junctions) {
+    ++forks;
+    const auto& ch = s.children[j.fork.idx()];
+    for (int side = 0; side < 2; ++side) {
+      const std::uint32_t loop = j.upper[std::size_t(side)];
+      for (const NodeId e : subtree(ch[std::size_t(1 - side)])) {
+        for (std::uint32_t v = c.loop_begin[loop]; v < c.loop_begin[loop + 1]; ++v) {
+          EXPECT_GT(cone_distance(s, e, c.point[v]), 0.0)
+              << "junction at node " << j.fork.value << ": child " << side << "'s first loop inside edge " << e.value;
+        }
+      }
+    }
+  }
+  EXPECT_GE(forks, 2u);
+}
+
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
   // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
   // with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {400, 0.15, 14}},
-      {"mtg_boutdenoylum2.json", {50, 0.20, 10}},
-      {"qsm_simpleforest_rtwig.json", {90, 0.07, 4}},
-      {"sapling_callistemon.json", {60, 0.08, 2}},
+      {"mtg_agraf.json", {150, 0.14, 10}},
+      {"mtg_boutdenoylum2.json", {30, 0.20, 10}},
+      {"qsm_simpleforest_rtwig.json", {75, 0.07, 3}},
+      {"sapling_callistemon.json", {20, 0.075, 1}},
       {"sapling_quaking_aspen.json", {3, 0.08, 1}},
-      {"sapling_small_pine.json", {330, 0.11, 8}}};
+      {"sapling_small_pine.json", {220, 0.105, 5}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
