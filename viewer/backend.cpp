@@ -123,8 +123,9 @@ void Renderer::draw(int width, int height, const glm::mat4& view, const glm::mat
   params.shading = options.shading;
   // Opaque surfaces first, then everything that lies on them with a depth bias so that
   // wireframe and contours drawn exactly on the surface are not hidden by it.
-  static constexpr Layer kOrder[] = {Layer::mesh,     Layer::skeleton,  Layer::discs,   Layer::frames,  Layer::strands,
-                                     Layer::particles, Layer::contours, Layer::wireframe, Layer::normals, Layer::problems};
+  static constexpr Layer kOrder[] = {Layer::mesh,    Layer::skeleton,  Layer::discs,    Layer::frames,
+                                     Layer::strands, Layer::particles, Layer::contours, Layer::wireframe,
+                                     Layer::normals, Layer::problems};
   const bool mesh_visible = options.visible[static_cast<std::size_t>(Layer::mesh)];
   for (Layer l : kOrder) {
     if (!options.visible[static_cast<std::size_t>(l)]) continue;

@@ -14,8 +14,8 @@ namespace sm::viewer {
 
 namespace {
 
-constexpr const char* kLayerNames[kLayerCount] = {"skeleton", "discs",     "frames",  "particles", "strands",
-                                                  "contours", "mesh",      "wireframe", "normals", "problems"};
+constexpr const char* kLayerNames[kLayerCount] = {"skeleton", "discs", "frames",    "particles", "strands",
+                                                  "contours", "mesh",  "wireframe", "normals",   "problems"};
 
 glm::vec3 local(const glm::dvec3& p, const glm::dvec3& origin) {
   return glm::vec3(p - origin);
@@ -364,8 +364,7 @@ std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshC
                                    const glm::dvec3& origin) {
   const std::size_t nv = m.positions.size();
   std::vector<Batch> out;
-  // Triangles: filled (both sides face the viewer's light the same way: flat normals) and
-  // outlined, so a sliver inside the surface still shows.
+  // Triangles: filled (flat normals) and outlined, so a sliver inside the surface still shows.
   auto add_triangles = [&](const std::vector<std::uint32_t>& faces, Rgba8 color, const char* label) {
     Batch fill, outline;
     fill.primitive = Primitive::triangles;
@@ -408,7 +407,8 @@ std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshC
   for (const auto* list :
        {&report.boundary_edge_examples, &report.nonmanifold_edge_examples, &report.misoriented_edge_examples}) {
     for (const auto& [a, b] : *list) {
-      if (a < nv && b < nv) add_line(edges, local(m.positions[a], origin), local(m.positions[b], origin), palette::problem_edge);
+      if (a < nv && b < nv)
+        add_line(edges, local(m.positions[a], origin), local(m.positions[b], origin), palette::problem_edge);
     }
   }
   if (!edges.empty()) out.push_back(std::move(edges));
