@@ -204,8 +204,13 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+template <class T>
+void add_example(std::vector<T>& list, const T& value, std::size_t max) {
+  if (list.size() < max) list.push_back(value);
+}
+
 void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, const Skeleton& skel,
-                      MeshCheckReport& r) {
+                      std::size_t max_examples, MeshCheckReport& r) {
   std::vector<Cone> cones;
   for (std::size_t i = 0; i < skel.size(); ++i) {
     const NodeId parent = skel.parent[i];
@@ -230,15 +235,16 @@ void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, c
                       }
                     });
   r.fidelity_checked = true;
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    if (!(dev[i] > r.fidelity_tolerance)) continue;
+    ++r.fidelity_outliers;
+    add_example(r.fidelity_outlier_examples, verts[i], max_examples);
+  }
   r.fidelity_p50 = percentile(dev, 0.50);
   r.fidelity_p95 = percentile(dev, 0.95);
   r.fidelity_max = dev.empty() ? 0 : *std::max_element(dev.begin(), dev.end());
 }
 
-template <class T>
-void add_example(std::vector<T>& list, const T& value, std::size_t max) {
-  if (list.size() < max) list.push_back(value);
-}
 
 std::string yes_no(bool b) {
   return b ? "yes" : "no";
@@ -434,7 +440,7 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   std::vector<std::uint32_t> thick_ids;
   if (params.skeleton && !params.skeleton->empty() && r.nonfinite_vertices == 0) {
     const Skeleton& skel = *params.skeleton;
-    measure_fidelity(mesh, used, skel, r);
+    measure_fidelity(mesh, used, skel, params.max_examples, r);
     std::vector<double> radii = skel.radius;
     const double median = percentile(radii, 0.5);
     for (std::size_t i = 0; i < skel.size(); ++i) {
@@ -551,6 +557,9 @@ std::string to_text(const MeshCheckReport& r) {
     line("fidelity", "p50 " + fmt(r.fidelity_p50, 3) + ", p95 " + fmt(r.fidelity_p95, 3) + ", max " +
                          fmt(r.fidelity_max, 3) + " of the local radius (tolerance " + fmt(r.fidelity_tolerance, 3) +
                          " for p95)");
+    std::string far;
+    for (const auto v : r.fidelity_outlier_examples) far += (far.empty() ? " e.g. vertex " : ", ") + std::to_string(v);
+    line("beyond tolerance", n(r.fidelity_outliers) + " vertices" + far);
     std::string ex;
     for (const auto v : r.outside_node_examples) ex += (ex.empty() ? " (outside: node " : ", ") + std::to_string(v);
     if (!ex.empty()) ex += ")";
@@ -597,7 +606,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
   j["fidelity_checked"] = r.fidelity_checked;
   if (r.fidelity_checked) {
     j["fidelity"] = {
-        {"p50", r.fidelity_p50}, {"p95", r.fidelity_p95}, {"max", r.fidelity_max}, {"tolerance", r.fidelity_tolerance}};
+        {"p50", r.fidelity_p50}, {"p95", r.fidelity_p95}, {"max", r.fidelity_max}, {"tolerance", r.fidelity_tolerance},
+        {"beyond_tolerance", r.fidelity_outliers}};
     j["inside_checked"] = r.inside_checked;
     j["thick_nodes"] = r.thick_nodes;
     j["thick_nodes_inside"] = r.thick_nodes_inside;
@@ -608,7 +618,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                    {"misoriented_edges", pairs(r.misoriented_edge_examples)},
                    {"degenerate_triangles", r.degenerate_triangle_examples},
                    {"self_intersections", pairs(r.self_intersection_examples)},
-                   {"outside_nodes", r.outside_node_examples}};
+                   {"outside_nodes", r.outside_node_examples},
+                   {"fidelity_outliers", r.fidelity_outlier_examples}};
   nlohmann::json t = nlohmann::json::object();
   for (const auto& e : r.timings.entries) t[e.name] = e.seconds;
   j["timings"] = t;

@@ -90,6 +90,7 @@ struct MeshCheckReport {
   double fidelity_p95 = 0;             ///< 95th percentile of the same
   double fidelity_max = 0;             ///< largest of the same
   double fidelity_tolerance = 0;       ///< the tolerance ok() applies to fidelity_p95
+  std::size_t fidelity_outliers = 0;   ///< vertices farther from the round cones than the tolerance
   bool inside_checked = false;         ///< the thick-node inside test ran (closed manifold oriented mesh)
   std::size_t thick_nodes = 0;         ///< skeleton nodes with radius >= the median radius
   std::size_t thick_nodes_inside = 0;  ///< of those, how many lie inside the mesh (or on it)
@@ -101,6 +102,7 @@ struct MeshCheckReport {
   std::vector<std::uint32_t> degenerate_triangle_examples;               ///< triangle indices
   std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
   std::vector<std::uint32_t> outside_node_examples;                      ///< skeleton node indices (thick, outside)
+  std::vector<std::uint32_t> fidelity_outlier_examples;                  ///< vertex indices (beyond the tolerance)
   Timings timings;                                                       ///< seconds per phase
 
   /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component,

@@ -267,6 +267,12 @@ TEST(Checks, FidelityOfAMatchingCylinderIsHigh) {
   EXPECT_LT(r.fidelity_p50, 1e-9);
   EXPECT_LT(r.fidelity_p95, 1e-9);
   EXPECT_NEAR(r.fidelity_max, 1.0, 1e-9);  // the flat caps' centres sit one radius deep
+  // Only the caps' centres are beyond the tolerance, and they are the examples.
+  EXPECT_EQ(r.fidelity_outliers, 2u);
+  ASSERT_EQ(r.fidelity_outlier_examples.size(), 2u);
+  for (const std::uint32_t v : r.fidelity_outlier_examples) {
+    EXPECT_LT(glm::length(glm::dvec2(m.positions[v])), 1e-12) << v;
+  }
   EXPECT_TRUE(r.inside_checked);
   EXPECT_EQ(r.thick_nodes, 2u);
   EXPECT_EQ(r.thick_nodes_inside, 2u);
@@ -279,6 +285,8 @@ TEST(Checks, FidelityOfAScaledCylinderFails) {
   const MeshCheckReport r = check_mesh(m, {.skeleton = &skel});
   EXPECT_NEAR(r.fidelity_p50, 0.5, 1e-9);
   EXPECT_NEAR(r.fidelity_p95, 0.5, 1e-9);
+  EXPECT_EQ(r.fidelity_outliers, m.positions.size());  // every vertex is half a radius out
+  EXPECT_EQ(r.fidelity_outlier_examples.size(), MeshCheckParams{}.max_examples);
   EXPECT_FALSE(r.ok());
   EXPECT_TRUE(mentions(r, "fidelity"));
   // A looser tolerance accepts it.

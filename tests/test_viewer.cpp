@@ -296,6 +296,14 @@ TEST(ViewerScene, ProblemsShowWhatTheChecksFound) {
   EXPECT_EQ(with_nodes[2].primitive, Primitive::points);
   ASSERT_EQ(with_nodes[2].vertex_count(), 1u);
   EXPECT_LT(glm::length(glm::dvec3(with_nodes[2].positions[0]) - (s.position[1] - glm::dvec3(1))), 1e-6);
+  // Vertices beyond the fidelity tolerance are small points at the vertex.
+  MeshCheckReport far;
+  far.fidelity_outlier_examples = {3u, 1000u};
+  const auto far_points = problem_batches(m, nullptr, far, glm::dvec3(0));
+  ASSERT_EQ(far_points.size(), 1u);
+  EXPECT_EQ(far_points[0].primitive, Primitive::points);
+  ASSERT_EQ(far_points[0].vertex_count(), 1u);
+  EXPECT_EQ(glm::dvec3(far_points[0].positions[0]), m.positions[3]);
 }
 
 TEST(ViewerScene, BuildSceneFillsOnlyLayersWithData) {

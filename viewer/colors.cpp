@@ -96,6 +96,7 @@ std::vector<LegendEntry> legend_entries(const std::array<bool, kLayerCount>& vis
     out.push_back({palette::problem_degenerate, "degenerate triangle (checks)"});
     out.push_back({palette::problem_edge, "open / non-manifold / misoriented edge (checks)"});
     out.push_back({palette::problem_node, "thick node outside the mesh (checks)"});
+    out.push_back({palette::problem_fidelity, "vertex farther from the skeleton than the tolerance (checks)"});
   }
   return out;
 }

@@ -39,6 +39,7 @@ inline constexpr Rgba8 problem_crossing{235, 0, 60, 255};    ///< self-intersect
 inline constexpr Rgba8 problem_degenerate{255, 120, 0, 255};  ///< degenerate triangles
 inline constexpr Rgba8 problem_edge{250, 200, 0, 255};        ///< boundary / non-manifold / misoriented edges
 inline constexpr Rgba8 problem_node{0, 160, 255, 255};        ///< thick nodes outside the mesh
+inline constexpr Rgba8 problem_fidelity{150, 40, 220, 255};   ///< vertices beyond the fidelity tolerance
 }  // namespace palette
 
 /// The colour of a contour loop of this kind.

@@ -413,6 +413,17 @@ std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshC
   }
   if (!edges.empty()) out.push_back(std::move(edges));
 
+  Batch far;
+  far.primitive = Primitive::points;
+  far.point_size = 5.0f;
+  far.label = "vertices beyond the fidelity tolerance";
+  for (const std::uint32_t v : report.fidelity_outlier_examples) {
+    if (v >= nv) continue;
+    far.positions.push_back(local(m.positions[v], origin));
+    far.colors.push_back(palette::problem_fidelity);
+  }
+  if (!far.empty()) out.push_back(std::move(far));
+
   if (s) {
     Batch nodes;
     nodes.primitive = Primitive::points;

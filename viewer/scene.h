@@ -48,7 +48,8 @@ enum class Layer : std::uint8_t {
   wireframe,  ///< mesh edges (lines, drawn over the shaded mesh)
   normals,    ///< mesh vertex normals as short lines
   problems,   ///< what the mesh checks found: self-intersecting triangles, open and non-manifold
-              ///< edges, degenerate triangles, thick nodes outside the mesh (drawn over everything)
+              ///< edges, degenerate triangles, vertices beyond the fidelity tolerance, thick nodes
+              ///< outside the mesh (drawn over everything)
   count
 };
 inline constexpr std::size_t kLayerCount = static_cast<std::size_t>(Layer::count);
@@ -174,8 +175,9 @@ std::vector<Batch> normal_batches(const Mesh& m, const glm::dvec3& origin, const
 
 /// The problems layer: the offenders `report` lists (its `*_examples`; run the checks with a
 /// large `max_examples` to see them all) on `m`, the mesh it checked: self-intersecting and
-/// degenerate triangles (filled, outlined), boundary, non-manifold and misoriented edges (lines)
-/// and thick skeleton nodes outside the mesh (points; needs `s`, the checked skeleton). Indices
+/// degenerate triangles (filled, outlined), boundary, non-manifold and misoriented edges (lines),
+/// vertices farther from the skeleton than the fidelity tolerance (small points) and thick
+/// skeleton nodes outside the mesh (large points; needs `s`, the checked skeleton). Indices
 /// out of range are skipped. Empty when the report lists nothing.
 std::vector<Batch> problem_batches(const Mesh& m, const Skeleton* s, const MeshCheckReport& report,
                                    const glm::dvec3& origin);
