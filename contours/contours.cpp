@@ -33,6 +33,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -467,18 +468,12 @@ class Walker {
   double cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const;
   /// The clearance the split test asks for (surfaces clear of the other subtree's cones).
   [[nodiscard]] double min_clearance() const { return 0.5 * p_.split_gap * spacing_; }
-  /// After split_gap_at(fork, fork_base, u): is each bundle's surface clear of the other
-  /// child's subtree cones by min_clearance (as separated_now asks once the points are apart)?
-  [[nodiscard]] bool forced_split_clear(NodeId fork, double fork_base, double u) const {
-    const double reach = u + 2.0 * s_.radius[fork.idx()];
-    const auto& c = s_.children[fork.idx()];
-    return cone_clearance(pts_b_, c[0], fork_base, reach, min_clearance()) > min_clearance() &&
-           cone_clearance(pts_a_, c[1], fork_base, reach, min_clearance()) > min_clearance();
-  }
+  /// After split_gap_at: is each bundle's surface clear of the other child's subtree cones by
+  /// min_clearance? Computed on first use for that section (only once the points are apart:
+  /// a split and a forced split both ask it, each after its own test of the points).
+  bool surfaces_clear();
   /// After split_gap_at: are the bundles apart (points and cones)?
-  [[nodiscard]] bool separated_now() const {
-    return last_gap_ > threshold() && last_clearance_ > min_clearance();
-  }
+  bool separated_now() { return last_gap_ > threshold() && surfaces_clear(); }
   /// Geometry of a slice through a cut: the first (main-chain) edge of the cut.
   SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
     return edge_geometry(edges.front().node, edges.front().t);
@@ -508,7 +503,10 @@ class Walker {
   const ContourParams& p_;
   double spacing_;                            // distance between neighbouring particles (metres)
   const Tables& tables_;                      // per-node tables shared by all walks
-  double last_gap_ = 0, last_clearance_ = 0;  // of the last split_gap_at
+  // Of the last split_gap_at: its arguments, the point gap, and the surfaces' clearance once asked.
+  NodeId last_fork_;
+  double last_fork_base_ = 0, last_u_ = 0, last_gap_ = 0;
+  std::optional<double> last_clearance_;
   ContourSet* out_ = nullptr;                 // the walk's Fragment::part
   mutable std::vector<std::pair<NodeId, double>> stack_;
   // scratch
@@ -701,18 +699,26 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   // Exact up to the threshold; may stop early at 0.25 x the neighbour distance, below the
   // 0.5 x a forced split needs.
   last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(), 0.25 * spacing_);
+  last_fork_ = fork;
+  last_fork_base_ = fork_base;
+  last_u_ = u;
+  last_clearance_.reset();
+  return last_gap_;
+}
+
+bool Walker::surfaces_clear() {
   // Bundles can also run into the other branch at a different distance from the fork (a
   // lateral leaving a thick trunk at an angle lies below the trunk's slice at the same
   // distance): each bundle's surface must also clear the other subtree's round cones.
-  // (Only asked once the points are apart.)
-  const double reach = u + 2.0 * s_.radius[fork.idx()];
-  last_clearance_ = -std::numeric_limits<double>::infinity();
-  if (last_gap_ > threshold()) {
-    last_clearance_ = cone_clearance(pts_b_, c[0], fork_base, reach, min_clearance());
-    if (last_clearance_ > min_clearance())
-      last_clearance_ = std::min(last_clearance_, cone_clearance(pts_a_, c[1], fork_base, reach, min_clearance()));
+  if (!last_clearance_) {
+    const auto& c = s_.children[last_fork_.idx()];
+    const double reach = last_u_ + 2.0 * s_.radius[last_fork_.idx()];
+    double clearance = cone_clearance(pts_b_, c[0], last_fork_base_, reach, min_clearance());
+    if (clearance > min_clearance())
+      clearance = std::min(clearance, cone_clearance(pts_a_, c[1], last_fork_base_, reach, min_clearance()));
+    last_clearance_ = clearance;
   }
-  return last_gap_;
+  return *last_clearance_ > min_clearance();
 }
 
 double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const {
@@ -953,8 +959,7 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       // loop around both, instead of two tubes through each other. (Self-intersecting pairs
       // on the samples, particle seeds 1-3: 1,806 in all with the point test alone, 936 with
       // the cone test; agraf 302 -> 95, callistemon 47 -> 8 at seed 1.)
-      const bool forced =
-          !separated && d >= shorter_end && g_ab > 0.5 * spacing_ && forced_split_clear(fork, fork_base, d);
+      const bool forced = !separated && d >= shorter_end && g_ab > 0.5 * spacing_ && surfaces_clear();
       const SliceGeometry g = fused_geometry();
       const double step = step_at(g);
       const double min_sep = 0.25 * step;

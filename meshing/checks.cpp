@@ -245,7 +245,6 @@ void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, c
   r.fidelity_max = dev.empty() ? 0 : *std::max_element(dev.begin(), dev.end());
 }
 
-
 std::string yes_no(bool b) {
   return b ? "yes" : "no";
 }

@@ -252,12 +252,7 @@ void ViewerApp::on_outcome(JobOutcome outcome) {
     check_ = std::move(outcome.check);
     if (run_ && check_ && run_->has_stage(Stage::meshing)) {
       const StageView v = view_of(*run_);
-      auto batches = problem_batches(*v.mesh, v.skeleton, *check_, origin_);
-      if (pending_scene_) {
-        pending_scene_->layer(Layer::problems) = std::move(batches);
-      } else {
-        pending_layers_.emplace_back(Layer::problems, std::move(batches));
-      }
+      replace_layer(Layer::problems, problem_batches(*v.mesh, v.skeleton, *check_, origin_));
       ++scene_version_;
     }
     return;
@@ -309,14 +304,17 @@ void ViewerApp::set_coloring(StrandColoring coloring) {
   auto particles = particle_batches(*v.skeleton, *v.particles, strands, origin_, scene_options_);
   auto strand_lines =
       strands ? strand_batches(*v.skeleton, *v.particles, *strands, origin_, scene_options_) : std::vector<Batch>{};
-  if (pending_scene_) {
-    pending_scene_->layer(Layer::particles) = std::move(particles);
-    pending_scene_->layer(Layer::strands) = std::move(strand_lines);
-  } else {
-    pending_layers_.emplace_back(Layer::particles, std::move(particles));
-    pending_layers_.emplace_back(Layer::strands, std::move(strand_lines));
-  }
+  replace_layer(Layer::particles, std::move(particles));
+  replace_layer(Layer::strands, std::move(strand_lines));
   ++scene_version_;
+}
+
+void ViewerApp::replace_layer(Layer layer, std::vector<Batch> batches) {
+  if (pending_scene_) {
+    pending_scene_->layer(layer) = std::move(batches);
+  } else {
+    pending_layers_.emplace_back(layer, std::move(batches));
+  }
 }
 
 void ViewerApp::select(std::optional<NodeId> node) {

@@ -144,6 +144,9 @@ class ViewerApp {
   void on_outcome(JobOutcome outcome);
   void rebuild_scene();
   void rebuild_selection();
+  /// Hands one layer's new batches to the renderer on the next frame (into the pending scene
+  /// when a whole new scene is waiting).
+  void replace_layer(Layer layer, std::vector<Batch> batches);
 
   ViewerOptions options_;
   PipelineParams edited_, applied_, job_params_;
