@@ -27,18 +27,24 @@ struct FoldRepairStats {
   std::size_t found = 0;      ///< intersecting pairs among the suspect triangles before the repair
   std::size_t flips = 0;      ///< edge flips made
   std::size_t moves = 0;      ///< vertices moved
+  std::size_t collapses = 0;  ///< edges collapsed (each removes a vertex and two triangles)
   std::size_t rounds = 0;     ///< detection rounds run
 };
 
 /// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of
-/// the edge, which keep their branch ids). `suspect[f]` marks the triangles that may fold
+/// the edge, which keep their branch ids; a collapse leaves two triangles degenerate). `suspect[f]` marks the triangles that may fold
 /// (#F); those with a crease and the triangles sharing a vertex with them are examined, and
 /// each flip is judged against every triangle within two rings of the pair. At most `max_rounds` detection rounds (after the first, only around the
 /// triangles the previous round flipped).
 /// Where no flip helps, a vertex of the pair may move towards the centroid of its neighbours
 /// by at most `max_move[v]` (#V; 0 keeps it in place) when that lowers the crossings the same
 /// way.
+///
+/// With `collapse`, where moves do not help either, an edge of the pair or of a triangle
+/// sharing a vertex with it may collapse (see FoldRepair::try_collapse). Its two triangles
+/// are then left degenerate, as (u, u, u), for the caller to drop, and the removed vertex is
+/// no longer used.
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             int max_rounds);
+                             int max_rounds, bool collapse);
 
 }  // namespace sm

@@ -576,10 +576,27 @@ void Builder::repair_folds() {
     if (n.valid()) max_move[v] = std::max(0.0, p_.fold_repair_max_move) * s_.radius[n.idx()];
   }
   const FoldRepairStats r =
-      sm::repair_folds(mesh_, suspect, max_move, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)));
+      sm::repair_folds(mesh_, suspect, max_move, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)),
+                       p_.fold_repair_collapses);
   stats_.fold_pairs = r.found;
   stats_.fold_flips = r.flips;
   stats_.fold_moves = r.moves;
+  stats_.fold_collapses = r.collapses;
+  if (r.collapses == 0) return;
+  // A collapse leaves its two triangles degenerate (u, u, u): drop them (their vertex goes
+  // with the unused ones).
+  std::size_t kept = 0;
+  for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
+    const auto& t = mesh_.triangles[f];
+    if (t[0] == t[1] && t[1] == t[2]) continue;
+    mesh_.triangles[kept] = t;
+    mesh_.triangle_branch[kept] = mesh_.triangle_branch[f];
+    kind_[kept] = kind_[f];
+    ++kept;
+  }
+  mesh_.triangles.resize(kept);
+  mesh_.triangle_branch.resize(kept);
+  kind_.resize(kept);
 }
 
 void Builder::drop_unused_vertices() {
@@ -824,7 +841,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("stitching", clock.lap());
   repair_folds();
   stats_.timings.add("fold_repair", clock.lap());
-  if (stats_.merged_junctions > 0) drop_unused_vertices();
+  if (stats_.merged_junctions > 0 || stats_.fold_collapses > 0) drop_unused_vertices();
   for (const Tube& t : c_.tubes) {
     stats_.strips += t.loops.empty() ? 0 : t.loops.size() - 1;
     if (t.end_junction != UINT32_MAX) {

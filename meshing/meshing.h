@@ -55,6 +55,13 @@ struct MeshParams {
   /// 0.5 left agraf 456 / 354 / 315 / 316 pairs (542 with flips only), boutdenoylum2 56 / 36 /
   /// 49 / 56 (116); fidelity p95 unchanged.
   double fold_repair_max_move = 0.25;
+  /// Where neither flips nor moves untangle a pair, the fold repair may collapse an edge of
+  /// one of its triangles or of a triangle next to them (removing one vertex and two
+  /// triangles; the kept vertex at either end or midway, on the old edge) when that lowers the
+  /// crossings around the pair, turns no triangle over and keeps the surface a closed
+  /// 2-manifold of the same genus. Self-intersecting pairs, samples x particle seeds 1-3:
+  /// 936 without, 449 with (callistemon 19 -> 0); fidelity p95 unchanged or better.
+  bool fold_repair_collapses = true;
 };
 
 struct MeshStats {
@@ -67,6 +74,7 @@ struct MeshStats {
   std::size_t fold_pairs = 0;            ///< self-intersecting pairs the fold repair found near junctions and caps
   std::size_t fold_flips = 0;            ///< edge flips it made
   std::size_t fold_moves = 0;            ///< vertices it moved
+  std::size_t fold_collapses = 0;        ///< edges it collapsed
   std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
   Warnings warnings;
   Timings timings;

@@ -80,6 +80,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("merge_stacked_junctions", p.merge_stacked_junctions);
   v("fold_repair_rounds", p.fold_repair_rounds);
   v("fold_repair_max_move", p.fold_repair_max_move);
+  v("fold_repair_collapses", p.fold_repair_collapses);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

@@ -138,7 +138,8 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                {"fold_repair",
                 {{"pairs_found", r.mesh.stats.fold_pairs},
                  {"flips", r.mesh.stats.fold_flips},
-                 {"moved_vertices", r.mesh.stats.fold_moves}}},
+                 {"moved_vertices", r.mesh.stats.fold_moves},
+                 {"collapsed_edges", r.mesh.stats.fold_collapses}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";
