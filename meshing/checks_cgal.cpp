@@ -15,10 +15,12 @@
 
 #include <algorithm>
 #include <mutex>
+#include <tuple>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/box_intersection_d.h>
@@ -225,6 +227,28 @@ std::vector<std::array<std::uint32_t, 2>> TriangleIntersections::pairs(const std
   std::sort(found.begin(), found.end());  // found in parallel, in any order
   found.erase(std::unique(found.begin(), found.end()), found.end());
   return found;
+}
+
+}  // namespace sm
+
+namespace sm {
+
+std::vector<std::array<std::uint32_t, 3>> triangulate_polyline(const std::vector<glm::dvec3>& loop,
+                                                               const std::vector<glm::dvec3>& outside) {
+  std::vector<std::array<std::uint32_t, 3>> out;
+  if (loop.size() < 3 || (!outside.empty() && outside.size() != loop.size())) return out;
+  auto point = [](const glm::dvec3& p) { return detail::Point(p.x, p.y, p.z); };
+  std::vector<detail::Point> points, third;
+  for (const auto& p : loop) points.push_back(point(p));
+  for (const auto& p : outside) third.push_back(point(p));
+  std::vector<std::tuple<int, int, int>> triangles;
+  detail::PMP::triangulate_hole_polyline(points, third, std::back_inserter(triangles));
+  // A complete triangulation of an n-gon has n - 2 triangles; CGAL leaves holes when it fails.
+  if (triangles.size() != loop.size() - 2) return out;
+  for (const auto& [i, j, k] : triangles) {
+    out.push_back({static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), static_cast<std::uint32_t>(k)});
+  }
+  return out;
 }
 
 }  // namespace sm

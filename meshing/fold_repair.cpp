@@ -11,7 +11,12 @@
 // triangle around the vertex over. Where neither helps, an edge collapse (optional; u and w
 // become one vertex at u, at w or midway, and the edge's two triangles go) is judged the same
 // way too: it needs the link condition (u and w share exactly the two neighbours across the
-// edge), so the mesh stays closed and manifold with the same Euler characteristic.
+// edge), so the mesh stays closed and manifold with the same Euler characteristic. The last
+// resort, a refill, replaces a disk of triangles around the pair (within 1, 2 or 3 rings of
+// it, or of either triangle: two sheets through each other often have one folded) by CGAL's
+// hole-filling triangulation of its boundary loop, oriented like the disk; a disk for a disk
+// keeps the Euler characteristic, and a new inner edge that is an edge elsewhere already is
+// refused. It too must lower the crossings, of the disk with itself and the two rings around it.
 
 #include "meshing/fold_repair.h"
 
@@ -35,6 +40,8 @@ namespace sm {
 namespace {
 
 constexpr int kMaxFlipsPerPair = 8;
+// A refill replaces the disk within 1, 2, ... this many rings of a pair.
+constexpr int kMaxRefillRings = 3;
 // Folds show as creases: the examined triangles are the suspect ones where the surface turns
 // by more than this across an edge, and those sharing a vertex with them. (Large grown tree:
 // 1.4 M suspect triangles; 27 k creased; examined with one ring 232 k, finding 1,483 of the
@@ -44,8 +51,9 @@ constexpr double kCreaseDegrees = 90.0;
 
 class FoldRepair {
  public:
-  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move, bool collapse)
-      : mesh_(mesh), suspect_(suspect), max_move_(max_move), collapse_(collapse), test_(mesh) {}
+  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move, bool collapse,
+             bool refill)
+      : mesh_(mesh), suspect_(suspect), max_move_(max_move), collapse_(collapse), refill_(refill), test_(mesh) {}
 
   // Round 0 examines the creased suspect triangles and their neighbours (creased()); each
   // later round only the triangles within two rings of those the previous round flipped or
@@ -69,6 +77,13 @@ class FoldRepair {
         for (int k = 0; k < kMaxFlipsPerPair && crossing() && move_one_vertex_of(a, b); ++k) ++stats.moves;
         for (int k = 0; collapse_ && k < kMaxFlipsPerPair && crossing() && collapse_one_edge_of(a, b); ++k)
           ++stats.collapses;
+        // Around the pair, then around either triangle (two sheets through each other: one
+        // of them folded).
+        for (int rings = 1; refill_ && rings <= kMaxRefillRings && crossing(); ++rings) {
+          for (const std::vector<std::uint32_t>& seeds : {std::vector{a, b}, std::vector{a}, std::vector{b}}) {
+            if (crossing() && refill(within_rings(seeds, rings))) ++stats.refills;
+          }
+        }
       }
       stats.flips += flipped_.size() / 2;  // before the moved triangles join the list
       flipped_.insert(flipped_.end(), moved_.begin(), moved_.end());
@@ -325,6 +340,143 @@ class FoldRepair {
     return false;
   }
 
+  // Replaces the triangles of `patch` (sorted), when they form a disk, by CGAL's
+  // triangulation of the disk's boundary loop, if that lowers the crossings of the disk with
+  // itself and with the triangles within two rings around it. The disk's inner vertices go;
+  // the new triangles take the first slots of the old ones, the other slots die.
+  bool refill(const std::vector<std::uint32_t>& patch) {
+    // Directed edges; the boundary ones have no twin in the patch.
+    std::vector<std::array<std::uint32_t, 2>> directed;
+    std::vector<std::uint32_t> verts;
+    for (const std::uint32_t f : patch) {
+      const auto& t = mesh_.triangles[f];
+      for (int k = 0; k < 3; ++k) {
+        directed.push_back({t[std::size_t(k)], t[std::size_t((k + 1) % 3)]});
+        verts.push_back(t[std::size_t(k)]);
+      }
+    }
+    std::sort(directed.begin(), directed.end());
+    if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) return false;
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    std::vector<std::array<std::uint32_t, 2>> boundary;
+    for (const auto& [u, v] : directed) {
+      if (!std::binary_search(directed.begin(), directed.end(), std::array<std::uint32_t, 2>{v, u}))
+        boundary.push_back({u, v});
+    }
+    const std::size_t edges = (directed.size() + boundary.size()) / 2;
+    // A disk: Euler characteristic 1 and one boundary loop through distinct vertices.
+    if (verts.size() + patch.size() != edges + 1 || boundary.size() < 3) return false;
+    for (std::size_t i = 1; i < boundary.size(); ++i) {
+      if (boundary[i][0] == boundary[i - 1][0]) return false;  // a vertex the loop passes twice
+    }
+    auto next = [&](std::uint32_t u) {
+      const auto it = std::lower_bound(boundary.begin(), boundary.end(), std::array<std::uint32_t, 2>{u, 0});
+      return it != boundary.end() && (*it)[0] == u ? (*it)[1] : UINT32_MAX;
+    };
+    std::vector<std::uint32_t> loop{boundary[0][0]};
+    for (std::uint32_t v = next(loop[0]); v != loop[0]; v = next(v)) {
+      if (v == UINT32_MAX || loop.size() >= boundary.size()) return false;
+      loop.push_back(v);
+    }
+    if (loop.size() != boundary.size()) return false;  // several loops
+    const std::size_t n = loop.size();
+
+    std::vector<glm::dvec3> points(n), outside(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t u = loop[i], v = loop[(i + 1) % n];
+      points[i] = mesh_.positions[u];
+      // The triangle across the boundary edge (u, v) has the edge (v, u).
+      std::uint32_t across_uv = UINT32_MAX;
+      for (const std::uint32_t g : around(u)) {
+        const auto& t = mesh_.triangles[g];
+        for (int k = 0; k < 3; ++k) {
+          if (t[std::size_t(k)] == v && t[std::size_t((k + 1) % 3)] == u) across_uv = g;
+        }
+      }
+      if (across_uv == UINT32_MAX) return false;
+      outside[i] = mesh_.positions[third(mesh_.triangles[across_uv], u, v)];
+    }
+    std::vector<std::array<std::uint32_t, 3>> fill = triangulate_polyline(points, outside);
+    if (fill.size() != n - 2) return false;
+    // Orient the fill like the patch: the boundary edges (loop[i], loop[i + 1]) keep their direction.
+    std::vector<std::array<std::uint32_t, 2>> fill_directed;
+    for (auto& t : fill) {
+      for (std::uint32_t& i : t) i = loop[i];
+    }
+    auto directed_of = [&] {
+      fill_directed.clear();
+      for (const auto& t : fill) {
+        for (int k = 0; k < 3; ++k) fill_directed.push_back({t[std::size_t(k)], t[std::size_t((k + 1) % 3)]});
+      }
+      std::sort(fill_directed.begin(), fill_directed.end());
+    };
+    directed_of();
+    if (!std::binary_search(fill_directed.begin(), fill_directed.end(), boundary[0])) {
+      for (auto& t : fill) std::swap(t[1], t[2]);
+      directed_of();
+    }
+    if (std::adjacent_find(fill_directed.begin(), fill_directed.end()) != fill_directed.end()) return false;
+    for (const auto& [u, v] : fill_directed) {
+      const bool on_boundary = std::binary_search(boundary.begin(), boundary.end(), std::array<std::uint32_t, 2>{u, v});
+      if (on_boundary) continue;
+      // An inner edge needs its twin in the fill, and must not be an edge outside the patch.
+      if (!std::binary_search(fill_directed.begin(), fill_directed.end(), std::array<std::uint32_t, 2>{v, u}))
+        return false;
+      for (const std::uint32_t g : around(u)) {
+        if (std::binary_search(patch.begin(), patch.end(), g)) continue;
+        const auto& t = mesh_.triangles[g];
+        if (t[0] == v || t[1] == v || t[2] == v) return false;
+      }
+    }
+    for (const auto& e : boundary) {
+      if (!std::binary_search(fill_directed.begin(), fill_directed.end(), e)) return false;
+    }
+
+    // Crossings of the patch with itself and its surroundings, before and after.
+    std::vector<std::uint32_t> around_patch = within_rings(patch, 2), others;
+    std::vector<Box> other_boxes;
+    for (const std::uint32_t g : around_patch) {
+      if (!alive(g)) continue;
+      others.push_back(g);
+      other_boxes.push_back(box(g));
+    }
+    const std::size_t before = crossings_around(patch, others, other_boxes);
+    if (before == 0) return false;
+    std::vector<Mesh::Triangle> saved(patch.size());
+    for (std::size_t i = 0; i < patch.size(); ++i) saved[i] = mesh_.triangles[patch[i]];
+    dead_.resize(mesh_.triangles.size(), 0);
+    for (std::size_t i = 0; i < patch.size(); ++i) {
+      if (i < fill.size()) {
+        mesh_.triangles[patch[i]] = fill[i];
+      } else {
+        dead_[patch[i]] = 1;
+      }
+    }
+    const std::vector<std::uint32_t> filled(patch.begin(), patch.begin() + std::ptrdiff_t(fill.size()));
+    if (crossings_around(filled, others, other_boxes, before) >= before) {
+      for (std::size_t i = 0; i < patch.size(); ++i) {
+        mesh_.triangles[patch[i]] = saved[i];
+        dead_[patch[i]] = 0;
+      }
+      return false;
+    }
+    for (std::size_t i = fill.size(); i < patch.size(); ++i) {
+      const std::uint32_t x = saved[i][0];
+      mesh_.triangles[patch[i]] = Mesh::Triangle{x, x, x};
+    }
+    for (const std::uint32_t v : verts) {
+      std::vector<std::uint32_t>& list = changed(v);
+      std::erase_if(list, [&](std::uint32_t g) { return std::binary_search(patch.begin(), patch.end(), g); });
+      for (const std::uint32_t g : filled) {
+        const auto& t = mesh_.triangles[g];
+        if (t[0] == v || t[1] == v || t[2] == v) list.push_back(g);
+      }
+    }
+    moved_.insert(moved_.end(), filled.begin(), filled.end());
+    return true;
+  }
+
   // The vertices sharing an edge with v, sorted.
   [[nodiscard]] std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
     std::vector<std::uint32_t> out;
@@ -534,6 +686,7 @@ class FoldRepair {
   const std::vector<std::uint8_t>& suspect_;
   const std::vector<double>& max_move_;
   bool collapse_;
+  bool refill_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;    // the triangles around the vertices moved in this round
   std::vector<std::uint32_t> flipped_;  // the triangles flipped in this round (two per flip)
@@ -547,9 +700,9 @@ class FoldRepair {
 }  // namespace
 
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             int max_rounds, bool collapse) {
+                             int max_rounds, bool collapse, bool refill) {
   if (max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
-  return FoldRepair(mesh, suspect, max_move, collapse).run(max_rounds);
+  return FoldRepair(mesh, suspect, max_move, collapse, refill).run(max_rounds);
 }
 
 }  // namespace sm

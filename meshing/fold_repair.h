@@ -28,6 +28,7 @@ struct FoldRepairStats {
   std::size_t flips = 0;      ///< edge flips made
   std::size_t moves = 0;      ///< vertices moved
   std::size_t collapses = 0;  ///< edges collapsed (each removes a vertex and two triangles)
+  std::size_t refills = 0;    ///< disks around a pair replaced by a triangulation of their boundary
   std::size_t rounds = 0;     ///< detection rounds run
 };
 
@@ -41,10 +42,12 @@ struct FoldRepairStats {
 /// way.
 ///
 /// With `collapse`, where moves do not help either, an edge of the pair or of a triangle
-/// sharing a vertex with it may collapse (see FoldRepair::try_collapse). Its two triangles
-/// are then left degenerate, as (u, u, u), for the caller to drop, and the removed vertex is
-/// no longer used.
+/// sharing a vertex with it may collapse (see FoldRepair::try_collapse). With `refill`, where
+/// nothing else helped, the disk of triangles around the pair may be replaced by a
+/// triangulation of its boundary (FoldRepair::refill). The triangles they remove are left
+/// degenerate, as (u, u, u), for the caller to drop, and the vertices they remove are no
+/// longer used.
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             int max_rounds, bool collapse);
+                             int max_rounds, bool collapse, bool refill);
 
 }  // namespace sm

@@ -1,9 +1,10 @@
 #pragma once
 /// \file intersections.h
-/// Exact triangle-triangle intersection tests on a mesh (CGAL's exact predicates, behind a
-/// CGAL-free interface: only checks_cgal.cpp compiles CGAL). The same definition as
-/// `check_mesh`'s self-intersection count: two triangles intersect when they meet other than
-/// in their shared vertex or shared edge.
+/// CGAL's geometry for the fold repair, behind a CGAL-free interface (only checks_cgal.cpp
+/// compiles CGAL): exact triangle-triangle intersection tests on a mesh, with the same
+/// definition as `check_mesh`'s self-intersection count (two triangles intersect when they
+/// meet other than in their shared vertex or shared edge), and the triangulation of a closed
+/// polyline (hole filling).
 
 #include <array>
 #include <cstdint>
@@ -36,5 +37,14 @@ class TriangleIntersections {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Triangulates the closed polyline `loop` (at least 3 points, the first not repeated at the
+/// end) with CGAL's hole filling (Liepa's search, minimising the largest dihedral angle, then
+/// the area). `outside[i]`, when given (one per edge), is the third vertex of the triangle
+/// outside the hole on the edge (loop[i], loop[i + 1]); the dihedral angles there count too.
+/// Triangles are index triples into `loop`, in no particular orientation; empty when CGAL
+/// finds no triangulation.
+std::vector<std::array<std::uint32_t, 3>> triangulate_polyline(const std::vector<glm::dvec3>& loop,
+                                                               const std::vector<glm::dvec3>& outside = {});
 
 }  // namespace sm

@@ -577,14 +577,15 @@ void Builder::repair_folds() {
   }
   const FoldRepairStats r =
       sm::repair_folds(mesh_, suspect, max_move, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)),
-                       p_.fold_repair_collapses);
+                       p_.fold_repair_collapses, p_.fold_repair_refills);
   stats_.fold_pairs = r.found;
   stats_.fold_flips = r.flips;
   stats_.fold_moves = r.moves;
   stats_.fold_collapses = r.collapses;
-  if (r.collapses == 0) return;
-  // A collapse leaves its two triangles degenerate (u, u, u): drop them (their vertex goes
-  // with the unused ones).
+  stats_.fold_refills = r.refills;
+  if (r.collapses == 0 && r.refills == 0) return;
+  // Collapses and refills leave the triangles they removed degenerate (u, u, u): drop them
+  // (the vertices they removed go with the unused ones).
   std::size_t kept = 0;
   for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
     const auto& t = mesh_.triangles[f];
@@ -841,7 +842,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("stitching", clock.lap());
   repair_folds();
   stats_.timings.add("fold_repair", clock.lap());
-  if (stats_.merged_junctions > 0 || stats_.fold_collapses > 0) drop_unused_vertices();
+  if (stats_.merged_junctions > 0 || stats_.fold_collapses > 0 || stats_.fold_refills > 0) drop_unused_vertices();
   for (const Tube& t : c_.tubes) {
     stats_.strips += t.loops.empty() ? 0 : t.loops.size() - 1;
     if (t.end_junction != UINT32_MAX) {

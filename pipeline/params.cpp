@@ -81,6 +81,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_rounds", p.fold_repair_rounds);
   v("fold_repair_max_move", p.fold_repair_max_move);
   v("fold_repair_collapses", p.fold_repair_collapses);
+  v("fold_repair_refills", p.fold_repair_refills);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

@@ -139,7 +139,8 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                 {{"pairs_found", r.mesh.stats.fold_pairs},
                  {"flips", r.mesh.stats.fold_flips},
                  {"moved_vertices", r.mesh.stats.fold_moves},
-                 {"collapsed_edges", r.mesh.stats.fold_collapses}}},
+                 {"collapsed_edges", r.mesh.stats.fold_collapses},
+                 {"refilled_disks", r.mesh.stats.fold_refills}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";

@@ -222,6 +222,7 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   PipelineParams flips_only, with_moves;
   flips_only.meshing.fold_repair_max_move = 0;
   flips_only.meshing.fold_repair_collapses = with_moves.meshing.fold_repair_collapses = false;
+  flips_only.meshing.fold_repair_refills = with_moves.meshing.fold_repair_refills = false;
   PipelineResult a, b;
   const MeshCheckReport flipped = run_and_check(raw, &a, flips_only);
   const MeshCheckReport moved = run_and_check(raw, &b, with_moves);
@@ -246,11 +247,12 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
                                [](const auto& f) { return f.filename() == "mtg_boutdenoylum2.json"; });
   if (it == files.end()) GTEST_SKIP() << "../shared/skeletons not found";
   const RawSkeleton raw = read_skeleton(*it);
-  PipelineParams no_collapses;
+  PipelineParams no_collapses, collapses_only;
   no_collapses.meshing.fold_repair_collapses = false;
+  no_collapses.meshing.fold_repair_refills = collapses_only.meshing.fold_repair_refills = false;
   PipelineResult a, b;
   const MeshCheckReport before = run_and_check(raw, &a, no_collapses);
-  const MeshCheckReport after = run_and_check(raw, &b);
+  const MeshCheckReport after = run_and_check(raw, &b, collapses_only);
   const std::size_t collapses = b.mesh.stats.fold_collapses;
   EXPECT_EQ(a.mesh.stats.fold_collapses, 0u);
   EXPECT_GT(collapses, 0u);
@@ -260,6 +262,30 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   expect_sound(after);
   EXPECT_EQ(b.mesh.mesh.positions.size() + collapses, a.mesh.mesh.positions.size());
   EXPECT_EQ(b.mesh.mesh.triangles.size() + 2 * collapses, a.mesh.mesh.triangles.size());
+  EXPECT_EQ(b.mesh.mesh.triangle_branch.size(), b.mesh.mesh.triangles.size());
+}
+
+TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
+  // qsm_simpleforest_rtwig: of the 26 pairs flips, moves and collapses leave (measured), most
+  // sit in a few folded disks at stacked junctions; triangulating each disk's boundary afresh
+  // leaves 5, with the surface a closed genus-0 2-manifold, as faithful.
+  const auto files = test::sample_skeletons();
+  const auto it = std::find_if(files.begin(), files.end(),
+                               [](const auto& f) { return f.filename() == "qsm_simpleforest_rtwig.json"; });
+  if (it == files.end()) GTEST_SKIP() << "../shared/skeletons not found";
+  const RawSkeleton raw = read_skeleton(*it);
+  PipelineParams no_refills;
+  no_refills.meshing.fold_repair_refills = false;
+  PipelineResult a, b;
+  const MeshCheckReport before = run_and_check(raw, &a, no_refills);
+  const MeshCheckReport after = run_and_check(raw, &b);
+  EXPECT_EQ(a.mesh.stats.fold_refills, 0u);
+  EXPECT_GT(b.mesh.stats.fold_refills, 0u);
+  EXPECT_LT(after.self_intersecting_pairs, before.self_intersecting_pairs / 2);
+  EXPECT_LE(after.fidelity_p95, before.fidelity_p95 + 0.005);
+  EXPECT_GE(after.thick_nodes_inside, before.thick_nodes_inside);
+  expect_sound(after);
+  EXPECT_LT(b.mesh.mesh.triangles.size(), a.mesh.mesh.triangles.size());
   EXPECT_EQ(b.mesh.mesh.triangle_branch.size(), b.mesh.mesh.triangles.size());
 }
 
@@ -330,12 +356,12 @@ TEST(Pipeline, Samples) {
   // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
   // with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {100, 0.14, 10}},
+      {"mtg_agraf.json", {60, 0.14, 10}},
       {"mtg_boutdenoylum2.json", {12, 0.20, 10}},
-      {"qsm_simpleforest_rtwig.json", {45, 0.07, 3}},
+      {"qsm_simpleforest_rtwig.json", {15, 0.07, 3}},
       {"sapling_callistemon.json", {0, 0.075, 1}},
       {"sapling_quaking_aspen.json", {0, 0.08, 1}},
-      {"sapling_small_pine.json", {120, 0.105, 5}}};
+      {"sapling_small_pine.json", {100, 0.105, 5}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
