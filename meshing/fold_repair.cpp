@@ -12,8 +12,9 @@
 // become one vertex at u, at w or midway, and the edge's two triangles go) is judged the same
 // way too: it needs the link condition (u and w share exactly the two neighbours across the
 // edge), so the mesh stays closed and manifold with the same Euler characteristic. The last
-// resort, a refill, replaces a disk of triangles around the pair (within 1, 2 or 3 rings of
-// it, or of either triangle: two sheets through each other often have one folded) by CGAL's
+// resort, a refill, replaces a disk of triangles around the pair (the star of one of its
+// vertices, whose inner vertex goes; else the triangles within 1, 2 or 3 rings of the pair or
+// of either triangle: two sheets through each other often have one folded) by CGAL's
 // hole-filling triangulation of its boundary loop, oriented like the disk; a disk for a disk
 // keeps the Euler characteristic, and a new inner edge that is an edge elsewhere already is
 // refused. It too must lower the crossings, of the disk with itself and the two rings around it.
@@ -79,6 +80,22 @@ class FoldRepair {
           ++stats.collapses;
         // Around the pair, then around either triangle (two sheets through each other: one
         // of them folded).
+        if (refill_ && crossing()) {
+          // The star of a vertex of the pair (a disk on a closed 2-manifold), then larger disks.
+          // (Stars first, measured: samples x seeds 1-3, 311 -> 252 pairs; the rings alone are
+          // often annuli around a thin tube or a fused hub.)
+          std::vector<std::uint32_t> corners;
+          for (const std::uint32_t f : {a, b}) {
+            for (const std::uint32_t v : mesh_.triangles[f]) corners.push_back(v);
+          }
+          for (const std::uint32_t v : corners) {
+            if (!crossing()) break;
+            const auto here = around(v);
+            std::vector<std::uint32_t> star(here.begin(), here.end());
+            std::sort(star.begin(), star.end());
+            if (movable(v) && refill(star)) ++stats.refills;
+          }
+        }
         for (int rings = 1; refill_ && rings <= kMaxRefillRings && crossing(); ++rings) {
           for (const std::vector<std::uint32_t>& seeds : {std::vector{a, b}, std::vector{a}, std::vector{b}}) {
             if (crossing() && refill(within_rings(seeds, rings))) ++stats.refills;

@@ -62,11 +62,13 @@ struct MeshParams {
   /// 2-manifold of the same genus. Self-intersecting pairs, samples x particle seeds 1-3:
   /// 936 without, 449 with (callistemon 19 -> 0); fidelity p95 unchanged or better.
   bool fold_repair_collapses = true;
-  /// Last resort of the fold repair: the triangles within 1, 2 or 3 rings of a pair still
-  /// crossing (or of either of its triangles), where they form a disk, are replaced by
-  /// CGAL's hole-filling triangulation of the disk's boundary loop (smallest largest dihedral
-  /// angle, then area) when that lowers the crossings around it; the disk's inner vertices go.
-  /// Pairs, samples x particle seeds 1-3: 449 without, 311 with (qsm 63 -> 22, agraf 141 -> 88).
+  /// Last resort of the fold repair: around a pair still crossing, the star of one of its
+  /// vertices, or else the triangles within 1, 2 or 3 rings of the pair (or of either of its
+  /// triangles) where they form a disk, is replaced by CGAL's hole-filling triangulation of
+  /// the disk's boundary loop (smallest largest dihedral angle, then area) when that lowers
+  /// the crossings around it; the disk's inner vertices go. Pairs, samples x particle seeds
+  /// 1-3: 449 without, 252 with (boutdenoylum2 10 -> 0, qsm 63 -> 17, agraf 141 -> 91,
+  /// small_pine 235 -> 144); grown `bush` preset 3 -> 0.
   bool fold_repair_refills = true;
 };
 

@@ -268,7 +268,7 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
 TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
   // qsm_simpleforest_rtwig: of the 26 pairs flips, moves and collapses leave (measured), most
   // sit in a few folded disks at stacked junctions; triangulating each disk's boundary afresh
-  // leaves 5, with the surface a closed genus-0 2-manifold, as faithful.
+  // leaves 4, with the surface a closed genus-0 2-manifold, as faithful.
   const auto files = test::sample_skeletons();
   const auto it = std::find_if(files.begin(), files.end(),
                                [](const auto& f) { return f.filename() == "qsm_simpleforest_rtwig.json"; });
@@ -356,12 +356,12 @@ TEST(Pipeline, Samples) {
   // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
   // with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {60, 0.14, 10}},
-      {"mtg_boutdenoylum2.json", {12, 0.20, 10}},
-      {"qsm_simpleforest_rtwig.json", {15, 0.07, 3}},
+      {"mtg_agraf.json", {55, 0.14, 10}},
+      {"mtg_boutdenoylum2.json", {0, 0.20, 10}},
+      {"qsm_simpleforest_rtwig.json", {10, 0.07, 3}},
       {"sapling_callistemon.json", {0, 0.075, 1}},
       {"sapling_quaking_aspen.json", {0, 0.08, 1}},
-      {"sapling_small_pine.json", {100, 0.105, 5}}};
+      {"sapling_small_pine.json", {75, 0.105, 5}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
