@@ -242,7 +242,10 @@ std::vector<std::array<std::uint32_t, 3>> triangulate_polyline(const std::vector
   for (const auto& p : loop) points.push_back(point(p));
   for (const auto& p : outside) third.push_back(point(p));
   std::vector<std::tuple<int, int, int>> triangles;
-  detail::PMP::triangulate_hole_polyline(points, third, std::back_inserter(triangles));
+  // Liepa's dynamic programme over all triangulations, not over the faces of a 3D Delaunay
+  // triangulation: the latter's result depended on the heap (the thread count), measured.
+  detail::PMP::triangulate_hole_polyline(points, third, std::back_inserter(triangles),
+                                         CGAL::parameters::use_delaunay_triangulation(false));
   // A complete triangulation of an n-gon has n - 2 triangles; CGAL leaves holes when it fails.
   if (triangles.size() != loop.size() - 2) return out;
   for (const auto& [i, j, k] : triangles) {

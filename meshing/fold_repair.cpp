@@ -43,6 +43,8 @@ namespace {
 constexpr int kMaxFlipsPerPair = 8;
 // A refill replaces the disk within 1, 2, ... this many rings of a pair.
 constexpr int kMaxRefillRings = 3;
+// Twice the area of a sliver, relative to its longest edge squared (about 0.0001 degrees).
+constexpr double kSliver = 1e-6;
 // Folds show as creases: the examined triangles are the suspect ones where the surface turns
 // by more than this across an edge, and those sharing a vertex with them. (Large grown tree:
 // 1.4 M suspect triangles; 27 k creased; examined with one ring 232 k, finding 1,483 of the
@@ -416,6 +418,9 @@ class FoldRepair {
     }
     std::vector<std::array<std::uint32_t, 3>> fill = triangulate_polyline(points, outside);
     if (fill.size() != n - 2) return false;
+    for (const auto& t : fill) {
+      if (sliver({loop[t[0]], loop[t[1]], loop[t[2]]})) return false;
+    }
     // Orient the fill like the patch: the boundary edges (loop[i], loop[i + 1]) keep their direction.
     std::vector<std::array<std::uint32_t, 2>> fill_directed;
     for (auto& t : fill) {
@@ -592,8 +597,7 @@ class FoldRepair {
       test_.set_position(u, target);
       bool ok = true;
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
-        const glm::dvec3 n = normal(mesh_.triangles[fan[i]]);
-        ok = glm::dot(n, facing[i]) > 0 && glm::length(n) > 0;
+        ok = glm::dot(normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
       }
       if (ok && crossings_around(fan, near, near_boxes, before) < before) {
         mesh_.triangles[f1] = mesh_.triangles[f2] = Mesh::Triangle{u, u, u};
@@ -631,6 +635,15 @@ class FoldRepair {
       if (w != u && w != v) return w;
     }
     return UINT32_MAX;
+  }
+
+  // A sliver or worse: area below kSliver x its longest edge squared (collapses and refills
+  // must not make one; the mesh checks count near-zero areas as degenerate).
+  [[nodiscard]] bool sliver(const Mesh::Triangle& t) const {
+    const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
+    auto squared = [](const glm::dvec3& v) { return glm::dot(v, v); };
+    const double longest = std::max({squared(q - p), squared(r - q), squared(p - r)});
+    return !(glm::length(glm::cross(q - p, r - p)) > kSliver * longest);
   }
 
   [[nodiscard]] glm::dvec3 normal(const Mesh::Triangle& t) const {

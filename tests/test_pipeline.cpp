@@ -189,16 +189,19 @@ TEST(Pipeline, OtherGrownTrees) {
 
 TEST(Pipeline, FoldRepairUntanglesJunctions) {
   // Grown tree seed 3 folds at a few junctions when stitched as is; the edge flips of the
-  // fold repair untangle them without moving a vertex: same vertices, same counts, still
-  // closed, manifold and genus 0, and fewer self-intersecting pairs (none, measured).
+  // fold repair untangle most of them without moving a vertex: same vertices, same counts,
+  // still closed, manifold and genus 0, and far fewer self-intersecting pairs (52 -> 6,
+  // measured; the whole repair, with moves, collapses and refills, leaves none).
   PipelineParams off, flips_only;
   off.meshing.fold_repair_rounds = 0;
   flips_only.meshing.fold_repair_max_move = 0;
+  flips_only.meshing.fold_repair_collapses = flips_only.meshing.fold_repair_refills = false;
   PipelineResult raw_result, repaired_result;
   const MeshCheckReport before = run_and_check(test::grown_tree(3), &raw_result, off);
   const MeshCheckReport after = run_and_check(test::grown_tree(3), &repaired_result, flips_only);
   EXPECT_GT(before.self_intersecting_pairs, 0u);
-  EXPECT_EQ(after.self_intersecting_pairs, 0u);
+  EXPECT_LE(after.self_intersecting_pairs, before.self_intersecting_pairs / 3);
+  EXPECT_EQ(run_and_check(test::grown_tree(3)).self_intersecting_pairs, 0u);
   EXPECT_GT(repaired_result.mesh.stats.fold_flips, 0u);
   EXPECT_EQ(repaired_result.mesh.stats.fold_moves, 0u);
   EXPECT_GT(repaired_result.mesh.stats.fold_pairs, 0u);
@@ -350,18 +353,47 @@ TEST(Pipeline, ForcedSplitsWaitUntilTheBranchesClearEachOther) {
   EXPECT_GE(forks, 2u);
 }
 
+TEST(Pipeline, ShortStubsReachTheirTips) {
+  // Pruned stubs 0.16-0.25 m long, nearly as thick as the trunk they leave (r 0.09 on r 0.1),
+  // so their cones overlap the trunk's to the tip and their bundles never separate. Each
+  // splits off at the last slice below its tip and gets its own cap, so its tip node lies
+  // inside the mesh. (Absorbed into the trunk's section instead, 5 of these 6 tips were
+  // left outside, measured.)
+  for (const double length : {0.16, 0.2, 0.25}) {
+    for (const double degrees : {60.0, 80.0}) {
+      SCOPED_TRACE(testing::Message() << "stub " << length << " m at " << degrees << " degrees");
+      RawSkeleton raw;
+      raw.source = "short_thick_stub";
+      const double a = degrees * std::numbers::pi / 180.0;
+      raw.add(0, -1, dvec3(0, 0, 0), 0.1);
+      raw.add(1, 0, dvec3(0, 0, 0.5), 0.1);
+      raw.add(2, 1, dvec3(0, 0, 1.0), 0.09);
+      raw.add(3, 2, dvec3(0, 0, 1.5), 0.08);
+      raw.add(4, 3, dvec3(0, 0, 2.0), 0.05);
+      raw.add(5, 1, dvec3(0, 0, 0.5) + length * dvec3(std::sin(a), 0, std::cos(a)), 0.09);
+      PipelineResult r;
+      const MeshCheckReport rep = run_and_check(raw, &r);
+      expect_sound(rep);
+      EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+      EXPECT_GE(rep.thick_nodes, 4u);
+      EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+      EXPECT_GE(r.contours.stats.forced_splits, 1u);
+    }
+  }
+}
+
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
   // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
   // with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {55, 0.14, 10}},
-      {"mtg_boutdenoylum2.json", {0, 0.20, 10}},
+      {"mtg_agraf.json", {60, 0.14, 10}},
+      {"mtg_boutdenoylum2.json", {6, 0.20, 8}},
       {"qsm_simpleforest_rtwig.json", {10, 0.07, 3}},
       {"sapling_callistemon.json", {0, 0.075, 1}},
       {"sapling_quaking_aspen.json", {0, 0.08, 1}},
-      {"sapling_small_pine.json", {75, 0.105, 5}}};
+      {"sapling_small_pine.json", {60, 0.105, 5}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
@@ -381,8 +413,8 @@ TEST(Pipeline, GoldenStatistics) {
   run_and_check(test::grown_tree(1), &r);
   EXPECT_EQ(r.skeleton.skeleton.size(), 463u);
   EXPECT_NEAR(double(r.particles.strand_count()), 2766.0, 2766.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 25076.0, 25076.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 50152.0, 50152.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 25285.0, 25285.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 50566.0, 50566.0 * 0.02);
   EXPECT_EQ(r.mesh.mesh.triangle_count(), 2 * r.mesh.mesh.vertex_count() - 4);  // genus 0, all triangles
 }
 
