@@ -54,9 +54,15 @@ constexpr double kCreaseDegrees = 90.0;
 
 class FoldRepair {
  public:
-  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move, bool collapse,
-             bool refill)
-      : mesh_(mesh), suspect_(suspect), max_move_(max_move), collapse_(collapse), refill_(refill), test_(mesh) {}
+  FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
+             const FoldRepairOptions& options)
+      : mesh_(mesh),
+        suspect_(suspect),
+        max_move_(max_move),
+        collapse_(options.collapse),
+        refill_(options.refill),
+        keep_side_(options.keep_side),
+        test_(mesh) {}
 
   // Round 0 examines the creased suspect triangles and their neighbours (creased()); each
   // later round only the triangles within two rings of those the previous round flipped or
@@ -326,6 +332,47 @@ class FoldRepair {
   }
 
   [[nodiscard]] bool alive(std::uint32_t f) const { return dead_.empty() || !dead_[f]; }
+
+  // The keep_side points within `bounds`, with their winding numbers about `faces` (the
+  // solid angles the triangles span, over 4 pi; Van Oosterom and Strackee's formula).
+  // Replacing a patch by another with the same boundary carries the surface across a point
+  // exactly when the two numbers differ by one.
+  [[nodiscard]] std::vector<std::size_t> kept_within(const Box& bounds) const {
+    std::vector<std::size_t> out;
+    for (std::size_t i = 0; i < keep_side_.size(); ++i) {
+      const glm::dvec3& p = keep_side_[i];
+      if (glm::all(glm::lessThanEqual(bounds.first, p)) && glm::all(glm::lessThanEqual(p, bounds.second)))
+        out.push_back(i);
+    }
+    return out;
+  }
+  [[nodiscard]] std::vector<double> windings(const std::vector<std::size_t>& points,
+                                             const std::vector<std::uint32_t>& faces) const {
+    std::vector<double> w(points.size(), 0.0);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const glm::dvec3& p = keep_side_[points[i]];
+      for (const std::uint32_t f : faces) {
+        if (!alive(f)) continue;
+        const auto& t = mesh_.triangles[f];
+        const glm::dvec3 a = mesh_.positions[t[0]] - p, b = mesh_.positions[t[1]] - p, c = mesh_.positions[t[2]] - p;
+        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+        const double det = glm::dot(a, glm::cross(b, c));
+        const double div = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
+        w[i] += 2.0 * std::atan2(det, div);
+      }
+      w[i] /= 4.0 * std::numbers::pi;
+    }
+    return w;
+  }
+  // Whether some point changed sides between the windings `before` and now.
+  [[nodiscard]] bool crosses_kept(const std::vector<std::size_t>& points, const std::vector<double>& before,
+                                  const std::vector<std::uint32_t>& faces) const {
+    const std::vector<double> after = windings(points, faces);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (std::abs(after[i] - before[i]) > 0.5) return true;
+    }
+    return false;
+  }
   [[nodiscard]] bool movable(std::uint32_t v) const { return v < max_move_.size() && max_move_[v] > 0; }
 
   // Tries the edges of triangles a and b and of the triangles sharing a vertex with them, in
@@ -465,6 +512,13 @@ class FoldRepair {
     }
     const std::size_t before = crossings_around(patch, others, other_boxes);
     if (before == 0) return false;
+    Box bounds = box(patch.front());
+    for (const std::uint32_t f : patch) {
+      const Box b = box(f);
+      bounds = {glm::min(bounds.first, b.first), glm::max(bounds.second, b.second)};
+    }
+    const std::vector<std::size_t> kept = kept_within(bounds);
+    const std::vector<double> kept_before = windings(kept, patch);
     std::vector<Mesh::Triangle> saved(patch.size());
     for (std::size_t i = 0; i < patch.size(); ++i) saved[i] = mesh_.triangles[patch[i]];
     dead_.resize(mesh_.triangles.size(), 0);
@@ -476,7 +530,7 @@ class FoldRepair {
       }
     }
     const std::vector<std::uint32_t> filled(patch.begin(), patch.begin() + std::ptrdiff_t(fill.size()));
-    if (crossings_around(filled, others, other_boxes, before) >= before) {
+    if (crossings_around(filled, others, other_boxes, before) >= before || crosses_kept(kept, kept_before, filled)) {
       for (std::size_t i = 0; i < patch.size(); ++i) {
         mesh_.triangles[patch[i]] = saved[i];
         dead_[patch[i]] = 0;
@@ -580,6 +634,8 @@ class FoldRepair {
       }
     }
 
+    const std::vector<std::size_t> kept = kept_within(reach);
+    const std::vector<double> kept_before = windings(kept, faces);
     // Rewire: w -> u in the fan; f1 and f2 die.
     std::vector<Mesh::Triangle> saved(fan.size());
     for (std::size_t i = 0; i < fan.size(); ++i) {
@@ -599,7 +655,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
       }
-      if (ok && crossings_around(fan, near, near_boxes, before) < before) {
+      if (ok && crossings_around(fan, near, near_boxes, before) < before && !crosses_kept(kept, kept_before, fan)) {
         mesh_.triangles[f1] = mesh_.triangles[f2] = Mesh::Triangle{u, u, u};
         origin_.try_emplace(u, pu);  // later moves stay bounded from where stitching put u
         std::vector<std::uint32_t>& at_u = changed(u);
@@ -717,6 +773,7 @@ class FoldRepair {
   const std::vector<double>& max_move_;
   bool collapse_;
   bool refill_;
+  std::span<const glm::dvec3> keep_side_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;    // the triangles around the vertices moved in this round
   std::vector<std::uint32_t> flipped_;  // the triangles flipped in this round (two per flip)
@@ -730,9 +787,9 @@ class FoldRepair {
 }  // namespace
 
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             int max_rounds, bool collapse, bool refill) {
-  if (max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
-  return FoldRepair(mesh, suspect, max_move, collapse, refill).run(max_rounds);
+                             const FoldRepairOptions& options) {
+  if (options.max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
+  return FoldRepair(mesh, suspect, max_move, options).run(options.max_rounds);
 }
 
 }  // namespace sm

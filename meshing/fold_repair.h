@@ -17,7 +17,10 @@
 /// serially.
 
 #include <cstdint>
+#include <span>
 #include <vector>
+
+#include <glm/glm.hpp>
 
 #include "core/mesh.h"
 
@@ -32,22 +35,31 @@ struct FoldRepairStats {
   std::size_t rounds = 0;     ///< detection rounds run
 };
 
+struct FoldRepairOptions {
+  /// Detection rounds (after the first, only around the triangles the previous round changed).
+  int max_rounds = 4;
+  /// Where flips and moves do not help, collapse an edge of the pair or of a triangle sharing
+  /// a vertex with it (FoldRepair::try_collapse).
+  bool collapse = true;
+  /// Where nothing else helped, replace a disk of triangles around the pair by a
+  /// triangulation of its boundary (FoldRepair::refill).
+  bool refill = true;
+  /// Points that must stay on their side of the surface (the skeleton's nodes): a collapse
+  /// or refill that would carry the surface across one (its winding number changes) is
+  /// refused, so neither cuts off part of a branch.
+  std::span<const glm::dvec3> keep_side;
+};
+
 /// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of
-/// the edge, which keep their branch ids; a collapse leaves two triangles degenerate). `suspect[f]` marks the triangles that may fold
+/// the edge, which keep their branch ids). `suspect[f]` marks the triangles that may fold
 /// (#F); those with a crease and the triangles sharing a vertex with them are examined, and
-/// each flip is judged against every triangle within two rings of the pair. At most `max_rounds` detection rounds (after the first, only around the
-/// triangles the previous round flipped).
+/// each flip is judged against every triangle within two rings of the pair.
 /// Where no flip helps, a vertex of the pair may move towards the centroid of its neighbours
 /// by at most `max_move[v]` (#V; 0 keeps it in place) when that lowers the crossings the same
-/// way.
-///
-/// With `collapse`, where moves do not help either, an edge of the pair or of a triangle
-/// sharing a vertex with it may collapse (see FoldRepair::try_collapse). With `refill`, where
-/// nothing else helped, the disk of triangles around the pair may be replaced by a
-/// triangulation of its boundary (FoldRepair::refill). The triangles they remove are left
-/// degenerate, as (u, u, u), for the caller to drop, and the vertices they remove are no
-/// longer used.
+/// way; then collapses and refills (see FoldRepairOptions). The triangles these remove are
+/// left degenerate, as (u, u, u), for the caller to drop, and the vertices they remove are
+/// no longer used.
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             int max_rounds, bool collapse, bool refill);
+                             const FoldRepairOptions& options);
 
 }  // namespace sm

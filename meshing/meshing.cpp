@@ -575,9 +575,12 @@ void Builder::repair_folds() {
     const NodeId n = mesh_.vertex_node[v];
     if (n.valid()) max_move[v] = std::max(0.0, p_.fold_repair_max_move) * s_.radius[n.idx()];
   }
-  const FoldRepairStats r =
-      sm::repair_folds(mesh_, suspect, max_move, static_cast<int>(std::min(p_.fold_repair_rounds, 1000u)),
-                       p_.fold_repair_collapses, p_.fold_repair_refills);
+  FoldRepairOptions options;
+  options.max_rounds = static_cast<int>(std::min(p_.fold_repair_rounds, 1000u));
+  options.collapse = p_.fold_repair_collapses;
+  options.refill = p_.fold_repair_refills;
+  options.keep_side = s_.position;
+  const FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options);
   stats_.fold_pairs = r.found;
   stats_.fold_flips = r.flips;
   stats_.fold_moves = r.moves;

@@ -27,6 +27,7 @@ void visit_fields(SkeletonParams& p, V&& v) {
   v("merge_inner_branches", p.merge_inner_branches);
   v("collar_ratio", p.collar_ratio);
   v("collar_max_child_ratio", p.collar_max_child_ratio);
+  v("collar_min_stub", p.collar_min_stub);
   v("max_lateral_angle", p.max_lateral_angle);
   v("max_turn_back", p.max_turn_back);
   v("separate_branches", p.separate_branches);

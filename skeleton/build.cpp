@@ -585,7 +585,8 @@ bool drop_hidden_tips(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) 
 /// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
 /// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
 /// the fork) with about the child's radius (a quarter of the way to the fork's) keeps the
-/// flare inside the parent and the lateral thin.
+/// flare inside the parent and the lateral thin. Short stubs get one too, as long as they
+/// reach collar_min_stub of their own radii beyond it.
 void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep) {
   if (params.collar_ratio <= 0) return;
   const auto order = t.bfs();
@@ -595,7 +596,7 @@ void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep)
     const double rv = t.radius[v], rc = t.radius[c];
     const double len = glm::length(t.pos[c] - t.pos[v]);
     const double at = params.collar_ratio * rv;
-    if (rc >= params.collar_max_child_ratio * rv || len < at + 2.0 * rc) continue;
+    if (rc >= params.collar_max_child_ratio * rv || len < at + params.collar_min_stub * rc) continue;
     const dvec3 dir = (t.pos[c] - t.pos[v]) / len;
     t.insert_above(c, t.pos[v] + dir * at, rc + 0.25 * (rv - rc));
     ++rep.collars;  // a refinement, not a repair: counted, not warned about

@@ -169,6 +169,22 @@ TEST(Skeleton, CollarsAtThinLaterals) {
   EXPECT_EQ(build_skeleton(parse_skeleton_json(skeleton_to_json(s))).skeleton.size(), 8u);
 }
 
+TEST(Skeleton, ShortStubsGetCollarsToo) {
+  // A pruned stub 0.15 m long and 0.04 m thick on a trunk of radius 0.0875 (as on
+  // boutdenoylum2): a collar at the trunk's surface keeps its cone from flaring from the
+  // trunk's full radius. One only 0.1 m long (0.0125 m, less than 0.75 of its radius, beyond
+  // the collar's place) keeps its cone.
+  for (const auto& [length, collars] : {std::pair{0.15, 1u}, std::pair{0.1, 0u}}) {
+    RawSkeleton raw;
+    raw.add(0, -1, dvec3(0, 0, 0), 0.0875);
+    raw.add(1, 0, dvec3(0, 0, 0.5), 0.0875);
+    raw.add(2, 1, dvec3(0, 0, 1.0), 0.08);
+    raw.add(3, 1, dvec3(0, 0, 0.5) + length * dvec3(std::cos(0.3), 0, std::sin(0.3)), 0.04);
+    const auto r = build_skeleton(raw);
+    EXPECT_EQ(r.report.collars, collars) << length;
+  }
+}
+
 TEST(Skeleton, SteepLateralsGetAnUpturnedBase) {
   // A trunk with a horizontal lateral and a drooping one (90 and 115 degrees from the trunk):
   // each gets a base node where it has cleared the trunk, its first stretch at 60 degrees,
