@@ -346,15 +346,23 @@ class FoldRepair {
     }
     return out;
   }
-  [[nodiscard]] std::vector<double> windings(const std::vector<std::size_t>& points,
-                                             const std::vector<std::uint32_t>& faces) const {
+  // The triangles `faces` as they are now.
+  [[nodiscard]] std::vector<Mesh::Triangle> fan_triangles(const std::vector<std::uint32_t>& faces) const {
+    std::vector<Mesh::Triangle> out;
+    for (const std::uint32_t f : faces) out.push_back(mesh_.triangles[f]);
+    return out;
+  }
+
+  // Winding numbers of the keep_side `points` about the triangles `tris`, with vertex
+  // `moved` (if any) at `at` instead of where it is.
+  [[nodiscard]] std::vector<double> windings(const std::vector<std::size_t>& points, const std::vector<Mesh::Triangle>& tris,
+                                             std::uint32_t moved = UINT32_MAX, const glm::dvec3& at = {}) const {
+    auto position = [&](std::uint32_t v) { return v == moved ? at : mesh_.positions[v]; };
     std::vector<double> w(points.size(), 0.0);
     for (std::size_t i = 0; i < points.size(); ++i) {
       const glm::dvec3& p = keep_side_[points[i]];
-      for (const std::uint32_t f : faces) {
-        if (!alive(f)) continue;
-        const auto& t = mesh_.triangles[f];
-        const glm::dvec3 a = mesh_.positions[t[0]] - p, b = mesh_.positions[t[1]] - p, c = mesh_.positions[t[2]] - p;
+      for (const auto& t : tris) {
+        const glm::dvec3 a = position(t[0]) - p, b = position(t[1]) - p, c = position(t[2]) - p;
         const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
         const double det = glm::dot(a, glm::cross(b, c));
         const double div = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
@@ -364,12 +372,15 @@ class FoldRepair {
     }
     return w;
   }
-  // Whether some point changed sides between the windings `before` and now.
-  [[nodiscard]] bool crosses_kept(const std::vector<std::size_t>& points, const std::vector<double>& before,
-                                  const std::vector<std::uint32_t>& faces) const {
-    const std::vector<double> after = windings(points, faces);
+  // Whether replacing the triangles `before` (with vertex `moved` at `at`) by `after` (as the
+  // mesh is now) carries the surface across one of the keep_side `points`.
+  [[nodiscard]] bool crosses_kept(const std::vector<std::size_t>& points, const std::vector<Mesh::Triangle>& before,
+                                  const std::vector<Mesh::Triangle>& after, std::uint32_t moved = UINT32_MAX,
+                                  const glm::dvec3& at = {}) const {
+    if (points.empty()) return false;
+    const std::vector<double> w0 = windings(points, before, moved, at), w1 = windings(points, after);
     for (std::size_t i = 0; i < points.size(); ++i) {
-      if (std::abs(after[i] - before[i]) > 0.5) return true;
+      if (std::abs(w1[i] - w0[i]) > 0.5) return true;
     }
     return false;
   }
@@ -518,7 +529,6 @@ class FoldRepair {
       bounds = {glm::min(bounds.first, b.first), glm::max(bounds.second, b.second)};
     }
     const std::vector<std::size_t> kept = kept_within(bounds);
-    const std::vector<double> kept_before = windings(kept, patch);
     std::vector<Mesh::Triangle> saved(patch.size());
     for (std::size_t i = 0; i < patch.size(); ++i) saved[i] = mesh_.triangles[patch[i]];
     dead_.resize(mesh_.triangles.size(), 0);
@@ -530,7 +540,7 @@ class FoldRepair {
       }
     }
     const std::vector<std::uint32_t> filled(patch.begin(), patch.begin() + std::ptrdiff_t(fill.size()));
-    if (crossings_around(filled, others, other_boxes, before) >= before || crosses_kept(kept, kept_before, filled)) {
+    if (crossings_around(filled, others, other_boxes, before) >= before || crosses_kept(kept, saved, fill)) {
       for (std::size_t i = 0; i < patch.size(); ++i) {
         mesh_.triangles[patch[i]] = saved[i];
         dead_[patch[i]] = 0;
@@ -635,7 +645,7 @@ class FoldRepair {
     }
 
     const std::vector<std::size_t> kept = kept_within(reach);
-    const std::vector<double> kept_before = windings(kept, faces);
+    const std::vector<Mesh::Triangle> old_faces = fan_triangles(faces);
     // Rewire: w -> u in the fan; f1 and f2 die.
     std::vector<Mesh::Triangle> saved(fan.size());
     for (std::size_t i = 0; i < fan.size(); ++i) {
@@ -655,7 +665,8 @@ class FoldRepair {
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
       }
-      if (ok && crossings_around(fan, near, near_boxes, before) < before && !crosses_kept(kept, kept_before, fan)) {
+      if (ok && crossings_around(fan, near, near_boxes, before) < before &&
+          !crosses_kept(kept, old_faces, fan_triangles(fan), u, pu)) {
         mesh_.triangles[f1] = mesh_.triangles[f2] = Mesh::Triangle{u, u, u};
         origin_.try_emplace(u, pu);  // later moves stay bounded from where stitching put u
         std::vector<std::uint32_t>& at_u = changed(u);
