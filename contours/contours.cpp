@@ -508,19 +508,19 @@ class Walker {
   const ParticleField& f_;
   const StrandSet& st_;
   const ContourParams& p_;
-  double spacing_;                            // distance between neighbouring particles (metres)
-  const Tables& tables_;                      // per-node tables shared by all walks
+  double spacing_;        // distance between neighbouring particles (metres)
+  const Tables& tables_;  // per-node tables shared by all walks
   // Of the last split_gap_at: its arguments, the point gap, and the surfaces' clearance once asked.
   NodeId last_fork_;
   double last_fork_base_ = 0, last_u_ = 0, last_gap_ = 0;
   std::optional<double> last_clearance_;
-  ContourSet* out_ = nullptr;                 // the walk's Fragment::part
+  ContourSet* out_ = nullptr;  // the walk's Fragment::part
   mutable std::vector<std::pair<NodeId, double>> stack_;
   // scratch
   SlicePoints pts_, pts_a_, pts_b_, pts_l_, pts_rest_;
   std::vector<CutEdge> cut_, cut_a_, cut_b_, cut_n_;
-  std::vector<NodeId> excluded_;   // of the task
-  double anchor_distance_ = 0;     // of the task's anchor, from the root
+  std::vector<NodeId> excluded_;  // of the task
+  double anchor_distance_ = 0;    // of the task's anchor, from the root
   std::vector<dvec2> flat_;
 };
 
@@ -596,8 +596,7 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   flat_.resize(pts.point.size());
   for (std::size_t i = 0; i < pts.point.size(); ++i) flat_[i] = g.frame.to_local(pts.point[i] - g.center);
   bool fallback = false;
-  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback,
-                                                 p_.fallback_max_edge);
+  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback, p_.fallback_max_edge);
   if (fallback) {
     ++out_->stats.boundary_fallbacks;
     out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; concave outline used",
@@ -985,8 +984,8 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       // would flatten it into a flap. (boutdenoylum2, particle seeds 1-3: thick nodes inside
       // 135 / 133 / 135 -> 138 / 136 / 138 of 144; fidelity p95 0.186 / 0.186 / 0.189 ->
       // 0.189 / 0.179 / 0.186; self-intersecting pairs on the samples x seeds 1-3 272 -> 277.)
-      const bool forced = !separated && ((d >= shorter_end && g_ab > 0.5 * spacing_ && surfaces_clear()) ||
-                                         d + step >= stub_end);
+      const bool forced =
+          !separated && ((d >= shorter_end && g_ab > 0.5 * spacing_ && surfaces_clear()) || d + step >= stub_end);
       const double min_sep = 0.25 * step;
       if (separated || forced) {
         double split = d;
@@ -997,9 +996,10 @@ void Walker::walk(const Task& task, Fragment& fragment) {
           });
         } else {
           ++out_->stats.forced_splits;
-          out_->stats.warnings.add("forced_split",
-                                   "bundles still touching where the shorter child edge ends, or just below a stub's tip; split there",
-                                   s_.describe(fork));
+          out_->stats.warnings.add(
+              "forced_split",
+              "bundles still touching where the shorter child edge ends, or just below a stub's tip; split there",
+              s_.describe(fork));
         }
         split = std::min(d, std::max(split, last + min_sep));
         // The junction: the tube's last loop below; each child's tube starts with its own
@@ -1018,9 +1018,8 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       const NodeId lateral = nested_split(fork, d, nested_base);
       if (lateral.valid()) {
         const NodeId y = s_.parent[lateral.idx()];
-        const double apart = bisect(std::max(last, nested_base), d, [&](double u) {
-          return nested_apart(fork, fork_base, lateral, nested_base, u);
-        });
+        const double apart = bisect(std::max(last, nested_base), d,
+                                    [&](double u) { return nested_apart(fork, fork_base, lateral, nested_base, u); });
         const double split = std::min(d, std::max(apart, last + min_sep));
         Junction& j = open_junction(fragment, y, tube, split - nested_base);
         j.forced = false;
@@ -1030,7 +1029,8 @@ void Walker::walk(const Task& task, Fragment& fragment) {
         Task rest{fork, s_.children[fork.idx()][0], abs_split - tables_.root_distance[fork.idx()], true, excluded_};
         rest.excluded.push_back(lateral);
         fragment.next[0] = std::move(rest);
-        fragment.next[1] = Task{y, lateral, abs_split - tables_.root_distance[y.idx()], false, excluded_within(lateral)};
+        fragment.next[1] =
+            Task{y, lateral, abs_split - tables_.root_distance[y.idx()], false, excluded_within(lateral)};
         ++out_->stats.nested_splits;
         return;
       }

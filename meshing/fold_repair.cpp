@@ -23,12 +23,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <iterator>
 #include <map>
-#include <span>
-#include <cmath>
 #include <numbers>
+#include <span>
 #include <utility>
 
 #include <glm/glm.hpp>
@@ -81,7 +81,8 @@ class FoldRepair {
         // Flip while that lowers the crossings around the pair, even once a and b are
         // apart: their neighbours often cross too.
         if (!alive(a) || !alive(b) || !test_.intersect(a, b)) continue;  // untangled by an earlier change
-        for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {}
+        for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {
+        }
         auto crossing = [&] { return alive(a) && alive(b) && test_.intersect(a, b); };
         for (int k = 0; k < kMaxFlipsPerPair && crossing() && move_one_vertex_of(a, b); ++k) ++stats.moves;
         for (int k = 0; collapse_ && k < kMaxFlipsPerPair && crossing() && collapse_one_edge_of(a, b); ++k)
@@ -250,7 +251,7 @@ class FoldRepair {
         const std::uint32_t g = others[k];
         if (g == f || !alive(g)) continue;
         const bool mine = std::binary_search(faces.begin(), faces.end(), g);
-        if (mine && g < f) continue;  // counted from g
+        if (mine && g < f) continue;                                 // counted from g
         if (!overlap(bf, mine ? box(g) : other_boxes[k])) continue;  // a fan triangle's box moved with v
         if (test_.intersect(f, g)) ++n;
       }
@@ -355,8 +356,9 @@ class FoldRepair {
 
   // Winding numbers of the keep_side `points` about the triangles `tris`, with vertex
   // `moved` (if any) at `at` instead of where it is.
-  [[nodiscard]] std::vector<double> windings(const std::vector<std::size_t>& points, const std::vector<Mesh::Triangle>& tris,
-                                             std::uint32_t moved = UINT32_MAX, const glm::dvec3& at = {}) const {
+  [[nodiscard]] std::vector<double> windings(const std::vector<std::size_t>& points,
+                                             const std::vector<Mesh::Triangle>& tris, std::uint32_t moved = UINT32_MAX,
+                                             const glm::dvec3& at = {}) const {
     auto position = [&](std::uint32_t v) { return v == moved ? at : mesh_.positions[v]; };
     std::vector<double> w(points.size(), 0.0);
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -606,15 +608,16 @@ class FoldRepair {
     faces.push_back(f1);
     faces.push_back(f2);
     std::sort(faces.begin(), faces.end());
-    const std::size_t before = static_cast<std::size_t>(std::count_if(crossing.begin(), crossing.end(), [&](const auto& pq) {
-      return std::binary_search(faces.begin(), faces.end(), pq[0]) || std::binary_search(faces.begin(), faces.end(), pq[1]);
-    }));
+    const std::size_t before =
+        static_cast<std::size_t>(std::count_if(crossing.begin(), crossing.end(), [&](const auto& pq) {
+          return std::binary_search(faces.begin(), faces.end(), pq[0]) ||
+                 std::binary_search(faces.begin(), faces.end(), pq[1]);
+        }));
     if (before == 0) return false;
     // Only edges whose own triangles cross something: collapsing removes them. (Trying every
     // edge around the pair found a few more repairs at many times the cost.)
-    if (std::none_of(crossing.begin(), crossing.end(), [&](const auto& pq) {
-          return pq[0] == f1 || pq[1] == f1 || pq[0] == f2 || pq[1] == f2;
-        }))
+    if (std::none_of(crossing.begin(), crossing.end(),
+                     [&](const auto& pq) { return pq[0] == f1 || pq[1] == f1 || pq[0] == f2 || pq[1] == f2; }))
       return false;
     {
       const std::vector<std::uint32_t> nu = neighbours(u), nw = neighbours(w);
@@ -786,8 +789,8 @@ class FoldRepair {
   bool refill_;
   std::span<const glm::dvec3> keep_side_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
-  std::vector<std::uint32_t> moved_;    // the triangles around the vertices moved in this round
-  std::vector<std::uint32_t> flipped_;  // the triangles flipped in this round (two per flip)
+  std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round
+  std::vector<std::uint32_t> flipped_;          // the triangles flipped in this round (two per flip)
   TriangleIntersections test_;
   std::vector<std::size_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;

@@ -75,15 +75,15 @@ struct MeshParams {
 struct MeshStats {
   std::size_t vertices = 0;
   std::size_t triangles = 0;
-  std::size_t strips = 0;          ///< loop-to-loop strips
-  std::size_t junctions = 0;       ///< branch fusions (junctions of the contours, merged ones included)
+  std::size_t strips = 0;            ///< loop-to-loop strips
+  std::size_t junctions = 0;         ///< branch fusions (junctions of the contours, merged ones included)
   std::size_t merged_junctions = 0;  ///< junctions meshed as part of the junction below them
   std::size_t tip_caps = 0;
-  std::size_t fold_pairs = 0;            ///< self-intersecting pairs the fold repair found near junctions and caps
-  std::size_t fold_flips = 0;            ///< edge flips it made
-  std::size_t fold_moves = 0;            ///< vertices it moved
-  std::size_t fold_collapses = 0;        ///< edges it collapsed
-  std::size_t fold_refills = 0;          ///< disks it replaced by a triangulation of their boundary
+  std::size_t fold_pairs = 0;      ///< self-intersecting pairs the fold repair found near junctions and caps
+  std::size_t fold_flips = 0;      ///< edge flips it made
+  std::size_t fold_moves = 0;      ///< vertices it moved
+  std::size_t fold_collapses = 0;  ///< edges it collapsed
+  std::size_t fold_refills = 0;    ///< disks it replaced by a triangulation of their boundary
   std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
   Warnings warnings;
   Timings timings;

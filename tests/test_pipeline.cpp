@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <tuple>
 
 #include <tbb/global_control.h>
@@ -36,6 +37,14 @@ MeshCheckReport run_and_check(const RawSkeleton& raw, PipelineResult* out = null
   MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
   if (out) *out = std::move(r);
   return rep;
+}
+
+/// The sample skeleton file with this name, if ../shared/skeletons is there.
+std::optional<std::filesystem::path> sample_named(const std::string& name) {
+  for (const auto& f : test::sample_skeletons()) {
+    if (f.filename() == name) return f;
+  }
+  return std::nullopt;
 }
 
 /// Closed, manifold, oriented, one component, genus 0, positive volume, no degenerate faces.
@@ -145,7 +154,7 @@ TEST(Pipeline, RandomWhorlTreesAreSound) {
     nested += r.contours.stats.nested_splits;
     merged += r.mesh.stats.merged_junctions;
   }
-  EXPECT_GT(nested, 60u);  // the nested splits were exercised
+  EXPECT_GT(nested, 60u);   // the nested splits were exercised
   EXPECT_GT(merged, 100u);  // and the merged junctions
 }
 
@@ -217,11 +226,9 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   // A sample whose folds flips alone leave (boutdenoylum2: 116 pairs): bounded vertex moves
   // untangle more of them (49, measured), with every move within the limit and the surface
   // still sound and as faithful.
-  const auto files = test::sample_skeletons();
-  const auto it = std::find_if(files.begin(), files.end(),
-                               [](const auto& f) { return f.filename() == "mtg_boutdenoylum2.json"; });
-  if (it == files.end()) GTEST_SKIP() << "../shared/skeletons not found";
-  const RawSkeleton raw = read_skeleton(*it);
+  const auto file = sample_named("mtg_boutdenoylum2.json");
+  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  const RawSkeleton raw = read_skeleton(*file);
   PipelineParams flips_only, with_moves;
   flips_only.meshing.fold_repair_max_move = 0;
   flips_only.meshing.fold_repair_collapses = with_moves.meshing.fold_repair_collapses = false;
@@ -245,11 +252,9 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   // The pairs flips and moves leave (boutdenoylum2: 15, measured) mostly go with edge
   // collapses (4): each removes one vertex and two triangles, and the surface stays a closed
   // genus-0 2-manifold, as faithful.
-  const auto files = test::sample_skeletons();
-  const auto it = std::find_if(files.begin(), files.end(),
-                               [](const auto& f) { return f.filename() == "mtg_boutdenoylum2.json"; });
-  if (it == files.end()) GTEST_SKIP() << "../shared/skeletons not found";
-  const RawSkeleton raw = read_skeleton(*it);
+  const auto file = sample_named("mtg_boutdenoylum2.json");
+  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_collapses, collapses_only;
   no_collapses.meshing.fold_repair_collapses = false;
   no_collapses.meshing.fold_repair_refills = collapses_only.meshing.fold_repair_refills = false;
@@ -274,11 +279,9 @@ TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
   // 21, with the surface a closed genus-0 2-manifold, as faithful. No refill carries the
   // surface across a skeleton node; one collar node on the trunk's surface at a stub's
   // crotch (node 277) still ends up just outside (147 -> 146 thick nodes inside, measured).
-  const auto files = test::sample_skeletons();
-  const auto it = std::find_if(files.begin(), files.end(),
-                               [](const auto& f) { return f.filename() == "mtg_boutdenoylum2.json"; });
-  if (it == files.end()) GTEST_SKIP() << "../shared/skeletons not found";
-  const RawSkeleton raw = read_skeleton(*it);
+  const auto file = sample_named("mtg_boutdenoylum2.json");
+  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_refills;
   no_refills.meshing.fold_repair_refills = false;
   PipelineResult a, b;
