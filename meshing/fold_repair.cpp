@@ -23,12 +23,14 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <iterator>
 #include <map>
 #include <numbers>
 #include <span>
+#include <unordered_set>
 #include <utility>
 
 #include <glm/glm.hpp>
@@ -476,6 +478,29 @@ class FoldRepair {
       if (across_uv == UINT32_MAX) return false;
       outside[i] = mesh_.positions[third(mesh_.triangles[across_uv], u, v)];
     }
+    // The patch's surroundings: its crossings with them are counted before and after.
+    std::vector<std::uint32_t> around_patch = within_rings(patch, 2), others;
+    std::vector<Box> other_boxes;
+    for (const std::uint32_t g : around_patch) {
+      if (!alive(g)) continue;
+      others.push_back(g);
+      other_boxes.push_back(box(g));
+    }
+    // A patch refused before, with everything around it as it was then, is refused again
+    // without the search (O(n^3) in its boundary): later rounds meet the same pairs.
+    std::uint64_t key = 1469598103934665603ull;  // FNV-1a over triangles, corners and positions
+    auto mix = [&](std::uint64_t x) { key = (key ^ x) * 1099511628211ull; };
+    for (const std::vector<std::uint32_t>* list : std::array<const std::vector<std::uint32_t>*, 2>{&patch, &others}) {
+      for (const std::uint32_t f : *list) {
+        mix(f);
+        for (const std::uint32_t v : mesh_.triangles[f]) {
+          mix(v);
+          for (int k = 0; k < 3; ++k) mix(std::bit_cast<std::uint64_t>(mesh_.positions[v][k]));
+        }
+      }
+    }
+    if (refused_.count(key)) return false;
+    refused_.insert(key);  // erased again below if the refill is made
     std::vector<std::array<std::uint32_t, 3>> fill = triangulate_polyline(points, outside);
     if (fill.size() != n - 2) return false;
     for (const auto& t : fill) {
@@ -515,14 +540,6 @@ class FoldRepair {
       if (!std::binary_search(fill_directed.begin(), fill_directed.end(), e)) return false;
     }
 
-    // Crossings of the patch with itself and its surroundings, before and after.
-    std::vector<std::uint32_t> around_patch = within_rings(patch, 2), others;
-    std::vector<Box> other_boxes;
-    for (const std::uint32_t g : around_patch) {
-      if (!alive(g)) continue;
-      others.push_back(g);
-      other_boxes.push_back(box(g));
-    }
     const std::size_t before = crossings_around(patch, others, other_boxes);
     if (before == 0) return false;
     Box bounds = box(patch.front());
@@ -562,6 +579,7 @@ class FoldRepair {
       }
     }
     moved_.insert(moved_.end(), filled.begin(), filled.end());
+    refused_.erase(key);
     return true;
   }
 
@@ -795,6 +813,7 @@ class FoldRepair {
   std::vector<std::size_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;
   std::map<std::uint32_t, std::vector<std::uint32_t>> changed_;  // vertices whose triangles a flip changed
+  std::unordered_set<std::uint64_t> refused_;  // patches (with surroundings) a refill was refused for
   std::vector<std::uint8_t> dead_;  // #F once an edge was collapsed: the triangles it removed
 };
 
