@@ -2,9 +2,11 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #if defined(__linux__) && defined(__GLIBC__)
+#include <malloc.h>
 #include <unistd.h>
 #endif
 
@@ -44,6 +46,14 @@ void reexec_with_huge_pages(char** argv) {
   unsetenv(kDone);
 #else
   (void)argv;
+#endif
+}
+
+void keep_freed_memory() {
+#if defined(__linux__) && defined(__GLIBC__)
+  if (const char* opt = std::getenv("STRANDMESH_HUGE_PAGES"); opt != nullptr && std::string(opt) == "0") return;
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());  // mallopt takes an int: 2 GiB
 #endif
 }
 

@@ -15,6 +15,7 @@
 
 int main(int argc, char** argv) {
   sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
+  sm::keep_freed_memory();
   using namespace sm::cli;
   CLI::App app{"strandmesh: watertight strand-based tree meshes (Interactive Invigoration method)", "strandmesh"};
   app.require_subcommand(1);

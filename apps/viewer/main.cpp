@@ -24,6 +24,7 @@ enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kNoDisp
 
 int main(int argc, char** argv) {
   sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
+  sm::keep_freed_memory();
   using namespace sm::viewer;
   CLI::App cli{"strandmesh-view: see what each stage of strandmesh did, layer by layer", "strandmesh-view"};
   cli.set_version_flag("--version", std::string("strandmesh-view ") + STRANDMESH_VERSION);
