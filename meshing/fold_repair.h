@@ -37,7 +37,7 @@ struct FoldRepairStats {
 
 struct FoldRepairOptions {
   /// Detection rounds (after the first, only around the triangles the previous round changed).
-  int max_rounds = 4;
+  int max_rounds = 8;
   /// Where flips and moves do not help, collapse an edge of the pair or of a triangle sharing
   /// a vertex with it (FoldRepair::try_collapse).
   bool collapse = true;
