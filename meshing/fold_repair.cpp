@@ -813,7 +813,7 @@ class FoldRepair {
   std::vector<std::size_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;
   std::map<std::uint32_t, std::vector<std::uint32_t>> changed_;  // vertices whose triangles a flip changed
-  std::unordered_set<std::uint64_t> refused_;  // patches (with surroundings) a refill was refused for
+  std::unordered_set<std::uint64_t> refused_;                    // patches (with surroundings) a refill was refused for
   std::vector<std::uint8_t> dead_;  // #F once an edge was collapsed: the triangles it removed
 };
 

@@ -81,6 +81,13 @@ struct SkeletonParams {
   /// tube of the branch's radius can turn like that, and its strands would fold the surface.
   /// A repair (warning "hairpin"), part of the refinements; 0 (or 180) keeps them.
   double max_turn_back = 120.0;
+  /// Tight bends: where a branch turns by t at a node with one child, its cross-sections
+  /// need r tan(t/2) of straight edge on either side not to cross on the inner side of the
+  /// bend (r the node's radius). A node needing more than this fraction of its shorter edge
+  /// is removed, its child joined straight to its parent (warning "tight_bend"): zigzag
+  /// twigs with edges of one or two radii and turns of 70-130 degrees, where the surface
+  /// folded. A repair, part of the refinements; 0 keeps every node.
+  double tight_bend_ratio = 0.5;
   /// Swing apart branches whose round cones intersect away from their common fork (no mesh
   /// can be free of self-intersections and genus 0 otherwise).
   bool separate_branches = true;
@@ -101,6 +108,7 @@ struct SkeletonReport {
   std::size_t merged_inner = 0;           ///< nodes of branches running inside a sibling, merged into it
   std::size_t hairpins = 0;               ///< children turning back > 120 degrees, re-attached below their node
   std::size_t hidden_tips = 0;            ///< tips wholly inside their parent's branch, removed
+  std::size_t tight_bends = 0;            ///< nodes of too tight bends removed (tight_bend_ratio)
   std::size_t collars = 0;                ///< collar nodes inserted at thin laterals (not a repair)
   std::size_t raised_laterals = 0;        ///< steep laterals given a raised base node (not a repair)
   std::size_t branch_collisions = 0;      ///< pairs of branches that ran into each other

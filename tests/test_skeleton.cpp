@@ -196,8 +196,8 @@ TEST(Skeleton, SteepLateralsGetAnUpturnedBase) {
   raw.add(3, 1, dvec3(1, 0, 1), 0.03);  // horizontal
   raw.add(4, 2, dvec3(0, 0, 3), 0.08);
   raw.add(5, 2, dvec3(0, std::sin(115.0 * std::numbers::pi / 180), 2 + std::cos(115.0 * std::numbers::pi / 180)),
-          0.03);  // drooping
-  raw.add(6, 4, dvec3(0.3, 0, 3.5), 0.05);                     // 31 degrees: as it is
+          0.03);                            // drooping
+  raw.add(6, 4, dvec3(0.3, 0, 3.5), 0.05);  // 31 degrees: as it is
   raw.add(7, 4, dvec3(0, 0, 4), 0.06);
   const auto r = build_skeleton(raw, {.collar_ratio = 0});
   EXPECT_EQ(r.report.raised_laterals, 2u);
@@ -300,8 +300,8 @@ TEST(Skeleton, TipWhollyInsideItsParentIsRemoved) {
   raw.add(0, -1, dvec3(0), 0.1);
   raw.add(1, 0, dvec3(0, 0, 1), 0.09);
   raw.add(2, 1, dvec3(0, 0, 2), 0.08);
-  raw.add(3, 1, dvec3(0.02, 0, 1.03), 0.04);   // hidden knob
-  raw.add(4, 1, dvec3(0.3, 0, 1.1), 0.04);     // stub outside
+  raw.add(3, 1, dvec3(0.02, 0, 1.03), 0.04);  // hidden knob
+  raw.add(4, 1, dvec3(0.3, 0, 1.1), 0.04);    // stub outside
   const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
   const Skeleton& s = r.skeleton;
   expect_valid(s);
@@ -344,6 +344,45 @@ TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
   }
 }
 
+TEST(Skeleton, TightBendsAreStraightened) {
+  // A twig of radius 3 mm: up 50 mm, up 6 mm more, 6 mm sideways, then 50 mm at 30 degrees
+  // above the horizontal. At node 2 it turns by 90 degrees, which needs r tan(45) = 3 mm of
+  // straight edge on either side: half of its shorter edge (6 mm).
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.003);
+  raw.add(1, 0, dvec3(0, 0, 0.05), 0.003);
+  raw.add(2, 1, dvec3(0, 0, 0.056), 0.003);
+  raw.add(3, 2, dvec3(0.006, 0, 0.056), 0.003);
+  raw.add(4, 3, dvec3(0.006 + 0.05 * std::cos(std::numbers::pi / 6), 0, 0.056 + 0.05 * std::sin(std::numbers::pi / 6)),
+          0.003);
+  auto ids = [](const Skeleton& s) { return std::vector<std::int64_t>(s.source_id.begin(), s.source_id.end()); };
+  auto with = [&](double ratio) {
+    return build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .tight_bend_ratio = ratio});
+  };
+  // 0.6 allows 3.6 mm: kept.
+  const auto loose = with(0.6);
+  EXPECT_EQ(loose.report.tight_bends, 0u);
+  EXPECT_EQ(ids(loose.skeleton), (std::vector<std::int64_t>{0, 1, 2, 3, 4}));
+  // 0.4 allows 2.4 mm: node 2 is removed. Node 1 then turns by 45 degrees (1.2 mm of the
+  // 8.5 mm edge to node 3), node 3 by 15: both kept.
+  const auto r = with(0.4);
+  EXPECT_EQ(r.report.tight_bends, 1u);
+  EXPECT_EQ(r.report.warnings.count("tight_bend"), 1u);
+  EXPECT_EQ(ids(r.skeleton), (std::vector<std::int64_t>{0, 1, 3, 4}));
+  expect_valid(r.skeleton);
+  for (std::size_t i = 0; i < r.skeleton.size(); ++i) {
+    const auto k = std::size_t(std::find(raw.id.begin(), raw.id.end(), r.skeleton.source_id[i]) - raw.id.begin());
+    EXPECT_EQ(r.skeleton.position[i], raw.position[k]);  // nothing moved
+    EXPECT_EQ(r.skeleton.radius[i], raw.radius[k]);
+  }
+  // Each removal sharpens the neighbours' turns: at 0.01 nodes 2, 1 and 3 go in turn (never
+  // the root or the tip).
+  const auto strict = with(0.01);
+  EXPECT_EQ(strict.report.tight_bends, 3u);
+  EXPECT_EQ(ids(strict.skeleton), (std::vector<std::int64_t>{0, 4}));
+  EXPECT_EQ(with(0).report.tight_bends, 0u);  // off
+}
+
 TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
   // A pruned top with regrowth: the trunk runs up to node 2, and its only child turns back
   // down by 150 degrees (reaching 0.25 back down the 0.5 m edge) before going on sideways.
@@ -359,7 +398,9 @@ TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
   EXPECT_EQ(r.report.warnings.count("hairpin"), 1u);
   const Skeleton& s = r.skeleton;
   expect_valid(s);
-  auto node = [&](std::int64_t id) { return std::size_t(std::find(s.source_id.begin(), s.source_id.end(), id) - s.source_id.begin()); };
+  auto node = [&](std::int64_t id) {
+    return std::size_t(std::find(s.source_id.begin(), s.source_id.end(), id) - s.source_id.begin());
+  };
   EXPECT_TRUE(s.is_tip(NodeId(node(2))));  // the pruned top is a stub
   const NodeId base = s.parent[node(3)];
   EXPECT_EQ(s.source_id[base.idx()], -1);  // a new node on the trunk edge
@@ -367,8 +408,10 @@ TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
   EXPECT_NEAR(glm::length(dvec2(s.position[base.idx()])), 0.0, 1e-9);
   EXPECT_EQ(s.position[node(3)], raw.position[3]);  // nothing else moved
   EXPECT_EQ(s.position[node(4)], raw.position[4]);
-  // Turned off, the hairpin stays.
-  const auto kept = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .max_turn_back = 0});
+  // Turned off (with the tight-bend repair, which would remove the node it turns at), the
+  // hairpin stays.
+  const auto kept =
+      build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .max_turn_back = 0, .tight_bend_ratio = 0});
   EXPECT_EQ(kept.report.hairpins, 0u);
   const Skeleton& k = kept.skeleton;
   const auto k3 = std::size_t(std::find(k.source_id.begin(), k.source_id.end(), 3) - k.source_id.begin());

@@ -47,6 +47,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"merged_inner", r.merged_inner},
                          {"hairpins", r.hairpins},
                          {"hidden_tips", r.hidden_tips},
+                         {"tight_bends", r.tight_bends},
                          {"collars", r.collars},
                          {"raised_laterals", r.raised_laterals},
                          {"branch_collisions", r.branch_collisions},

@@ -85,12 +85,13 @@ std::string describe_skeleton(const SkeletonResult& result) {
                 "  inner branches   %zu nodes folded into a sibling\n"
                 "  hairpins         %zu branches turning back re-attached below their node\n"
                 "  hidden tips      %zu tips wholly inside their parent's branch removed\n"
+                "  tight bends      %zu nodes where a branch turned too sharply removed\n"
                 "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n"
                 "  collar nodes     %zu (a refinement, not a repair)\n"
                 "  raised laterals  %zu (steep laterals given an upturned base; a refinement)\n",
                 r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
-                r.binarized_nodes, r.inserted_nodes, r.merged_inner, r.hairpins, r.hidden_tips, r.branch_collisions, r.max_separation,
-                r.unresolved_collisions, r.collars, r.raised_laterals);
+                r.binarized_nodes, r.inserted_nodes, r.merged_inner, r.hairpins, r.hidden_tips, r.tight_bends,
+                r.branch_collisions, r.max_separation, r.unresolved_collisions, r.collars, r.raised_laterals);
   out += buf;
   return out;
 }
