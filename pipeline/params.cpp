@@ -86,9 +86,10 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_refills", p.fold_repair_refills);
 }
 
-const std::map<std::string, ThickChildPolicy> kPolicies{{"clamp_child", ThickChildPolicy::clamp_child},
-                                                        {"raise_parent", ThickChildPolicy::raise_parent},
-                                                        {"keep", ThickChildPolicy::keep}};
+const std::map<std::string, ThickChildPolicy> kPolicies{
+    {"clamp_child", ThickChildPolicy::clamp_child},
+    {"raise_parent", ThickChildPolicy::raise_parent},
+    {"keep", ThickChildPolicy::keep}};
 
 struct Reader {
   const json& section;
@@ -104,7 +105,8 @@ struct Reader {
     }
   }
   template <class I>
-  requires std::is_integral_v<I> &&(!std::is_same_v<I, bool>)void operator()(const char* key, I& x) {
+    requires std::is_integral_v<I> && (!std::is_same_v<I, bool>)
+  void operator()(const char* key, I& x) {
     known.insert(key);
     if (auto it = section.find(key); it != section.end()) {
       if (it->is_number_unsigned()) {
@@ -185,8 +187,7 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   } catch (const json::exception& e) {
     std::string what = e.what();
     const auto bracket = what.find("] ");
-    throw InvalidInputError(name +
-                            ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
+    throw InvalidInputError(name + ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
   static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing"};
