@@ -616,8 +616,8 @@ bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonRepor
 
 /// Lateral collars: a lateral edge from a fork of radius r to a much thinner child is, as a
 /// round cone, a wide funnel flaring from the fork (whorls of such funnels become umbrellas).
-/// A node inserted where the lateral leaves the parent's surface (at collar_ratio x r from
-/// the fork) with about the child's radius (a quarter of the way to the fork's) keeps the
+/// A node inserted about where the lateral leaves the parent's surface (at collar_ratio x r
+/// from the fork, a little inside) with about the child's radius (a quarter of the way to the fork's) keeps the
 /// flare inside the parent and the lateral thin. Short stubs get one too, as long as they
 /// reach collar_min_stub of their own radii beyond it.
 void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep) {

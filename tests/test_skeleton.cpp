@@ -154,15 +154,15 @@ TEST(Skeleton, ZeroLengthEdgesMergedZeroRadiusRaised) {
 
 TEST(Skeleton, CollarsAtThinLaterals) {
   // The y fork's lateral (radius 0.055) is thinner than 0.7 x its fork (0.09): a collar node
-  // at one fork radius along it, with about the lateral's radius, keeps the lateral's round
-  // cone from flaring from the fork's full radius.
+  // at 0.7 fork radii along it (just inside the fork's surface), with about the lateral's
+  // radius, keeps the lateral's round cone from flaring from the fork's full radius.
   const auto r = build_skeleton(test::y_fork());
   EXPECT_EQ(r.report.collars, 1u);
   ASSERT_EQ(r.skeleton.size(), 8u);
   const Skeleton& s = r.skeleton;
   const NodeId collar = s.children[2][1];
   EXPECT_EQ(s.source_id[collar.idx()], -1);
-  EXPECT_NEAR(s.edge_length(collar), 0.09, 1e-12);
+  EXPECT_NEAR(s.edge_length(collar), 0.7 * 0.09, 1e-12);
   EXPECT_NEAR(s.radius[collar.idx()], 0.055 + 0.25 * (0.09 - 0.055), 1e-12);
   EXPECT_EQ(r.report.warnings.total(), 0u);  // a refinement, not a repair
   // Sanitizing the result again changes nothing.
@@ -171,10 +171,10 @@ TEST(Skeleton, CollarsAtThinLaterals) {
 
 TEST(Skeleton, ShortStubsGetCollarsToo) {
   // A pruned stub 0.15 m long and 0.04 m thick on a trunk of radius 0.0875 (as on
-  // boutdenoylum2): a collar at the trunk's surface keeps its cone from flaring from the
-  // trunk's full radius. One only 0.1 m long (0.0125 m, less than 0.75 of its radius, beyond
-  // the collar's place) keeps its cone.
-  for (const auto& [length, collars] : {std::pair{0.15, 1u}, std::pair{0.1, 0u}}) {
+  // boutdenoylum2): a collar just inside the trunk's surface (0.7 x 0.0875 from the fork)
+  // keeps its cone from flaring from the trunk's full radius. One only 0.08 m long (0.019 m,
+  // less than 0.75 of its radius, beyond the collar's place) keeps its cone.
+  for (const auto& [length, collars] : {std::pair{0.15, 1u}, std::pair{0.08, 0u}}) {
     RawSkeleton raw;
     raw.add(0, -1, dvec3(0, 0, 0), 0.0875);
     raw.add(1, 0, dvec3(0, 0, 0.5), 0.0875);
