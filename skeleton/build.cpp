@@ -751,7 +751,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     rep.branch_collisions = sep.collisions;
     rep.unresolved_collisions = sep.unresolved;
     rep.max_separation = sep.max_displacement;
-    if (sep.collisions > 0) {
+    if (sep.collisions > 0 && sep.rotations > 0) {
       rep.warnings.add_count("separated_branches",
                              "branches intersecting away from their common fork swung apart (largest move " +
                                  fmt(sep.max_displacement) + " m)",

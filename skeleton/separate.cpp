@@ -170,10 +170,29 @@ SeparateReport Separator::run() {
   SeparateReport rep;
   const std::vector<dvec3> original = s_.position;
   const double detect = 0.5 * p_.clearance;  // detect below half the target gap: the result is stable
+  // Rounds that stop lowering the collision count (dense hubs: hundreds of twigs from one
+  // node, where every swing makes new collisions) end the separation, and the state with the
+  // fewest collisions is kept: a star of 1,000 twigs took 13 s and moved twigs 12 m.
+  constexpr std::size_t kPatience = 10;
+  std::size_t best = std::numeric_limits<std::size_t>::max(), stale = 0;
+  std::vector<dvec3> best_position;
   for (std::size_t round = 0; round < p_.max_rounds; ++round) {
     const auto found = collisions(detect);
     if (round == 0) rep.collisions = found.size();
     if (found.empty()) break;
+    if (round == 0 && found.size() > s_.size()) {
+      // More colliding pairs than edges: a dense hub no swinging can clear (a star of 5,000
+      // twigs had 132,252 pairs, and each round took 12 s). Left as it is, reported.
+      rep.unresolved = found.size();
+      return rep;
+    }
+    if (found.size() < best) {
+      best = found.size();
+      best_position = s_.position;
+      stale = 0;
+    } else if (++stale >= kPatience) {
+      break;
+    }
     std::vector<std::pair<std::size_t, std::size_t>> moved;  // subtree ranges rotated this round
     for (const Collision& col : found) {
       const std::size_t i = col.a.idx(), j = col.b.idx();
@@ -231,6 +250,10 @@ SeparateReport Separator::run() {
     }
   }
   rep.unresolved = collisions(detect).size();
+  if (rep.unresolved > best) {
+    s_.position = best_position;
+    rep.unresolved = best;
+  }
   for (std::size_t v = 0; v < s_.size(); ++v) {
     rep.max_displacement = std::max(rep.max_displacement, glm::length(s_.position[v] - original[v]));
   }

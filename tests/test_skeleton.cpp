@@ -13,6 +13,7 @@
 #include "skeleton/frames.h"
 #include "skeleton/grow/random_grower.h"
 #include "skeleton/io.h"
+#include "skeleton/separate.h"
 #include "tests/fixtures.h"
 
 namespace sm {
@@ -342,6 +343,48 @@ TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
     EXPECT_NEAR(base.y, 0.0, 1e-9);
     EXPECT_NEAR(base.z, 1.6, 0.01);
   }
+}
+
+TEST(Skeleton, CrossingBranchesAreSwungApart) {
+  // Two laterals from different forks of a trunk, the lower one rising through the upper one
+  // 0.3 m from the trunk: a collision away from their common ancestor.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  raw.add(2, 1, dvec3(0, 0, 1.5), 0.09);
+  raw.add(3, 2, dvec3(0, 0, 3), 0.08);
+  raw.add(4, 1, dvec3(0.6, 0, 2.0), 0.03);     // rising lateral
+  raw.add(5, 2, dvec3(0.8, 0.02, 1.5), 0.03);  // flat lateral, crossed near x = 0.3
+  SkeletonParams p;
+  p.separate_branches = false;
+  const Skeleton kept = build_skeleton(raw, p).skeleton;
+  EXPECT_FALSE(find_collisions(kept).empty());
+  const auto r = build_skeleton(raw);
+  EXPECT_GT(r.report.branch_collisions, 0u);
+  EXPECT_EQ(r.report.unresolved_collisions, 0u);
+  EXPECT_GT(r.report.max_separation, 0.0);
+  EXPECT_LT(r.report.max_separation, 0.5);
+  EXPECT_TRUE(find_collisions(r.skeleton).empty());
+  expect_valid(r.skeleton);
+}
+
+TEST(Skeleton, DenseHubIsLeftAsItIs) {
+  // 1,000 twigs from one node: more colliding pairs than edges, which no swinging clears (it
+  // used to take 13 s and move twigs 12 m). Left in place and reported.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  for (int i = 0; i < 1000; ++i) {
+    const double a = 2.399963 * i, e = 1.2 * std::fmod(0.618034 * i, 1.0);  // golden-angle spread
+    raw.add(2 + i, 1, dvec3(std::cos(a) * std::cos(e), std::sin(a) * std::cos(e), 1 + std::sin(e)), 0.01);
+  }
+  const auto r = build_skeleton(raw);
+  EXPECT_GT(r.report.branch_collisions, r.skeleton.size());
+  EXPECT_EQ(r.report.unresolved_collisions, r.report.branch_collisions);
+  EXPECT_EQ(r.report.max_separation, 0.0);
+  EXPECT_EQ(r.report.warnings.count("separated_branches"), 0u);
+  EXPECT_EQ(r.report.warnings.count("unresolved_collisions"), r.report.branch_collisions);
+  expect_valid(r.skeleton);
 }
 
 TEST(Skeleton, TightBendsAreStraightened) {
