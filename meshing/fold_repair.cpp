@@ -63,6 +63,7 @@ class FoldRepair {
         max_move_(max_move),
         collapse_(options.collapse),
         refill_(options.refill),
+        max_pairs_(options.max_pairs),
         keep_side_(options.keep_side),
         test_(mesh) {}
 
@@ -73,13 +74,22 @@ class FoldRepair {
     FoldRepairStats stats;
     build_around();
     std::vector<std::uint32_t> examine = creased();
-    for (int round = 0; round < max_rounds && !examine.empty(); ++round) {
+    std::size_t handled = 0;
+    for (int round = 0; !stats.gave_up && round < max_rounds && !examine.empty(); ++round) {
       const auto pairs = test_.pairs(examine);
       ++stats.rounds;
       if (round == 0) stats.found = pairs.size();
       if (pairs.empty()) break;
+      if (round == 0 && pairs.size() > max_pairs_) {
+        stats.gave_up = true;
+        break;
+      }
       flipped_.clear();
       for (const auto& [a, b] : pairs) {
+        if (++handled > 4 * max_pairs_) {
+          stats.gave_up = true;
+          break;
+        }
         // Flip while that lowers the crossings around the pair, even once a and b are
         // apart: their neighbours often cross too.
         if (!alive(a) || !alive(b) || !test_.intersect(a, b)) continue;  // untangled by an earlier change
@@ -805,6 +815,7 @@ class FoldRepair {
   const std::vector<double>& max_move_;
   bool collapse_;
   bool refill_;
+  std::size_t max_pairs_;
   std::span<const glm::dvec3> keep_side_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round

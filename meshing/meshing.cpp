@@ -236,12 +236,11 @@ void fuse_chains(const std::vector<std::uint32_t>& lower, const std::vector<std:
 /// loop's plane). The lower loop is then made k runs, one per upper loop, which orders the
 /// upper loops around it: a loop with several runs keeps its longest (a main stem reaching
 /// the boundary between laterals around it), and a loop with none (a bundle inside) gets
-/// the two vertices at the change of runs nearest to it in angle. Chain i runs from the last vertex of run i-1 to the last vertex of run i and is
-/// stitched to loop i opened at its crotch vertex c_i (its vertex nearest the centroid of the
-/// other upper loops); the crotch triangle (cut_i, c_{i+1}, c_i) closes the gap between
-/// neighbouring strips, and a fan over c_1 .. c_k closes the hole the crotch edges leave in
-/// the middle (for k = 2 the two crotch triangles meet: fuse_chains). Every edge is used
-/// exactly twice.
+/// the two vertices at the change of runs nearest to it in angle. Chain i runs from the last vertex of run i-1 to the
+/// last vertex of run i and is stitched to loop i opened at its crotch vertex c_i (its vertex nearest the centroid of
+/// the other upper loops); the crotch triangle (cut_i, c_{i+1}, c_i) closes the gap between neighbouring strips, and a
+/// fan over c_1 .. c_k closes the hole the crotch edges leave in the middle (for k = 2 the two crotch triangles meet:
+/// fuse_chains). Every edge is used exactly twice.
 ///
 /// Returns false (and emits nothing) when the lower loop cannot be made k runs; the caller
 /// then meshes the binary junctions one by one.
@@ -319,7 +318,8 @@ bool fuse_many(const std::vector<std::uint32_t>& lower, const std::vector<std::v
     for (const Run& x : r) ++count[static_cast<std::size_t>(x.label)];
     std::size_t pick = r.size();
     for (std::size_t i = 0; i < r.size(); ++i) {
-      if (count[static_cast<std::size_t>(r[i].label)] > 1 && (pick == r.size() || r[i].length < r[pick].length)) pick = i;
+      if (count[static_cast<std::size_t>(r[i].label)] > 1 && (pick == r.size() || r[i].length < r[pick].length))
+        pick = i;
     }
     if (pick == r.size()) break;
     const Run& x = r[pick];
@@ -508,7 +508,7 @@ void Builder::plan_stacked_junctions() {
     // Depth first: an upper tube that is one loop ending in a junction is replaced by that
     // junction's upper tubes.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> stack{{j.upper_tubes[1], j.upper[1]},
-                                                                 {j.upper_tubes[0], j.upper[0]}};
+                                                               {j.upper_tubes[0], j.upper[0]}};
     while (!stack.empty()) {
       const auto [ti, first] = stack.back();
       stack.pop_back();
@@ -586,6 +586,14 @@ void Builder::repair_folds() {
   stats_.fold_moves = r.moves;
   stats_.fold_collapses = r.collapses;
   stats_.fold_refills = r.refills;
+  if (r.gave_up) {
+    stats_.warnings.add_count(
+        "fold_repair_skipped",
+        "too many self-intersecting triangle pairs near junctions for the fold repair (more than " +
+            std::to_string(options.max_pairs) +
+            "): branches run through each other; see the skeleton's separation warnings",
+        r.found);
+  }
   if (r.collapses == 0 && r.refills == 0) return;
   // Collapses and refills leave the triangles they removed degenerate (u, u, u): drop them
   // (the vertices they removed go with the unused ones).

@@ -387,6 +387,30 @@ TEST(Pipeline, ShortStubsReachTheirTips) {
   }
 }
 
+TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
+  // 300 twigs from one node run through each other (the separation cannot clear them): the
+  // mesh has far more self-intersecting pairs near junctions than the fold repair takes on
+  // (FoldRepairOptions::max_pairs), so it is skipped with a warning instead of running for
+  // hours. The surface is still one closed genus-0 manifold.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  for (int i = 0; i < 300; ++i) {
+    const double a = 2.399963 * i, e = 1.2 * std::fmod(0.618034 * i, 1.0);
+    raw.add(2 + i, 1, dvec3(std::cos(a) * std::cos(e), std::sin(a) * std::cos(e), 1 + std::sin(e)), 0.01);
+  }
+  const PipelineResult r = run_pipeline(raw, {});
+  EXPECT_GT(r.mesh.stats.fold_pairs, 20'000u);
+  EXPECT_EQ(r.mesh.stats.fold_flips + r.mesh.stats.fold_refills + r.mesh.stats.fold_collapses, 0u);
+  EXPECT_EQ(r.warnings().count("fold_repair_skipped"), r.mesh.stats.fold_pairs);
+  MeshCheckParams cp;
+  cp.self_intersections = false;
+  const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
+  EXPECT_TRUE(rep.closed && rep.oriented && rep.vertex_manifold);
+  EXPECT_EQ(rep.components, 1u);
+  EXPECT_EQ(rep.genus, 0);
+}
+
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
