@@ -11,7 +11,6 @@
 // other triangle, other pairs when the triangles meet at all.
 
 #include "meshing/checks_cgal.h"
-#include "meshing/intersections.h"
 
 #include <algorithm>
 #include <mutex>
@@ -24,6 +23,8 @@
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/box_intersection_d.h>
+
+#include "meshing/intersections.h"
 
 namespace sm::detail {
 
@@ -129,7 +130,6 @@ class SoupIntersector {
     }
   }
 
-
  private:
   const std::vector<Point>& points_;
   const Mesh& mesh_;
@@ -222,16 +222,13 @@ bool TriangleIntersections::intersect(std::uint32_t i, std::uint32_t j) const {
   return impl_->intersector.intersect(i, j);
 }
 
-std::vector<std::array<std::uint32_t, 2>> TriangleIntersections::pairs(const std::vector<std::uint32_t>& triangles) const {
+std::vector<std::array<std::uint32_t, 2>> TriangleIntersections::pairs(
+    const std::vector<std::uint32_t>& triangles) const {
   std::vector<std::array<std::uint32_t, 2>> found = impl_->intersector.run(triangles);
   std::sort(found.begin(), found.end());  // found in parallel, in any order
   found.erase(std::unique(found.begin(), found.end()), found.end());
   return found;
 }
-
-}  // namespace sm
-
-namespace sm {
 
 std::vector<std::array<std::uint32_t, 3>> triangulate_polyline(const std::vector<glm::dvec3>& loop,
                                                                const std::vector<glm::dvec3>& outside) {

@@ -293,11 +293,7 @@ class FoldRepair {
     std::vector<glm::dvec3> facing(faces.size());
     for (std::size_t i = 0; i < faces.size(); ++i) facing[i] = normal(mesh_.triangles[faces[i]]);
     // Only the region's triangles near the fan around v, wherever v moves within the limit.
-    Box reach = box(faces.front());
-    for (const std::uint32_t f : faces) {
-      const Box b = box(f);
-      reach = {glm::min(reach.first, b.first), glm::max(reach.second, b.second)};
-    }
+    Box reach = box(faces);
     const double travel = glm::length(old - origin) + limit;  // farthest v can get from here
     reach = {reach.first - glm::dvec3(travel), reach.second + glm::dvec3(travel)};
     // Boxes of the fan's own triangles change with v; they are recomputed in the count.
@@ -500,19 +496,21 @@ class FoldRepair {
     // without the search (O(n^3) in its boundary): later rounds meet the same pairs.
     std::uint64_t key = 1469598103934665603ull;  // FNV-1a over triangles, corners and positions
     auto mix = [&](std::uint64_t x) { key = (key ^ x) * 1099511628211ull; };
-    for (const std::vector<std::uint32_t>* list : std::array<const std::vector<std::uint32_t>*, 2>{&patch, &others}) {
-      for (const std::uint32_t f : *list) {
+    auto mix_faces = [&](const std::vector<std::uint32_t>& faces) {
+      for (const std::uint32_t f : faces) {
         mix(f);
         for (const std::uint32_t v : mesh_.triangles[f]) {
           mix(v);
           for (int k = 0; k < 3; ++k) mix(std::bit_cast<std::uint64_t>(mesh_.positions[v][k]));
         }
       }
-    }
+    };
+    mix_faces(patch);
+    mix_faces(others);
     if (refused_.count(key)) return false;
     refused_.insert(key);  // erased again below if the refill is made
     std::vector<std::array<std::uint32_t, 3>> fill = triangulate_polyline(points, outside);
-    if (fill.size() != n - 2) return false;
+    if (fill.empty()) return false;  // otherwise n - 2 triangles
     for (const auto& t : fill) {
       if (sliver({loop[t[0]], loop[t[1]], loop[t[2]]})) return false;
     }
@@ -552,14 +550,8 @@ class FoldRepair {
 
     const std::size_t before = crossings_around(patch, others, other_boxes);
     if (before == 0) return false;
-    Box bounds = box(patch.front());
-    for (const std::uint32_t f : patch) {
-      const Box b = box(f);
-      bounds = {glm::min(bounds.first, b.first), glm::max(bounds.second, b.second)};
-    }
-    const std::vector<std::size_t> kept = kept_within(bounds);
-    std::vector<Mesh::Triangle> saved(patch.size());
-    for (std::size_t i = 0; i < patch.size(); ++i) saved[i] = mesh_.triangles[patch[i]];
+    const std::vector<std::size_t> kept = kept_within(box(patch));
+    const std::vector<Mesh::Triangle> saved = fan_triangles(patch);
     dead_.resize(mesh_.triangles.size(), 0);
     for (std::size_t i = 0; i < patch.size(); ++i) {
       if (i < fill.size()) {
@@ -658,12 +650,8 @@ class FoldRepair {
 
     const glm::dvec3 pu = mesh_.positions[u], pw = mesh_.positions[w];
     std::vector<glm::dvec3> facing(fan.size());
-    Box reach = box(f1);
-    for (std::size_t i = 0; i < fan.size(); ++i) {
-      facing[i] = normal(mesh_.triangles[fan[i]]);
-      const Box b = box(fan[i]);
-      reach = {glm::min(reach.first, b.first), glm::max(reach.second, b.second)};
-    }
+    for (std::size_t i = 0; i < fan.size(); ++i) facing[i] = normal(mesh_.triangles[fan[i]]);
+    const Box reach = box(faces);
     std::vector<std::uint32_t> near;
     std::vector<Box> near_boxes;
     for (const std::uint32_t g : region) {
@@ -678,10 +666,9 @@ class FoldRepair {
     const std::vector<std::size_t> kept = kept_within(reach);
     const std::vector<Mesh::Triangle> old_faces = fan_triangles(faces);
     // Rewire: w -> u in the fan; f1 and f2 die.
-    std::vector<Mesh::Triangle> saved(fan.size());
-    for (std::size_t i = 0; i < fan.size(); ++i) {
-      saved[i] = mesh_.triangles[fan[i]];
-      for (std::uint32_t& x : mesh_.triangles[fan[i]]) {
+    const std::vector<Mesh::Triangle> saved = fan_triangles(fan);
+    for (const std::uint32_t g : fan) {
+      for (std::uint32_t& x : mesh_.triangles[g]) {
         if (x == w) x = u;
       }
     }
@@ -755,6 +742,15 @@ class FoldRepair {
     const auto& t = mesh_.triangles[f];
     const glm::dvec3 &p = mesh_.positions[t[0]], &q = mesh_.positions[t[1]], &r = mesh_.positions[t[2]];
     return {glm::min(p, glm::min(q, r)), glm::max(p, glm::max(q, r))};
+  }
+  // The box around the triangles `faces` (not empty).
+  [[nodiscard]] Box box(const std::vector<std::uint32_t>& faces) const {
+    Box out = box(faces.front());
+    for (const std::uint32_t f : faces) {
+      const Box b = box(f);
+      out = {glm::min(out.first, b.first), glm::max(out.second, b.second)};
+    }
+    return out;
   }
   [[nodiscard]] static bool overlap(const Box& x, const Box& y) {
     return glm::all(glm::lessThanEqual(x.first, y.second)) && glm::all(glm::lessThanEqual(y.first, x.second));

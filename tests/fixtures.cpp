@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -124,7 +125,7 @@ RawSkeleton zero_length_edges() {
   raw.add(1, 0, dvec3(0, 0, 0.5), 0.09);
   raw.add(2, 1, dvec3(0, 0, 0.5), 0.09);  // duplicate of 1
   raw.add(3, 2, dvec3(0, 0, 1.0), 0.08);
-  raw.add(4, 3, dvec3(0, 0, 1.0), 0.0);   // zero-length tip with zero radius
+  raw.add(4, 3, dvec3(0, 0, 1.0), 0.0);  // zero-length tip with zero radius
   raw.add(5, 2, dvec3(0.3, 0, 0.8), 0.04);
   return raw;
 }
@@ -136,6 +137,18 @@ RawSkeleton thick_child() {
   raw.add(1, 0, dvec3(0, 0, 0.5), 0.05);
   raw.add(2, 1, dvec3(0, 0, 1.0), 0.04);
   raw.add(3, 1, dvec3(0.4, 0, 0.8), 0.1);  // twice as thick as its parent
+  return raw;
+}
+
+RawSkeleton star(int twigs) {
+  RawSkeleton raw;
+  raw.source = "star";
+  raw.add(0, -1, dvec3(0), 0.1);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
+  for (int i = 0; i < twigs; ++i) {
+    const double a = 2.399963 * i, e = 1.2 * std::fmod(0.618034 * i, 1.0);  // golden-angle spread
+    raw.add(2 + i, 1, dvec3(std::cos(a) * std::cos(e), std::sin(a) * std::cos(e), 1 + std::sin(e)), 0.01);
+  }
   return raw;
 }
 
@@ -157,7 +170,9 @@ RawSkeleton grown_tree(std::uint64_t seed) {
   return grow_random(p);
 }
 
-Skeleton built(const RawSkeleton& raw, const SkeletonParams& params) { return build_skeleton(raw, params).skeleton; }
+Skeleton built(const RawSkeleton& raw, const SkeletonParams& params) {
+  return build_skeleton(raw, params).skeleton;
+}
 
 std::vector<std::filesystem::path> sample_skeletons() {
   std::vector<std::filesystem::path> files;
@@ -173,13 +188,16 @@ std::vector<std::filesystem::path> sample_skeletons() {
 }
 
 std::filesystem::path temp_dir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("strandmesh_test_" + name + "_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("strandmesh_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
 }
 
-CmdResult run_cli(const std::string& args) { return run_cli_env("", args); }
+CmdResult run_cli(const std::string& args) {
+  return run_cli_env("", args);
+}
 
 CmdResult run_cli_env(const std::string& env, const std::string& args) {
   const std::filesystem::path dir = temp_dir("cli_run");

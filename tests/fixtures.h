@@ -30,6 +30,10 @@ RawSkeleton lateral_inside_fused_section();
 /// A trunk of six whorls, each with 1 to 4 laterals at random azimuths and 30 to 90 degrees
 /// from vertical, some of them forking once more (random, but fixed for a seed).
 RawSkeleton random_whorl_tree(std::uint64_t seed);
+/// A dense hub: a 1 m trunk (radius 0.1) with `twigs` twigs of radius 0.01 and length 1 m from
+/// its top, spread by the golden angle around it and 0 to 69 degrees above the horizontal;
+/// from a few hundred on they run through each other.
+RawSkeleton star(int twigs);
 /// A single chain of `nodes` nodes (deep tree: no recursion over depth allowed anywhere).
 RawSkeleton long_chain(int nodes = 100'000);
 /// A random binary tree grown by the default random grower with this seed.
@@ -45,9 +49,9 @@ std::filesystem::path temp_dir(const std::string& name);
 
 /// The result of running the built strandmesh binary.
 struct CmdResult {
-  int code = -1;     ///< exit code (-1 when it did not exit normally)
-  std::string out;   ///< stdout
-  std::string err;   ///< stderr
+  int code = -1;    ///< exit code (-1 when it did not exit normally)
+  std::string out;  ///< stdout
+  std::string err;  ///< stderr
 };
 /// Runs `build/strandmesh ARGS` through the shell, capturing both streams.
 CmdResult run_cli(const std::string& args);

@@ -392,13 +392,7 @@ TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
   // mesh has far more self-intersecting pairs near junctions than the fold repair takes on
   // (FoldRepairOptions::max_pairs), so it is skipped with a warning instead of running for
   // hours. The surface is still one closed genus-0 manifold.
-  RawSkeleton raw;
-  raw.add(0, -1, dvec3(0), 0.1);
-  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
-  for (int i = 0; i < 300; ++i) {
-    const double a = 2.399963 * i, e = 1.2 * std::fmod(0.618034 * i, 1.0);
-    raw.add(2 + i, 1, dvec3(std::cos(a) * std::cos(e), std::sin(a) * std::cos(e), 1 + std::sin(e)), 0.01);
-  }
+  const RawSkeleton raw = test::star(300);
   const PipelineResult r = run_pipeline(raw, {});
   EXPECT_GT(r.mesh.stats.fold_pairs, 20'000u);
   EXPECT_EQ(r.mesh.stats.fold_flips + r.mesh.stats.fold_refills + r.mesh.stats.fold_collapses, 0u);

@@ -371,13 +371,7 @@ TEST(Skeleton, CrossingBranchesAreSwungApart) {
 TEST(Skeleton, DenseHubIsLeftAsItIs) {
   // 1,000 twigs from one node: more colliding pairs than edges, which no swinging clears (it
   // used to take 13 s and move twigs 12 m). Left in place and reported.
-  RawSkeleton raw;
-  raw.add(0, -1, dvec3(0), 0.1);
-  raw.add(1, 0, dvec3(0, 0, 1), 0.1);
-  for (int i = 0; i < 1000; ++i) {
-    const double a = 2.399963 * i, e = 1.2 * std::fmod(0.618034 * i, 1.0);  // golden-angle spread
-    raw.add(2 + i, 1, dvec3(std::cos(a) * std::cos(e), std::sin(a) * std::cos(e), 1 + std::sin(e)), 0.01);
-  }
+  const RawSkeleton raw = test::star(1000);
   const auto r = build_skeleton(raw);
   EXPECT_GT(r.report.branch_collisions, r.skeleton.size());
   EXPECT_EQ(r.report.unresolved_collisions, r.report.branch_collisions);
