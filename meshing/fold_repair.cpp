@@ -45,6 +45,11 @@ namespace {
 constexpr int kMaxFlipsPerPair = 8;
 // A refill replaces the disk within 1, 2, ... this many rings of a pair.
 constexpr int kMaxRefillRings = 3;
+// Longest boundary loop a refill triangulates (the search is O(n^3) in it). Disks around a
+// pair on the samples have boundaries of up to 186 vertices (boutdenoylum2); around the fans
+// of long triangles in a tangle (a hub of 5,000 twigs) up to 1,300, and the repair took
+// 284 s on a mesh of 17,000 triangles (25 s with this limit).
+constexpr std::size_t kMaxRefillLoop = 200;
 // Twice the area of a sliver, relative to its longest edge squared (about 0.0001 degrees).
 constexpr double kSliver = 1e-6;
 // Folds show as creases: the examined triangles are the suspect ones where the surface turns
@@ -468,6 +473,7 @@ class FoldRepair {
     }
     if (loop.size() != boundary.size()) return false;  // several loops
     const std::size_t n = loop.size();
+    if (n > kMaxRefillLoop) return false;
 
     std::vector<glm::dvec3> points(n), outside(n);
     for (std::size_t i = 0; i < n; ++i) {

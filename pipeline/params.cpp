@@ -24,6 +24,7 @@ void visit_fields(SkeletonParams& p, V&& v) {
   v("thick_child_policy", p.thick_child_policy);
   v("max_edge_ratio", p.max_edge_ratio);
   v("binarize_step_ratio", p.binarize_step_ratio);
+  v("max_chain_forks", p.max_chain_forks);
   v("merge_inner_branches", p.merge_inner_branches);
   v("collar_ratio", p.collar_ratio);
   v("collar_max_child_ratio", p.collar_max_child_ratio);

@@ -362,6 +362,80 @@ std::vector<double> tip_weights(const WorkTree& t, const std::vector<std::uint32
   return w;
 }
 
+/// Hubs with more than max_chain_forks children (see SkeletonParams::max_chain_forks): the
+/// laterals (every child but the heaviest) are sorted by azimuth around the hub's main
+/// direction and cut into at most max_chain_forks runs of equal size; each run of more than
+/// one lateral hangs from a new cluster node a short step from the hub towards the run's mean
+/// direction, its radius that of one branch carrying the run (sqrt of the sum of r^2, at most
+/// the hub's). A cluster with too many laterals is clustered again in turn.
+void cluster_fan_outs(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  const std::size_t limit = params.max_chain_forks;
+  if (limit < 2) return;
+  std::vector<std::uint32_t> queue = t.bfs();
+  const std::vector<double> w = tip_weights(t, queue);
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const std::uint32_t v = queue[q];
+    auto& ch = t.children[v];
+    if (ch.size() <= limit + 1) continue;
+    ++rep.clustered_nodes;
+    rep.warnings.add("clustered_children",
+                     "node with more than " + std::to_string(limit + 1) +
+                         " children: its laterals are grouped by direction under cluster nodes",
+                     v < raw.size() ? raw.place(v) : std::string("inserted node"));
+    // The main child stays; cluster nodes (added below, never in w) count as their runs.
+    auto weight = [&](std::uint32_t c) { return c < w.size() ? w[c] : 0.0; };
+    const auto main_it = std::min_element(ch.begin(), ch.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return weight(a) != weight(b) ? weight(a) > weight(b) : a < b;
+    });
+    const std::uint32_t main = *main_it;
+    std::vector<std::uint32_t> laterals;
+    for (const std::uint32_t c : ch)
+      if (c != main) laterals.push_back(c);
+    const dvec3 origin = t.pos[v];
+    const dvec3 axis = normalize_or(t.pos[main] - origin, dvec3(0, 0, 1));
+    const dvec3 e1 = any_perpendicular(axis), e2 = glm::cross(axis, e1);
+    std::vector<std::pair<double, std::uint32_t>> by_angle;
+    by_angle.reserve(laterals.size());
+    for (const std::uint32_t c : laterals) {
+      const dvec3 d = t.pos[c] - origin;
+      by_angle.emplace_back(std::atan2(glm::dot(d, e2), glm::dot(d, e1)), c);
+    }
+    std::sort(by_angle.begin(), by_angle.end());
+    const std::size_t n = by_angle.size(), groups = limit;
+    std::vector<std::uint32_t> kept{main};
+    for (std::size_t g = 0; g < groups; ++g) {
+      const std::size_t b = g * n / groups, e = (g + 1) * n / groups;
+      if (e - b == 1) kept.push_back(by_angle[b].second);
+      if (e - b <= 1) continue;
+      dvec3 dir(0);
+      double r2 = 0, shortest = std::numeric_limits<double>::infinity();
+      for (std::size_t k = b; k < e; ++k) {
+        const std::uint32_t c = by_angle[k].second;
+        const dvec3 d = t.pos[c] - origin;
+        const double l = glm::length(d);
+        if (l > 0) dir += d / l;
+        shortest = std::min(shortest, l);
+        r2 += t.radius[c] * t.radius[c];
+      }
+      dir = normalize_or(dir, axis);
+      // On the hub's surface or halfway to the nearest lateral node, whichever is nearer, but
+      // beyond the merge tolerance.
+      const double step =
+          std::max(std::min(t.radius[v], 0.5 * shortest), 2.0 * params.merge_edge_ratio * t.radius[v]);
+      const std::uint32_t cl = t.add(origin + dir * step, std::min(t.radius[v], std::sqrt(r2)), v, -1);
+      ++rep.inserted_nodes;
+      for (std::size_t k = b; k < e; ++k) {
+        const std::uint32_t c = by_angle[k].second;
+        t.parent[c] = cl;
+        t.children[cl].push_back(c);
+      }
+      kept.push_back(cl);
+      queue.push_back(cl);  // clustered again if it has too many laterals
+    }
+    t.children[v] = std::move(kept);
+  }
+}
+
 /// Orders every node's children main first (largest tip weight, ties by lower index) and
 /// replaces nodes with more than two children by chains of extra nodes.
 void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
@@ -719,6 +793,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
+  cluster_fan_outs(t, params, rep, raw);
   binarize(t, params, rep, raw);
   if (refine) {
     raise_steep_laterals(t, params, rep);
@@ -756,6 +831,11 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
                              "branches intersecting away from their common fork swung apart (largest move " +
                                  fmt(sep.max_displacement) + " m)",
                              sep.collisions);
+    }
+    if (sep.dense) {
+      rep.warnings.add("dense_branches",
+                       "edges crowding each other by the hundred (a hub of very many children): branch separation "
+                       "skipped; the mesh will self-intersect there");
     }
     if (sep.unresolved > 0) {
       rep.warnings.add_count("unresolved_collisions",

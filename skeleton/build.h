@@ -49,6 +49,13 @@ struct SkeletonParams {
   double max_edge_ratio = 0.0;
   /// Step between the extra nodes of a binarized n-ary node, relative to the node's radius.
   double binarize_step_ratio = 0.02;
+  /// A node with more children than this (a hub: a QSM's or an L-system's fan of hundreds of
+  /// twigs) first gets its laterals grouped by direction under at most this many cluster
+  /// nodes, recursively, before binarizing (warning "clustered_children"). A chain of k binary
+  /// forks carries every strand of the forks above it, so a chain of thousands of forks holds
+  /// particles quadratic in k (a 5,000-twig star: ~60 M, minutes in the contour stage);
+  /// clusters keep chains at most this long. 0 disables (chains of any length).
+  std::size_t max_chain_forks = 8;
   /// Merge a branch that runs inside its sibling's round cone into the sibling's edge (see
   /// build.cpp, merge_inner_branches); Sapling output needs it. Also removes tips lying
   /// wholly inside their parent's branch (drop_hidden_tips).
@@ -110,6 +117,7 @@ struct SkeletonReport {
   std::size_t resampled_edges = 0;        ///< long edges split
   std::size_t binarized_nodes = 0;        ///< nodes with more than two children
   std::size_t inserted_nodes = 0;         ///< extra nodes created by binarizing or resampling
+  std::size_t clustered_nodes = 0;        ///< hubs whose laterals were grouped (max_chain_forks)
   std::size_t merged_inner = 0;           ///< nodes of branches running inside a sibling, merged into it
   std::size_t hairpins = 0;               ///< children turning back > 120 degrees, re-attached below their node
   std::size_t hidden_tips = 0;            ///< tips wholly inside their parent's branch, removed

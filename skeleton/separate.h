@@ -31,6 +31,7 @@ struct SeparateReport {
   std::size_t rotations = 0;    ///< subtree rotations applied
   std::size_t unresolved = 0;   ///< colliding pairs left at the end
   double max_displacement = 0;  ///< largest distance a node moved (metres)
+  bool dense = false;           ///< left as it was: edges crowding each other by the hundred
 };
 
 /// Detects and repairs collisions in place (positions only; frames must be recomputed).

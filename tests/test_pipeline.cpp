@@ -388,15 +388,36 @@ TEST(Pipeline, ShortStubsReachTheirTips) {
 }
 
 TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
-  // 300 twigs from one node run through each other (the separation cannot clear them): the
-  // mesh has far more self-intersecting pairs near junctions than the fold repair takes on
-  // (FoldRepairOptions::max_pairs), so it is skipped with a warning instead of running for
-  // hours. The surface is still one closed genus-0 manifold.
+  // 300 twigs from one node on one chain of binary forks (no clusters) run through each other
+  // (the separation cannot clear them): the mesh has far more self-intersecting pairs near
+  // junctions than the fold repair takes on (FoldRepairOptions::max_pairs), so it is skipped
+  // with a warning instead of running for hours. The surface is still one closed genus-0
+  // manifold.
   const RawSkeleton raw = test::star(300);
-  const PipelineResult r = run_pipeline(raw, {});
+  PipelineParams params;
+  params.skeleton.max_chain_forks = 0;
+  const PipelineResult r = run_pipeline(raw, params);
   EXPECT_GT(r.mesh.stats.fold_pairs, 20'000u);
   EXPECT_EQ(r.mesh.stats.fold_flips + r.mesh.stats.fold_refills + r.mesh.stats.fold_collapses, 0u);
   EXPECT_EQ(r.warnings().count("fold_repair_skipped"), r.mesh.stats.fold_pairs);
+  MeshCheckParams cp;
+  cp.self_intersections = false;
+  const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
+  EXPECT_TRUE(rep.closed && rep.oriented && rep.vertex_manifold);
+  EXPECT_EQ(rep.components, 1u);
+  EXPECT_EQ(rep.genus, 0);
+}
+
+TEST(Pipeline, HubOfThousandsOfTwigsIsMeshed) {
+  // 2,000 twigs from one node. On one chain of 2,000 binary forks every fork carries the
+  // strands of all the forks above it (about 10 M particles, and the contour stage ran for
+  // many minutes); clustered (SkeletonParams::max_chain_forks) the particles stay near-linear
+  // in the twigs, and the tangle of twigs is meshed closed and of genus 0.
+  const RawSkeleton raw = test::star(2000);
+  const PipelineResult r = run_pipeline(raw, {});
+  EXPECT_GT(r.skeleton.report.clustered_nodes, 0u);
+  EXPECT_EQ(r.warnings().count("dense_branches"), 1u);
+  EXPECT_LT(r.particles.position.size(), 400'000u);
   MeshCheckParams cp;
   cp.self_intersections = false;
   const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
