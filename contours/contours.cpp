@@ -71,10 +71,12 @@ struct SlicePoints {
     strand.clear();
     offset.clear();
   }
-  void append(const SlicePoints& o) {
-    point.insert(point.end(), o.point.begin(), o.point.end());
-    strand.insert(strand.end(), o.strand.begin(), o.strand.end());
-    offset.insert(offset.end(), o.offset.begin(), o.offset.end());
+  void append(const SlicePoints& o) { append(o, 0, o.point.size()); }
+  /// Appends points [begin, end) of o.
+  void append(const SlicePoints& o, std::size_t begin, std::size_t end) {
+    point.insert(point.end(), o.point.begin() + std::ptrdiff_t(begin), o.point.begin() + std::ptrdiff_t(end));
+    strand.insert(strand.end(), o.strand.begin() + std::ptrdiff_t(begin), o.strand.begin() + std::ptrdiff_t(end));
+    offset.insert(offset.end(), o.offset.begin() + std::ptrdiff_t(begin), o.offset.begin() + std::ptrdiff_t(end));
   }
 };
 
@@ -769,7 +771,8 @@ NodeId Walker::nested_split(NodeId fork, double u, double& base) {
       }
     }
   }
-  const double fork_base = tables_.root_distance[fork.idx()] - anchor_distance_;
+  // Where the walk put the fork (split_gap_at's section), so nested_apart reuses its points.
+  const double fork_base = last_fork_base_;
   for (const NodeId lateral : candidates) {
     const double b = tables_.root_distance[s_.parent[lateral.idx()].idx()] - anchor_distance_;
     if (nested_apart(fork, fork_base, lateral, b, u)) {
@@ -786,13 +789,28 @@ bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double 
   pts_l_.clear();
   evaluate_cut(cut_n_, pts_l_);
   if (pts_l_.point.empty()) return false;
-  excluded_.push_back(lateral);
-  cut_n_.clear();
-  cut(s_.children[fork.idx()][0], fork_base, u, cut_n_);
-  cut(s_.children[fork.idx()][1], fork_base, u, cut_n_);
   pts_rest_.clear();
-  evaluate_cut(cut_n_, pts_rest_);
-  excluded_.pop_back();
+  if (fork == last_fork_ && fork_base == last_fork_base_ && u == last_u_) {
+    // The section split_gap_at evaluated (nested_split's case): the rest is its points off
+    // the lateral's subtree, the same points in the same order as evaluated afresh with the
+    // lateral excluded. (A hub of 5,000 twigs: the contour stage spent most of its time
+    // evaluating the whole section once per candidate lateral.)
+    for (const auto& [edges, pts] : {std::pair(&cut_a_, &pts_a_), std::pair(&cut_b_, &pts_b_)}) {
+      std::size_t at = 0;
+      for (const CutEdge& e : *edges) {
+        const std::size_t count = tables_.cand_begin[e.node.idx() + 1] - tables_.cand_begin[e.node.idx()];
+        if (!tables_.in_subtree(e.node, lateral)) pts_rest_.append(*pts, at, at + count);
+        at += count;
+      }
+    }
+  } else {
+    excluded_.push_back(lateral);
+    cut_n_.clear();
+    cut(s_.children[fork.idx()][0], fork_base, u, cut_n_);
+    cut(s_.children[fork.idx()][1], fork_base, u, cut_n_);
+    evaluate_cut(cut_n_, pts_rest_);
+    excluded_.pop_back();
+  }
   if (pts_rest_.point.empty()) return false;
   if (!(gap(pts_l_.point, pts_rest_.point, threshold(), 0.25 * spacing_) > threshold())) return false;
   const NodeId y = s_.parent[lateral.idx()];

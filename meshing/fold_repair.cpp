@@ -69,6 +69,7 @@ class FoldRepair {
         collapse_(options.collapse),
         refill_(options.refill),
         max_pairs_(options.max_pairs),
+        max_tests_(options.max_tests_per_triangle * mesh.triangles.size() + options.min_tests),
         keep_side_(options.keep_side),
         test_(mesh) {}
 
@@ -80,7 +81,7 @@ class FoldRepair {
     build_around();
     std::vector<std::uint32_t> examine = creased();
     std::size_t handled = 0;
-    for (int round = 0; !stats.gave_up && round < max_rounds && !examine.empty(); ++round) {
+    for (int round = 0; !stats.gave_up && !stats.out_of_tests && round < max_rounds && !examine.empty(); ++round) {
       const auto pairs = test_.pairs(examine);
       ++stats.rounds;
       if (round == 0) stats.found = pairs.size();
@@ -95,12 +96,16 @@ class FoldRepair {
           stats.gave_up = true;
           break;
         }
+        if (tests_ > max_tests_) {
+          stats.out_of_tests = true;
+          break;
+        }
         // Flip while that lowers the crossings around the pair, even once a and b are
         // apart: their neighbours often cross too.
-        if (!alive(a) || !alive(b) || !test_.intersect(a, b)) continue;  // untangled by an earlier change
+        if (!alive(a) || !alive(b) || !intersect(a, b)) continue;  // untangled by an earlier change
         for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {
         }
-        auto crossing = [&] { return alive(a) && alive(b) && test_.intersect(a, b); };
+        auto crossing = [&] { return alive(a) && alive(b) && intersect(a, b); };
         for (int k = 0; k < kMaxFlipsPerPair && crossing() && move_one_vertex_of(a, b); ++k) ++stats.moves;
         for (int k = 0; collapse_ && k < kMaxFlipsPerPair && crossing() && collapse_one_edge_of(a, b); ++k)
           ++stats.collapses;
@@ -270,7 +275,7 @@ class FoldRepair {
         const bool mine = std::binary_search(faces.begin(), faces.end(), g);
         if (mine && g < f) continue;                                 // counted from g
         if (!overlap(bf, mine ? box(g) : other_boxes[k])) continue;  // a fan triangle's box moved with v
-        if (test_.intersect(f, g)) ++n;
+        if (intersect(f, g)) ++n;
       }
     }
     return n;
@@ -346,6 +351,11 @@ class FoldRepair {
   }
 
   [[nodiscard]] bool alive(std::uint32_t f) const { return dead_.empty() || !dead_[f]; }
+  // The exact test of two triangles, counted against the budget.
+  [[nodiscard]] bool intersect(std::uint32_t f, std::uint32_t g) const {
+    ++tests_;
+    return test_.intersect(f, g);
+  }
 
   // The keep_side points within `bounds`, with their winding numbers about `faces` (the
   // solid angles the triangles span, over 4 pi; Van Oosterom and Strackee's formula).
@@ -413,7 +423,7 @@ class FoldRepair {
     for (std::size_t i = 0; i < region.size(); ++i) {
       if (!alive(region[i])) continue;
       for (std::size_t j = i + 1; j < region.size(); ++j) {
-        if (alive(region[j]) && overlap(boxes[i], boxes[j]) && test_.intersect(region[i], region[j]))
+        if (alive(region[j]) && overlap(boxes[i], boxes[j]) && intersect(region[i], region[j]))
           crossing.push_back({region[i], region[j]});
       }
     }
@@ -766,13 +776,13 @@ class FoldRepair {
   [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region,
                                       std::size_t stop = SIZE_MAX) const {
     const auto b1 = box(f1), b2 = box(f2);
-    std::size_t n = overlap(b1, b2) && test_.intersect(f1, f2) ? 1 : 0;
+    std::size_t n = overlap(b1, b2) && intersect(f1, f2) ? 1 : 0;
     for (const std::uint32_t g : region) {
       if (n >= stop) break;
       if (g == f1 || g == f2 || !alive(g)) continue;
       const auto bg = box(g);
-      if (overlap(b1, bg) && test_.intersect(f1, g)) ++n;
-      if (overlap(b2, bg) && test_.intersect(f2, g)) ++n;
+      if (overlap(b1, bg) && intersect(f1, g)) ++n;
+      if (overlap(b2, bg) && intersect(f2, g)) ++n;
     }
     return n;
   }
@@ -818,6 +828,8 @@ class FoldRepair {
   bool collapse_;
   bool refill_;
   std::size_t max_pairs_;
+  std::size_t max_tests_;
+  mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round

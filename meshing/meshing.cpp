@@ -586,6 +586,14 @@ void Builder::repair_folds() {
   stats_.fold_moves = r.moves;
   stats_.fold_collapses = r.collapses;
   stats_.fold_refills = r.refills;
+  if (r.out_of_tests) {
+    stats_.warnings.add_count("fold_repair_stopped",
+                              "fold repair stopped at its budget of triangle tests (" +
+                                  std::to_string(options.max_tests_per_triangle) +
+                                  " per triangle): branches run through each other; see the skeleton's "
+                                  "separation warnings",
+                              1);
+  }
   if (r.gave_up) {
     stats_.warnings.add_count(
         "fold_repair_skipped",

@@ -6,7 +6,9 @@
 #include <map>
 #include <numbers>
 
+#include "meshing/fold_repair.h"
 #include "meshing/meshing.h"
+#include "mesh_fixtures.h"
 
 namespace sm {
 namespace {
@@ -90,6 +92,45 @@ TEST(Fuse, PantsAreManifoldForTinyAndLargeLoops) {
       for (std::size_t k = 0; k < lower.size(); ++k) EXPECT_EQ(e.count({lower[k], lower[(k + 1) % lower.size()]}), 1u);
     }
   }
+}
+
+TEST(FoldRepair, StopsAtItsBudgetOfTests) {
+  // A sphere with one vertex dragged across its neighbour w, as far beyond w as it was
+  // before it: its fan folds over the triangles around w. The repair untangles it; held to a
+  // budget of a few triangle tests it stops (out_of_tests), the mesh still closed (it only
+  // flips, moves, collapses and refills).
+  Mesh folded = test::icosphere(2);
+  const std::uint32_t w = folded.triangles[0][1], v = folded.triangles[0][0];
+  folded.positions[v] = 2.0 * folded.positions[w] - folded.positions[v];
+  auto closed = [](const Mesh& m) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> e;
+    for (const auto& t : m.triangles) {
+      if (t[0] == t[1] && t[1] == t[2]) continue;  // removed by a collapse or refill
+      for (int k = 0; k < 3; ++k) ++e[{t[std::size_t(k)], t[std::size_t((k + 1) % 3)]}];
+    }
+    for (const auto& [edge, n] : e) {
+      if (n != 1 || !e.count({edge.second, edge.first})) return false;
+    }
+    return true;
+  };
+  const std::vector<std::uint8_t> suspect(folded.triangles.size(), 1);
+  const std::vector<double> max_move(folded.positions.size(), 0.3);
+  Mesh full = folded;
+  const FoldRepairStats done = repair_folds(full, suspect, max_move, {});
+  EXPECT_GT(done.found, 0u);
+  EXPECT_FALSE(done.out_of_tests);
+  EXPECT_GT(done.flips + done.moves + done.collapses + done.refills, 0u);
+  EXPECT_TRUE(closed(full));
+  FoldRepairOptions tight;
+  tight.max_tests_per_triangle = 0;
+  tight.min_tests = 10;
+  Mesh held = folded;
+  const FoldRepairStats stopped = repair_folds(held, suspect, max_move, tight);
+  EXPECT_EQ(stopped.found, done.found);
+  EXPECT_TRUE(stopped.out_of_tests);
+  EXPECT_LT(stopped.flips + stopped.moves + stopped.collapses + stopped.refills,
+            done.flips + done.moves + done.collapses + done.refills);
+  EXPECT_TRUE(closed(held));
 }
 
 }  // namespace
