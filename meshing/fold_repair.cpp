@@ -317,6 +317,10 @@ class FoldRepair {
       }
     }
     const std::size_t before = crossings_around(faces, near, near_boxes);
+    // Skeleton nodes v might carry the fan across (a crotch or a short stub's tip just inside
+    // the surface: agraf nodes 988 and 1005 ended up outside).
+    const std::vector<std::size_t> kept = kept_within(reach);
+    const std::vector<Mesh::Triangle> fan = fan_triangles(faces);
     glm::dvec3 outward(0);
     for (const auto& n : facing) outward += n;
     const double olen = glm::length(outward);
@@ -340,7 +344,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
       }
-      if (ok && crossings_around(faces, near, near_boxes, before) < before) {
+      if (ok && crossings_around(faces, near, near_boxes, before) < before && !crosses_kept(kept, fan, fan, v, old)) {
         moved_.insert(moved_.end(), faces.begin(), faces.end());
         return true;
       }
