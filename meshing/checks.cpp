@@ -463,6 +463,7 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
     r.inside_checked = c.inside_checked;
     if (c.inside_checked) {
       r.thick_nodes_inside = static_cast<std::size_t>(std::count(c.inside.begin(), c.inside.end(), 1));
+      r.thick_nodes_in_overlaps = c.inside_by_winding;
       for (std::size_t k = 0; k < c.inside.size() && r.outside_node_examples.size() < params.max_examples; ++k) {
         if (!c.inside[k]) r.outside_node_examples.push_back(thick_ids[k]);
       }
@@ -562,6 +563,8 @@ std::string to_text(const MeshCheckReport& r) {
     std::string ex;
     for (const auto v : r.outside_node_examples) ex += (ex.empty() ? " (outside: node " : ", ") + std::to_string(v);
     if (!ex.empty()) ex += ")";
+    if (r.thick_nodes_in_overlaps > 0)
+      ex = " (" + n(r.thick_nodes_in_overlaps) + " of them where parts overlap, by winding number)" + ex;
     line("thick nodes inside",
          r.inside_checked ? n(r.thick_nodes_inside) + " / " + n(r.thick_nodes) + ex : std::string("not checked"));
   }
@@ -610,6 +613,7 @@ nlohmann::json to_json(const MeshCheckReport& r) {
     j["inside_checked"] = r.inside_checked;
     j["thick_nodes"] = r.thick_nodes;
     j["thick_nodes_inside"] = r.thick_nodes_inside;
+    j["thick_nodes_in_overlaps"] = r.thick_nodes_in_overlaps;
   }
   j["examples"] = {{"boundary_edges", pairs(r.boundary_edge_examples)},
                    {"nonmanifold_edges", pairs(r.nonmanifold_edge_examples)},

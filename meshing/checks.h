@@ -28,7 +28,11 @@
 ///    (linearly interpolated between its end radii); reported as p50, p95 and max.
 ///  - thick nodes inside (with a skeleton): every node whose radius is at least the median
 ///    radius must lie inside the mesh or on its surface (a node at the centre of a flat cap)
-///    (CGAL `Side_of_triangle_mesh`; only tested on a closed, manifold, oriented mesh).
+///    (CGAL `Side_of_triangle_mesh`; only tested on a closed, manifold, oriented mesh). Where
+///    the mesh intersects itself, a ray from a node inside two overlapping parts crosses two
+///    surfaces and CGAL calls it outside: nodes it calls outside are tested again by the
+///    generalized winding number, and count as inside at 0.5 or more
+///    (thick_nodes_in_overlaps; the self-intersections are reported anyway).
 ///
 /// Cost: O(F log F) plus the self-intersection test (box intersection, near-linear on meshes
 /// without many overlaps; parallel with oneTBB) and O(V log N) for fidelity with a bounding-
@@ -94,6 +98,7 @@ struct MeshCheckReport {
   bool inside_checked = false;         ///< the thick-node inside test ran (closed manifold oriented mesh)
   std::size_t thick_nodes = 0;         ///< skeleton nodes with radius >= the median radius
   std::size_t thick_nodes_inside = 0;  ///< of those, how many lie inside the mesh (or on it)
+  std::size_t thick_nodes_in_overlaps = 0;  ///< of those, inside overlapping parts (winding number >= 2)
 
   std::vector<std::array<std::uint32_t, 2>> boundary_edge_examples;      ///< vertex pairs
   std::vector<std::array<std::uint32_t, 2>> nonmanifold_edge_examples;   ///< vertex pairs

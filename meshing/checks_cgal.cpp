@@ -13,6 +13,8 @@
 #include "meshing/checks_cgal.h"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <mutex>
 #include <tuple>
 
@@ -23,6 +25,7 @@
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/box_intersection_d.h>
+#include <tbb/parallel_for.h>
 
 #include "meshing/intersections.h"
 
@@ -191,6 +194,31 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     for (std::size_t i = 0; i < queries.size(); ++i) {
       // The solid includes its surface: a node on a flat cap counts as inside.
       result.inside[i] = side(Point(queries[i].x, queries[i].y, queries[i].z)) != CGAL::ON_UNBOUNDED_SIDE ? 1 : 0;
+    }
+    // Those found outside: the winding number (see the header), each query serially, so the
+    // sums do not depend on the thread count.
+    std::vector<std::size_t> outside;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      if (!result.inside[i]) outside.push_back(i);
+    }
+    constexpr double kMaxVisits = 2e8;
+    outside.resize(std::min(outside.size(), static_cast<std::size_t>(kMaxVisits / double(mesh.triangles.size()))));
+    std::vector<std::uint8_t> wound(outside.size(), 0);
+    tbb::parallel_for(std::size_t{0}, outside.size(), [&](std::size_t k) {
+      const glm::dvec3& p = queries[outside[k]];
+      double w = 0;
+      for (const auto& t : mesh.triangles) {
+        const glm::dvec3 a = mesh.positions[t[0]] - p, b = mesh.positions[t[1]] - p, c = mesh.positions[t[2]] - p;
+        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+        w += 2.0 * std::atan2(glm::dot(a, glm::cross(b, c)),
+                              la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la);
+      }
+      wound[k] = w / (4.0 * std::numbers::pi) >= 0.5 ? 1 : 0;
+    });
+    for (std::size_t k = 0; k < outside.size(); ++k) {
+      if (!wound[k]) continue;
+      result.inside[outside[k]] = 1;
+      ++result.inside_by_winding;
     }
     result.inside_checked = true;
     result.timings.add("inside", watch.lap());

@@ -304,6 +304,25 @@ TEST(Checks, FidelityOfASphereAroundOneNode) {
   EXPECT_TRUE(r.ok()) << to_text(r);
 }
 
+TEST(Checks, NodesInsideOverlappingPartsAreInside) {
+  // Two closed boxes through each other: a ray from a node inside both crosses two surfaces,
+  // and CGAL's parity test calls it outside; its winding number is 2.
+  RawSkeleton raw;
+  raw.add(0, -1, {0.25, 0.25, 0.25}, 0.1);  // inside the first box only
+  raw.add(1, 0, {0.75, 0.75, 0.75}, 0.1);   // inside both
+  raw.add(2, 1, {2.0, 2.0, 2.0}, 0.1);      // outside both
+  const Skeleton skel = test::built(raw);
+  ASSERT_EQ(skel.size(), 3u);
+  const MeshCheckReport r = check_mesh(test::interpenetrating_boxes(), {.skeleton = &skel});
+  ASSERT_TRUE(r.inside_checked);
+  EXPECT_EQ(r.thick_nodes, 3u);
+  EXPECT_EQ(r.thick_nodes_inside, 2u);
+  EXPECT_EQ(r.thick_nodes_in_overlaps, 1u);
+  ASSERT_EQ(r.outside_node_examples.size(), 1u);
+  EXPECT_EQ(skel.position[r.outside_node_examples[0]], dvec3(2.0));
+  EXPECT_TRUE(r.self_intersecting_pairs > 0);
+}
+
 TEST(Checks, FidelityAlongATaperedCone) {
   // Vertices placed on the side of the round cone of a tapered edge: deviation ~0; the same
   // vertices pushed out by 20% of the local radius: deviation ~0.2.
