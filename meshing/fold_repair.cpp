@@ -62,7 +62,7 @@ constexpr double kCreaseDegrees = 90.0;
 class FoldRepair {
  public:
   FoldRepair(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-             const FoldRepairOptions& options)
+             const FoldRepairOptions& options, FoldRepairUndo* undo)
       : mesh_(mesh),
         suspect_(suspect),
         max_move_(max_move),
@@ -71,6 +71,9 @@ class FoldRepair {
         max_pairs_(options.max_pairs),
         max_tests_(options.max_tests_per_triangle * mesh.triangles.size() + options.min_tests),
         keep_side_(options.keep_side),
+        axis_point_(options.axis_point),
+        axis_targets_(options.axis_targets),
+        undo_(undo),
         test_(mesh) {}
 
   // Round 0 examines the creased suspect triangles and their neighbours (creased()); each
@@ -81,6 +84,7 @@ class FoldRepair {
     build_around();
     std::vector<std::uint32_t> examine = creased();
     std::size_t handled = 0;
+    std::vector<std::array<std::uint32_t, 2>> unresolved;  // pairs still crossing after their turn
     for (int round = 0; !stats.gave_up && !stats.out_of_tests && round < max_rounds && !examine.empty(); ++round) {
       const auto pairs = test_.pairs(examine);
       ++stats.rounds;
@@ -132,13 +136,21 @@ class FoldRepair {
             if (crossing() && refill(within_rings(seeds, rings))) ++stats.refills;
           }
         }
+        if (crossing()) unresolved.push_back({a, b});
       }
       stats.flips += flipped_.size() / 2;  // before the moved triangles join the list
       flipped_.insert(flipped_.end(), moved_.begin(), moved_.end());
       moved_.clear();
       std::erase_if(flipped_, [&](std::uint32_t f) { return !alive(f); });
       examine = within_two_rings(flipped_);
+      if (round + 1 == max_rounds && !examine.empty()) {
+        // Changes of the last round not examined again: their pairs count as left.
+        for (const auto& pr : test_.pairs(examine)) unresolved.push_back(pr);
+      }
     }
+    std::sort(unresolved.begin(), unresolved.end());
+    unresolved.erase(std::unique(unresolved.begin(), unresolved.end()), unresolved.end());
+    for (const auto& [a, b] : unresolved) stats.left += alive(a) && alive(b) && intersect(a, b) ? 1 : 0;
     return stats;
   }
 
@@ -326,19 +338,28 @@ class FoldRepair {
     const double olen = glm::length(outward);
     if (olen > 0) outward /= olen;
     std::vector<glm::dvec3> targets;
+    auto towards_axis = [&] {
+      if (v >= axis_point_.size()) return;
+      const glm::dvec3 in = axis_point_[v] - old;
+      const double l = glm::length(in);
+      if (!(l > 0)) return;
+      for (const double k : {0.5, 1.0}) targets.push_back(old + std::min(k * limit, 0.5 * l) * (in / l));
+    };
+    if (axis_targets_ == AxisTargets::first) towards_axis();
     for (const double lambda : {1.0, 0.5, 0.25}) targets.push_back(old + lambda * (centroid - old));
     // Then along the fan's normal, out and in: a vertex poking through a neighbouring strip
     // is often pushed back by that rather than by smoothing. (Pairs on callistemon /
     // small_pine / agraf, particle seeds 1, 2, 3: 3,978 in all without these targets, 3,622
     // with them; 130 -> 36 on callistemon, but small_pine seed 1 847 -> 900.)
     for (const double k : {1.0, -1.0, 0.5, -0.5}) targets.push_back(old + k * limit * outward);
+    if (axis_targets_ == AxisTargets::last) towards_axis();
     for (glm::dvec3 target : targets) {
       // The limit holds for the total move from where stitching put v.
       const glm::dvec3 offset = target - origin;
       const double len = glm::length(offset);
       if (len > limit) target = origin + offset * (limit / len);
       if (!(glm::length(target - old) > 0)) continue;
-      mesh_.positions[v] = target;
+      set_vertex(v, target);
       test_.set_position(v, mesh_.positions[v]);
       bool ok = true;
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
@@ -349,12 +370,25 @@ class FoldRepair {
         return true;
       }
     }
-    mesh_.positions[v] = old;
+    set_vertex(v, old);
     test_.set_position(v, old);
     return false;
   }
 
   [[nodiscard]] bool alive(std::uint32_t f) const { return dead_.empty() || !dead_[f]; }
+  // Every change to the mesh goes through these, so the undo log holds each triangle's and
+  // vertex's value from before the repair.
+  void record_triangle(std::uint32_t f) {
+    if (undo_ && undo_->triangle_seen.insert(f).second) undo_->triangles.emplace_back(f, mesh_.triangles[f]);
+  }
+  void set_triangle(std::uint32_t f, const Mesh::Triangle& t) {
+    record_triangle(f);
+    mesh_.triangles[f] = t;
+  }
+  void set_vertex(std::uint32_t v, const glm::dvec3& p) {
+    if (undo_ && undo_->position_seen.insert(v).second) undo_->positions.emplace_back(v, mesh_.positions[v]);
+    mesh_.positions[v] = p;
+  }
   // The exact test of two triangles, counted against the budget.
   [[nodiscard]] bool intersect(std::uint32_t f, std::uint32_t g) const {
     ++tests_;
@@ -575,7 +609,7 @@ class FoldRepair {
     dead_.resize(mesh_.triangles.size(), 0);
     for (std::size_t i = 0; i < patch.size(); ++i) {
       if (i < fill.size()) {
-        mesh_.triangles[patch[i]] = fill[i];
+        set_triangle(patch[i], fill[i]);
       } else {
         dead_[patch[i]] = 1;
       }
@@ -583,14 +617,14 @@ class FoldRepair {
     const std::vector<std::uint32_t> filled(patch.begin(), patch.begin() + std::ptrdiff_t(fill.size()));
     if (crossings_around(filled, others, other_boxes, before) >= before || crosses_kept(kept, saved, fill)) {
       for (std::size_t i = 0; i < patch.size(); ++i) {
-        mesh_.triangles[patch[i]] = saved[i];
+        set_triangle(patch[i], saved[i]);
         dead_[patch[i]] = 0;
       }
       return false;
     }
     for (std::size_t i = fill.size(); i < patch.size(); ++i) {
       const std::uint32_t x = saved[i][0];
-      mesh_.triangles[patch[i]] = Mesh::Triangle{x, x, x};
+      set_triangle(patch[i], Mesh::Triangle{x, x, x});
     }
     for (const std::uint32_t v : verts) {
       std::vector<std::uint32_t>& list = changed(v);
@@ -688,6 +722,7 @@ class FoldRepair {
     // Rewire: w -> u in the fan; f1 and f2 die.
     const std::vector<Mesh::Triangle> saved = fan_triangles(fan);
     for (const std::uint32_t g : fan) {
+      record_triangle(g);
       for (std::uint32_t& x : mesh_.triangles[g]) {
         if (x == w) x = u;
       }
@@ -697,7 +732,7 @@ class FoldRepair {
     // The target box `near` was taken with the fan where it was: the fan stays inside it
     // (each target lies on the segment between u and w).
     for (const glm::dvec3& target : {0.5 * (pu + pw), pu, pw}) {
-      mesh_.positions[u] = target;
+      set_vertex(u, target);
       test_.set_position(u, target);
       bool ok = true;
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
@@ -705,7 +740,8 @@ class FoldRepair {
       }
       if (ok && crossings_around(fan, near, near_boxes, before) < before &&
           !crosses_kept(kept, old_faces, fan_triangles(fan), u, pu)) {
-        mesh_.triangles[f1] = mesh_.triangles[f2] = Mesh::Triangle{u, u, u};
+        set_triangle(f1, Mesh::Triangle{u, u, u});
+        set_triangle(f2, Mesh::Triangle{u, u, u});
         origin_.try_emplace(u, pu);  // later moves stay bounded from where stitching put u
         std::vector<std::uint32_t>& at_u = changed(u);
         at_u = fan;
@@ -716,9 +752,9 @@ class FoldRepair {
         return true;
       }
     }
-    for (std::size_t i = 0; i < fan.size(); ++i) mesh_.triangles[fan[i]] = saved[i];
+    for (std::size_t i = 0; i < fan.size(); ++i) set_triangle(fan[i], saved[i]);
     dead_[f1] = dead_[f2] = 0;
-    mesh_.positions[u] = pu;
+    set_vertex(u, pu);
     test_.set_position(u, pu);
     return false;
   }
@@ -809,11 +845,11 @@ class FoldRepair {
     if (!(glm::dot(n1, facing) > 0) || !(glm::dot(n2, facing) > 0)) return false;
 
     const std::size_t before = crossings(f1, f2, region);
-    mesh_.triangles[f1] = new1;
-    mesh_.triangles[f2] = new2;
+    set_triangle(f1, new1);
+    set_triangle(f2, new2);
     if (crossings(f1, f2, region, before) >= before) {
-      mesh_.triangles[f1] = old1;
-      mesh_.triangles[f2] = old2;
+      set_triangle(f1, old1);
+      set_triangle(f2, old2);
       return false;
     }
     // a leaves f2, b leaves f1, c joins f2, d joins f1.
@@ -835,6 +871,9 @@ class FoldRepair {
   std::size_t max_tests_;
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
+  std::span<const glm::dvec3> axis_point_;
+  AxisTargets axis_targets_;
+  FoldRepairUndo* undo_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round
   std::vector<std::uint32_t> flipped_;          // the triangles flipped in this round (two per flip)
@@ -849,9 +888,9 @@ class FoldRepair {
 }  // namespace
 
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             const FoldRepairOptions& options) {
+                             const FoldRepairOptions& options, FoldRepairUndo* undo) {
   if (options.max_rounds <= 0 || std::find(suspect.begin(), suspect.end(), 1) == suspect.end()) return {};
-  return FoldRepair(mesh, suspect, max_move, options).run(options.max_rounds);
+  return FoldRepair(mesh, suspect, max_move, options, undo).run(options.max_rounds);
 }
 
 }  // namespace sm

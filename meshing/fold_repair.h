@@ -18,6 +18,8 @@
 
 #include <cstdint>
 #include <span>
+#include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -35,6 +37,28 @@ struct FoldRepairStats {
   std::size_t rounds = 0;     ///< detection rounds run
   bool gave_up = false;       ///< more pairs than FoldRepairOptions::max_pairs: not repaired (or stopped)
   bool out_of_tests = false;  ///< stopped when its triangle tests ran over the budget
+  std::size_t left = 0;       ///< pairs the repair met and left crossing
+};
+
+/// Where a vertex move also tries towards its branch's axis (FoldRepairOptions::axis_point).
+enum class AxisTargets : std::uint8_t { none, last, first };
+
+/// The values repair_folds changed, from before it ran: each triangle and vertex once.
+struct FoldRepairUndo {
+  std::vector<std::pair<std::uint32_t, Mesh::Triangle>> triangles;
+  std::vector<std::pair<std::uint32_t, glm::dvec3>> positions;
+  std::unordered_set<std::uint32_t> triangle_seen, position_seen;
+  /// Puts them back in `mesh`.
+  void restore(Mesh& mesh) const {
+    for (const auto& [f, t] : triangles) mesh.triangles[f] = t;
+    for (const auto& [v, p] : positions) mesh.positions[v] = p;
+  }
+  /// Puts them back in `mesh` and keeps the repaired values instead: a second swap redoes
+  /// the repair.
+  void swap_with(Mesh& mesh) {
+    for (auto& [f, t] : triangles) std::swap(mesh.triangles[f], t);
+    for (auto& [v, p] : positions) std::swap(mesh.positions[v], p);
+  }
 };
 
 struct FoldRepairOptions {
@@ -62,6 +86,11 @@ struct FoldRepairOptions {
   /// or refill that would carry the surface across one (its winding number changes) is
   /// refused, so neither cuts off part of a branch.
   std::span<const glm::dvec3> keep_side;
+  /// Per vertex (#V, or empty): the nearest point on the axis of the branch that made it. A
+  /// vertex move also tries half and all of its limit towards it, before (first) or after
+  /// (last) the other targets.
+  std::span<const glm::dvec3> axis_point;
+  AxisTargets axis_targets = AxisTargets::none;
 };
 
 /// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of
@@ -74,6 +103,6 @@ struct FoldRepairOptions {
 /// left degenerate, as (u, u, u), for the caller to drop, and the vertices they remove are
 /// no longer used.
 FoldRepairStats repair_folds(Mesh& mesh, const std::vector<std::uint8_t>& suspect, const std::vector<double>& max_move,
-                             const FoldRepairOptions& options);
+                             const FoldRepairOptions& options, FoldRepairUndo* undo = nullptr);
 
 }  // namespace sm

@@ -72,6 +72,10 @@ struct MeshParams {
   /// 1-3: 449 without, 252 with (boutdenoylum2 10 -> 0, qsm 63 -> 17, agraf 141 -> 91,
   /// small_pine 235 -> 144); grown `bush` preset 3 -> 0.
   bool fold_repair_refills = true;
+  /// On meshes of at most 300,000 triangles where the fold repair leaves self-intersecting pairs
+  /// (counted over the whole mesh), try two more orders of its vertex moves from the stitched
+  /// mesh and keep the run leaving the fewest (see meshing.cpp, repair_folds).
+  bool fold_repair_variants = true;
 };
 
 struct MeshStats {

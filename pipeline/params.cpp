@@ -85,6 +85,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_max_move", p.fold_repair_max_move);
   v("fold_repair_collapses", p.fold_repair_collapses);
   v("fold_repair_refills", p.fold_repair_refills);
+  v("fold_repair_variants", p.fold_repair_variants);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

@@ -116,7 +116,16 @@ TEST(FoldRepair, StopsAtItsBudgetOfTests) {
   const std::vector<std::uint8_t> suspect(folded.triangles.size(), 1);
   const std::vector<double> max_move(folded.positions.size(), 0.3);
   Mesh full = folded;
-  const FoldRepairStats done = repair_folds(full, suspect, max_move, {});
+  FoldRepairUndo undo;
+  const FoldRepairStats done = repair_folds(full, suspect, max_move, {}, &undo);
+  // The undo log takes the mesh back to where it was, and a second swap redoes the repair.
+  const Mesh repaired = full;
+  undo.swap_with(full);
+  EXPECT_EQ(full.positions, folded.positions);
+  EXPECT_EQ(full.triangles, folded.triangles);
+  undo.swap_with(full);
+  EXPECT_EQ(full.positions, repaired.positions);
+  EXPECT_EQ(full.triangles, repaired.triangles);
   EXPECT_GT(done.found, 0u);
   EXPECT_FALSE(done.out_of_tests);
   EXPECT_GT(done.flips + done.moves + done.collapses + done.refills, 0u);

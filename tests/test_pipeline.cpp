@@ -426,6 +426,24 @@ TEST(Pipeline, HubOfThousandsOfTwigsIsMeshed) {
   EXPECT_EQ(rep.genus, 0);
 }
 
+TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
+  // boutdenoylum2 at particle seed 2: the fold repair leaves 7 self-intersecting pairs; run
+  // again from the stitched mesh with vertex moves also towards the branches' axes, none.
+  const auto file = sample_named("mtg_boutdenoylum2.json");
+  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  const RawSkeleton raw = read_skeleton(*file);
+  PipelineParams params;
+  params.particles.seed = 2;
+  auto pairs = [&](bool variants) {
+    params.meshing.fold_repair_variants = variants;
+    const PipelineResult r = run_pipeline(raw, params);
+    return check_mesh(r.mesh.mesh).self_intersecting_pairs;
+  };
+  const std::size_t one = pairs(false), best = pairs(true);
+  EXPECT_GT(one, 0u);
+  EXPECT_LT(best, one);
+}
+
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";

@@ -297,6 +297,11 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.fold_repair_max_move,
        .min = 0,
        .max = 1},
+      {.key = "fold_repair_variants",
+       .help = "where pairs are left (meshes up to 300,000 triangles), try two more orders of the repair's moves",
+       .value = &p.fold_repair_variants,
+       .min = 0,
+       .max = 1},
   };
 }
 
