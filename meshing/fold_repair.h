@@ -37,7 +37,6 @@ struct FoldRepairStats {
   std::size_t rounds = 0;     ///< detection rounds run
   bool gave_up = false;       ///< more pairs than FoldRepairOptions::max_pairs: not repaired (or stopped)
   bool out_of_tests = false;  ///< stopped when its triangle tests ran over the budget
-  std::size_t left = 0;       ///< pairs the repair met and left crossing
 };
 
 /// Where a vertex move also tries towards its branch's axis (FoldRepairOptions::axis_point).
