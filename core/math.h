@@ -44,6 +44,16 @@ inline dvec3 normalize_or(const dvec3& v, const dvec3& fallback) {
 /// points).
 void closest_segment_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t);
 
+/// The solid angle (steradians, signed: positive when a, b, c run counter-clockwise seen from
+/// the origin) that the triangle with corners a, b, c, relative to the point, spans there (Van
+/// Oosterom and Strackee). Summed over a closed mesh and divided by 4 pi: the winding number.
+inline double solid_angle(const dvec3& a, const dvec3& b, const dvec3& c) {
+  const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+  const double det = glm::dot(a, glm::cross(b, c));
+  const double div = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
+  return 2.0 * std::atan2(det, div);
+}
+
 /// 2D cross product (z of the 3D cross product): > 0 when b is counter-clockwise of a.
 inline double cross2(const dvec2& a, const dvec2& b) {
   return a.x * b.y - a.y * b.x;

@@ -13,7 +13,6 @@
 #include "meshing/checks_cgal.h"
 
 #include <algorithm>
-#include <cmath>
 #include <numbers>
 #include <mutex>
 #include <tuple>
@@ -27,6 +26,7 @@
 #include <CGAL/box_intersection_d.h>
 #include <tbb/parallel_for.h>
 
+#include "core/math.h"
 #include "meshing/intersections.h"
 
 namespace sm::detail {
@@ -207,12 +207,8 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     tbb::parallel_for(std::size_t{0}, outside.size(), [&](std::size_t k) {
       const glm::dvec3& p = queries[outside[k]];
       double w = 0;
-      for (const auto& t : mesh.triangles) {
-        const glm::dvec3 a = mesh.positions[t[0]] - p, b = mesh.positions[t[1]] - p, c = mesh.positions[t[2]] - p;
-        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
-        w += 2.0 * std::atan2(glm::dot(a, glm::cross(b, c)),
-                              la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la);
-      }
+      for (const auto& t : mesh.triangles)
+        w += solid_angle(mesh.positions[t[0]] - p, mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
       wound[k] = w / (4.0 * std::numbers::pi) >= 0.5 ? 1 : 0;
     });
     for (std::size_t k = 0; k < outside.size(); ++k) {

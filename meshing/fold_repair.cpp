@@ -36,6 +36,7 @@
 #include <glm/glm.hpp>
 #include <tbb/parallel_for.h>
 
+#include "core/math.h"
 #include "meshing/intersections.h"
 
 namespace sm {
@@ -415,13 +416,7 @@ class FoldRepair {
     std::vector<double> w(points.size(), 0.0);
     for (std::size_t i = 0; i < points.size(); ++i) {
       const glm::dvec3& p = keep_side_[points[i]];
-      for (const auto& t : tris) {
-        const glm::dvec3 a = position(t[0]) - p, b = position(t[1]) - p, c = position(t[2]) - p;
-        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
-        const double det = glm::dot(a, glm::cross(b, c));
-        const double div = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
-        w[i] += 2.0 * std::atan2(det, div);
-      }
+      for (const auto& t : tris) w[i] += solid_angle(position(t[0]) - p, position(t[1]) - p, position(t[2]) - p);
       w[i] /= 4.0 * std::numbers::pi;
     }
     return w;

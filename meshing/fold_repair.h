@@ -47,11 +47,6 @@ struct FoldRepairUndo {
   std::vector<std::pair<std::uint32_t, Mesh::Triangle>> triangles;
   std::vector<std::pair<std::uint32_t, glm::dvec3>> positions;
   std::unordered_set<std::uint32_t> triangle_seen, position_seen;
-  /// Puts them back in `mesh`.
-  void restore(Mesh& mesh) const {
-    for (const auto& [f, t] : triangles) mesh.triangles[f] = t;
-    for (const auto& [v, p] : positions) mesh.positions[v] = p;
-  }
   /// Puts them back in `mesh` and keeps the repaired values instead: a second swap redoes
   /// the repair.
   void swap_with(Mesh& mesh) {

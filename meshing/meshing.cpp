@@ -593,17 +593,17 @@ void Builder::repair_folds() {
   // 1 and 2); their fold repair takes 3-7 times as long (boutdenoylum2 0.3 -> 2.2 s), a count
   // 0.03-0.13 s. Clean meshes pay one count; larger meshes (the grown presets, the bench tree)
   // nothing.
+  // (The undo log is kept only where variants may follow: it costs a hash insert per change.)
+  const bool variants = p_.fold_repair_variants && mesh_.triangles.size() <= kVariantTriangles &&
+                        mesh_.vertex_node.size() == mesh_.positions.size();
   FoldRepairUndo undo;
-  FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, &undo);
+  FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, variants ? &undo : nullptr);
   auto pairs_left = [&] {
     std::vector<std::uint32_t> all(mesh_.triangles.size());
     std::iota(all.begin(), all.end(), 0u);
     return TriangleIntersections(mesh_).pairs(all).size();
   };
-  std::size_t left = 0;
-  if (p_.fold_repair_variants && mesh_.triangles.size() <= kVariantTriangles && !r.gave_up && !r.out_of_tests &&
-      mesh_.vertex_node.size() == mesh_.positions.size())
-    left = pairs_left();
+  std::size_t left = variants && !r.gave_up && !r.out_of_tests ? pairs_left() : 0;
   if (left > 0) {
     std::vector<glm::dvec3> axis(mesh_.positions.size());
     for (std::size_t v = 0; v < axis.size(); ++v) {
@@ -635,7 +635,7 @@ void Builder::repair_folds() {
         left = lv;
         undo = std::move(u);
       } else {
-        u.restore(mesh_);
+        u.swap_with(mesh_);  // back to the stitched mesh
       }
     }
     if (!applied) undo.swap_with(mesh_);
@@ -646,12 +646,10 @@ void Builder::repair_folds() {
   stats_.fold_collapses = r.collapses;
   stats_.fold_refills = r.refills;
   if (r.out_of_tests) {
-    stats_.warnings.add_count("fold_repair_stopped",
-                              "fold repair stopped at its budget of triangle tests (" +
-                                  std::to_string(options.max_tests_per_triangle) +
-                                  " per triangle): branches run through each other; see the skeleton's "
-                                  "separation warnings",
-                              1);
+    stats_.warnings.add("fold_repair_stopped", "fold repair stopped at its budget of triangle tests (" +
+                                                   std::to_string(options.max_tests_per_triangle) +
+                                                   " per triangle): branches run through each other; see the "
+                                                   "skeleton's separation warnings");
   }
   if (r.gave_up) {
     stats_.warnings.add_count(

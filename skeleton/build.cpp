@@ -375,8 +375,8 @@ void cluster_fan_outs(WorkTree& t, const SkeletonParams& params, SkeletonReport&
   const std::vector<double> w = tip_weights(t, queue);
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const std::uint32_t v = queue[q];
-    auto& ch = t.children[v];
-    if (ch.size() <= limit + 1) continue;
+    if (t.children[v].size() <= limit + 1) continue;
+    const std::vector<std::uint32_t> ch = t.children[v];  // copy: t.add() below may reallocate
     ++rep.clustered_nodes;
     rep.warnings.add("clustered_children",
                      "node with more than " + std::to_string(limit + 1) +
