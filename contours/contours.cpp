@@ -259,6 +259,16 @@ class Walker {
  private:
   // --- geometry helpers -------------------------------------------------------------------
   [[nodiscard]] double len(NodeId n) const { return s_.edge_length(n); }
+  // The parameters with their local factors (ContourParams::local) at node n.
+  [[nodiscard]] const LocalContourScale& local(NodeId n) const {
+    static const LocalContourScale kOne{};
+    return n.idx() < p_.local.size() ? p_.local[n.idx()] : kOne;
+  }
+  [[nodiscard]] double split_gap(NodeId fork) const { return p_.split_gap * local(fork).split_gap; }
+  [[nodiscard]] double fork_transition(NodeId fork) const {
+    return p_.fork_transition * local(fork).fork_transition;
+  }
+  [[nodiscard]] double slice_step(NodeId n) const { return p_.slice_step * local(n).slice_step; }
 
   /// Distance of node y above the anchor, given the distance of its parent.
   [[nodiscard]] SliceGeometry edge_geometry(NodeId n, double t) const {
@@ -286,11 +296,11 @@ class Walker {
   /// round cone between its nodes and needs no more), except where a bundle is still leaving
   /// its fork.
   [[nodiscard]] double step_at(const SliceGeometry& g) const {
-    double step = std::max(p_.slice_step * g.radius, p_.min_slice_step * spacing_);
+    double step = std::max(slice_step(g.node) * g.radius, p_.min_slice_step * spacing_);
     const NodeId parent = s_.parent[g.node.idx()];
     if (parent.valid() && p_.max_slices_per_edge > 0) {
       const double l = len(g.node);
-      const bool in_transition = s_.is_fork(parent) && g.t * l < p_.fork_transition * s_.radius[parent.idx()];
+      const bool in_transition = s_.is_fork(parent) && g.t * l < fork_transition(parent) * s_.radius[parent.idx()];
       if (!in_transition) step = std::max(step, l / double(p_.max_slices_per_edge));
     }
     return step;
@@ -338,7 +348,7 @@ class Walker {
     double w = t;
     if (s_.is_fork(parent)) {
       const double l = len(n);
-      const double ramp = std::min(l, p_.fork_transition * s_.radius[parent.idx()]);
+      const double ramp = std::min(l, fork_transition(parent) * s_.radius[parent.idx()]);
       const double x = ramp > 0 ? std::clamp(t * l / ramp, 0.0, 1.0) : 1.0;
       w = x * x * (3.0 - 2.0 * x);
     }
@@ -357,7 +367,7 @@ class Walker {
     // Only where the child leaves upwards, within its transition, by at most half the fork's
     // radius (a drooping branch is meant to go below the fork's plane).
     const bool above_fork =
-        s_.is_fork(parent) && along < p_.fork_transition * rf && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
+        s_.is_fork(parent) && along < fork_transition(parent) * rf && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
     const double min_height = along / 3.0;
     // Above a fork, as the bundle gets its own round section: weight w^4 of the transition's
     // smoothstep (slices near the fork lie in its plane, far from perpendicular to the child,
@@ -476,18 +486,18 @@ class Walker {
   /// at most `enough` (callers only ask whether it is larger).
   double cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const;
   /// The clearance the split test asks for (surfaces clear of the other subtree's cones).
-  [[nodiscard]] double min_clearance() const { return 0.5 * p_.split_gap * spacing_; }
+  [[nodiscard]] double min_clearance(NodeId fork) const { return 0.5 * split_gap(fork) * spacing_; }
   /// After split_gap_at: is each bundle's surface clear of the other child's subtree cones by
   /// min_clearance? Computed on first use for that section (only once the points are apart:
   /// a split and a forced split both ask it, each after its own test of the points).
   bool surfaces_clear();
   /// After split_gap_at: are the bundles apart (points and cones)?
-  bool separated_now() { return last_gap_ > threshold() && surfaces_clear(); }
+  bool separated_now() { return last_gap_ > threshold(last_fork_) && surfaces_clear(); }
   /// Geometry of a slice through a cut: the first (main-chain) edge of the cut.
   SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
     return edge_geometry(edges.front().node, edges.front().t);
   }
-  [[nodiscard]] double threshold() const { return p_.split_gap * spacing_; }
+  [[nodiscard]] double threshold(NodeId fork) const { return split_gap(fork) * spacing_; }
   [[nodiscard]] bool excluded(NodeId n) const {
     return !excluded_.empty() && std::find(excluded_.begin(), excluded_.end(), n) != excluded_.end();
   }
@@ -706,7 +716,7 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   evaluate_cut(cut_b_, pts_b_);
   // Exact up to the threshold; may stop early at 0.25 x the neighbour distance, below the
   // 0.5 x a forced split needs.
-  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(), 0.25 * spacing_);
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(fork), 0.25 * spacing_);
   last_fork_ = fork;
   last_fork_base_ = fork_base;
   last_u_ = u;
@@ -721,12 +731,12 @@ bool Walker::surfaces_clear() {
   if (!last_clearance_) {
     const auto& c = s_.children[last_fork_.idx()];
     const double reach = last_u_ + 2.0 * s_.radius[last_fork_.idx()];
-    double clearance = cone_clearance(pts_b_, c[0], last_fork_base_, reach, min_clearance());
-    if (clearance > min_clearance())
-      clearance = std::min(clearance, cone_clearance(pts_a_, c[1], last_fork_base_, reach, min_clearance()));
+    const double enough = min_clearance(last_fork_);
+    double clearance = cone_clearance(pts_b_, c[0], last_fork_base_, reach, enough);
+    if (clearance > enough) clearance = std::min(clearance, cone_clearance(pts_a_, c[1], last_fork_base_, reach, enough));
     last_clearance_ = clearance;
   }
-  return *last_clearance_ > min_clearance();
+  return *last_clearance_ > min_clearance(last_fork_);
 }
 
 double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const {
@@ -812,11 +822,12 @@ bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double 
     excluded_.pop_back();
   }
   if (pts_rest_.point.empty()) return false;
-  if (!(gap(pts_l_.point, pts_rest_.point, threshold(), 0.25 * spacing_) > threshold())) return false;
+  const double threshold_here = threshold(fork), enough = min_clearance(fork);
+  if (!(gap(pts_l_.point, pts_rest_.point, threshold_here, 0.25 * spacing_) > threshold_here)) return false;
   const NodeId y = s_.parent[lateral.idx()];
   const double reach = u + 2.0 * s_.radius[y.idx()];
-  return cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach, min_clearance()) > min_clearance() &&
-         cone_clearance(pts_rest_, lateral, base, reach, min_clearance()) > min_clearance();
+  return cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach, enough) > enough &&
+         cone_clearance(pts_rest_, lateral, base, reach, enough) > enough;
 }
 
 std::vector<std::uint8_t> Walker::lateral_sides(NodeId lateral, std::uint32_t loop) const {
@@ -937,7 +948,7 @@ void Walker::walk(const Task& task, Fragment& fragment) {
       // Keep the last loop below the split close to the fork (the pants stay short even when
       // the edge below was sliced coarsely): a loop at the fork's own section.
       const SliceGeometry g = edge_geometry(fork, 1.0);
-      const double near = p_.slice_step * g.radius;
+      const double near = slice_step(fork) * g.radius;
       if (end - last > 0.5 * near && !out_->tubes[tube].loops.empty()) {
         pts_.clear();
         evaluate(fork, 1.0, pts_);

@@ -58,6 +58,14 @@
 
 namespace sm {
 
+/// Factors on three contour parameters at one node (ContourParams::local).
+struct LocalContourScale {
+  double split_gap = 1.0;
+  double fork_transition = 1.0;
+  double slice_step = 1.0;
+  friend bool operator==(const LocalContourScale&, const LocalContourScale&) = default;
+};
+
 struct ContourParams {
   /// Distance between consecutive slices along a branch, relative to the local radius.
   double slice_step = 0.4;
@@ -98,6 +106,13 @@ struct ContourParams {
   /// edges longer than this, relative to the median nearest-neighbour distance of the
   /// slice's points, are carved away (0 = fall back to the convex hull).
   double fallback_max_edge = 3.0;
+
+  /// Local factors on split_gap, fork_transition and slice_step, per node of the sanitized
+  /// skeleton (#N, or empty for 1 everywhere). Not a config key: the pipeline sets them where
+  /// it re-slices the forks around self-intersections of the mesh (pipeline/fork_retry.h).
+  /// A fork's split test and transition use its own factors; a slice on the edge of node n,
+  /// n's slice step factor.
+  std::vector<LocalContourScale> local;
 };
 
 /// Where a loop comes from.

@@ -459,6 +459,8 @@ class Builder {
   void drop_unused_vertices();
   void repair_folds();
   std::vector<TriangleKind> kind_;
+  std::vector<Crossing> crossings_;  // MeshResult::crossings
+  bool crossings_counted_ = false;
 };
 
 void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const {
@@ -594,17 +596,35 @@ void Builder::repair_folds() {
   // 0.03-0.13 s. Clean meshes pay one count; larger meshes (the grown presets, the bench tree)
   // nothing.
   // (The undo log is kept only where variants may follow: it costs a hash insert per change.)
-  const bool variants = p_.fold_repair_variants && mesh_.triangles.size() <= kVariantTriangles &&
-                        mesh_.vertex_node.size() == mesh_.positions.size();
+  const bool small = mesh_.triangles.size() <= kVariantTriangles && mesh_.vertex_node.size() == mesh_.positions.size();
+  const bool variants = p_.fold_repair_variants && small;
   FoldRepairUndo undo;
   FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, variants ? &undo : nullptr);
+  // The pairs left anywhere, as the midpoints of their triangles' centroids (the pipeline's
+  // fork retry places them; see MeshResult::crossings).
+  std::vector<Crossing> at;
   auto pairs_left = [&] {
     std::vector<std::uint32_t> all(mesh_.triangles.size());
     std::iota(all.begin(), all.end(), 0u);
-    return TriangleIntersections(mesh_).pairs(all).size();
+    std::vector<Crossing> out;
+    for (const auto& [f, g] : TriangleIntersections(mesh_).pairs(all)) {
+      Crossing c;
+      for (int k = 0; k < 6; ++k) {
+        const std::uint32_t v = mesh_.triangles[k < 3 ? f : g][std::size_t(k % 3)];
+        c.at += mesh_.positions[v] / 6.0;
+        c.nodes[std::size_t(k)] = mesh_.vertex_node[v];
+      }
+      out.push_back(c);
+    }
+    return out;
   };
-  std::size_t left = variants && !r.gave_up && !r.out_of_tests ? pairs_left() : 0;
-  if (left > 0) {
+  const bool counted = (variants || (p_.fork_retry && small)) && !r.gave_up && !r.out_of_tests;
+  if (counted) {
+    at = pairs_left();
+    crossings_counted_ = true;
+  }
+  std::size_t left = at.size();
+  if (variants && left > 0) {
     std::vector<glm::dvec3> axis(mesh_.positions.size());
     for (std::size_t v = 0; v < axis.size(); ++v) {
       const NodeId n = mesh_.vertex_node[v];
@@ -628,11 +648,14 @@ void Builder::repair_folds() {
       o.axis_targets = variant;
       FoldRepairUndo u;
       const FoldRepairStats rv = sm::repair_folds(mesh_, suspect, max_move, o, &u);
-      const std::size_t lv = rv.gave_up || rv.out_of_tests ? left : pairs_left();
+      std::vector<Crossing> at_v;
+      if (!rv.gave_up && !rv.out_of_tests) at_v = pairs_left();
+      const std::size_t lv = rv.gave_up || rv.out_of_tests ? left : at_v.size();
       applied = lv < left;
       if (applied) {
         r = rv;
         left = lv;
+        at = std::move(at_v);
         undo = std::move(u);
       } else {
         u.swap_with(mesh_);  // back to the stitched mesh
@@ -640,6 +663,7 @@ void Builder::repair_folds() {
     }
     if (!applied) undo.swap_with(mesh_);
   }
+  crossings_ = std::move(at);
   stats_.fold_pairs = r.found;
   stats_.fold_flips = r.flips;
   stats_.fold_moves = r.moves;
@@ -958,7 +982,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("check", clock.lap());
   stats_.vertices = mesh_.positions.size();
   stats_.triangles = mesh_.triangles.size();
-  return MeshResult{std::move(mesh_), std::move(kind_), std::move(stats_)};
+  return MeshResult{std::move(mesh_), std::move(kind_), std::move(stats_), std::move(crossings_), crossings_counted_};
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 /// The result is a welded mesh: a closed 2-manifold of genus 0 for any tree (checked by
 /// `check_mesh`, meshing/checks.h).
 
+#include <array>
 #include <cstdint>
 
 #include "contours/contours.h"
@@ -75,7 +76,11 @@ struct MeshParams {
   /// On meshes of at most 300,000 triangles where the fold repair leaves self-intersecting pairs
   /// (counted over the whole mesh), try two more orders of its vertex moves from the stitched
   /// mesh and keep the run leaving the fewest (see meshing.cpp, repair_folds).
-  bool fold_repair_variants = true;
+  bool fold_repair_variants = false;
+  /// Where pairs are still left (counted as for fold_repair_variants), the pipeline re-slices
+  /// the forks around them with other split gaps, fork transitions and slice steps and keeps
+  /// each crotch's best (pipeline/fork_retry.h).
+  bool fork_retry = true;
 };
 
 struct MeshStats {
@@ -98,10 +103,22 @@ struct MeshStats {
 /// Which construction made a triangle (for debugging and the viewer).
 enum class TriangleKind : std::uint8_t { strip, fusion, tip_cap, root_cap };
 
+/// A self-intersecting pair of triangles: the mean of their six corners, and the skeleton node
+/// whose edge or section made each corner (Mesh::vertex_node).
+struct Crossing {
+  glm::dvec3 at{0.0};
+  std::array<NodeId, 6> nodes{};
+};
+
 struct MeshResult {
   Mesh mesh;
   std::vector<TriangleKind> triangle_kind;  ///< #F
   MeshStats stats;
+  /// The self-intersecting triangle pairs left, if the fold repair counted them over the whole
+  /// mesh (`crossings_counted`: meshes of at most 300,000 triangles with
+  /// MeshParams::fold_repair_variants or fork_retry, the repair not stopped).
+  std::vector<Crossing> crossings;
+  bool crossings_counted = false;
 };
 
 /// Builds the branch mesh from the contour loops.

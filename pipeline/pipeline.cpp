@@ -62,6 +62,8 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   timed(Stage::contours,
         [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
   timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
+  // (Its runs add their own times to the contours and meshing stages.)
+  if (from <= Stage::meshing) r.fork_retry = retry_forks(r, p, progress);
 }
 
 PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
@@ -141,6 +143,12 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"moved_vertices", r.mesh.stats.fold_moves},
                  {"collapsed_edges", r.mesh.stats.fold_collapses},
                  {"refilled_disks", r.mesh.stats.fold_refills}}},
+               {"fork_retry",
+                {{"pairs_counted", r.fork_retry.counted},
+                 {"pairs_before", r.fork_retry.pairs_before},
+                 {"pairs_after", r.fork_retry.pairs_after},
+                 {"fork_groups", r.fork_retry.groups},
+                 {"runs", r.fork_retry.runs}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";

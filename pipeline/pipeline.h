@@ -11,6 +11,7 @@
 #include "core/report.h"
 #include "meshing/meshing.h"
 #include "particles/particles.h"
+#include "pipeline/fork_retry.h"
 #include "skeleton/build.h"
 #include "strands/strands.h"
 
@@ -44,6 +45,8 @@ struct PipelineResult {
   StrandSet strands;
   ContourSet contours;
   MeshResult mesh;
+  /// The fork retry's figures (MeshParams::fork_retry).
+  ForkRetryStats fork_retry;
   /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing".
   Timings timings;
   /// Warnings of every stage, in stage order.

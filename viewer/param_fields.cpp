@@ -302,6 +302,12 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.fold_repair_variants,
        .min = 0,
        .max = 1},
+      {.key = "fork_retry",
+       .help = "where pairs are left (meshes up to 300,000 triangles), re-slice the forks around them with other "
+               "contour settings and keep each crotch's best",
+       .value = &p.fork_retry,
+       .min = 0,
+       .max = 1},
   };
 }
 

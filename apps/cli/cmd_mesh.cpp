@@ -114,6 +114,13 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
+      if (const ForkRetryStats& fr = r.fork_retry; fr.runs > 0) {
+        std::snprintf(line, sizeof line,
+                      "  fork retry: %zu -> %zu self-intersecting pairs; %zu group(s) of forks sliced again in %zu "
+                      "runs of contours and meshing (in their times above; the phases are the kept run's)",
+                      fr.pairs_before, fr.pairs_after, fr.groups, fr.runs);
+        log::verbose(line);
+      }
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
                    " edges not shared by exactly two triangles; please report this skeleton");

@@ -1,0 +1,42 @@
+#pragma once
+/// Fork retry: where the finished mesh still has self-intersecting triangle pairs, the forks
+/// around them are sliced again with other contour parameters, and each group of forks keeps
+/// the variant whose mesh crosses itself least there.
+///
+/// The pairs the fold repair cannot untangle sit at crotches (stubs, whorls, three-way hubs),
+/// and whether a crotch folds depends on exactly where its slices and split fall: changing
+/// the split gap, the fork transition or the slice step there moves the pairs (measured on the
+/// samples x particle seeds 1-3, each setting changed for the whole tree: 135 pairs with the
+/// defaults, 133-174 with each of five other settings, but 37 taking per crotch the best of
+/// the six). So the retry meshes the tree once per variant with the variant applied only
+/// around the crossings (ContourParams::local), counts the pairs per group of forks (the
+/// forks within kReach radii of the same pairs), and meshes once more with each group's best
+/// variant. The result with the fewest pairs of all the runs is kept; ties keep the earlier
+/// run, so a clean mesh or a failed retry leaves the output as it was. Deterministic: every
+/// run is, and the choices are made in a fixed order.
+///
+/// It runs only where the meshing stage counted the pairs over the whole mesh (meshes of at
+/// most 300,000 triangles, MeshResult::crossings_counted) and found some.
+
+#include <cstddef>
+
+#include "core/progress.h"
+
+namespace sm {
+
+struct PipelineParams;
+struct PipelineResult;
+
+struct ForkRetryStats {
+  std::size_t pairs_before = 0;  ///< self-intersecting pairs of the first mesh (0 if not counted)
+  std::size_t pairs_after = 0;   ///< of the mesh kept
+  std::size_t groups = 0;        ///< groups of forks retried
+  std::size_t runs = 0;          ///< extra runs of the contour and meshing stages
+  bool counted = false;          ///< the pairs were counted (see above)
+};
+
+/// Retries the forks around the self-intersections of `result.mesh` (contours and meshing
+/// stages again, their times added to result.timings). Needs MeshParams::fork_retry.
+ForkRetryStats retry_forks(PipelineResult& result, const PipelineParams& params, const ProgressFn& progress = {});
+
+}  // namespace sm
