@@ -594,7 +594,8 @@ void Builder::repair_folds() {
   // boutdenoylum2 seeds 2 and 3, 7 / 9 -> 0, the second on agraf seed 3 and small_pine seeds
   // 1 and 2); their fold repair takes 3-7 times as long (boutdenoylum2 0.3 -> 2.2 s), a count
   // 0.03-0.13 s. Clean meshes pay one count; larger meshes (the grown presets, the bench tree)
-  // nothing.
+  // nothing. (Off by default: MeshParams::fold_repair_variants. The count is made for the
+  // pipeline's fork retry as well, which uses the pairs left: MeshResult::crossings.)
   // (The undo log is kept only where variants may follow: it costs a hash insert per change.)
   const bool small = mesh_.triangles.size() <= kVariantTriangles && mesh_.vertex_node.size() == mesh_.positions.size();
   const bool variants = p_.fold_repair_variants && small;

@@ -9,6 +9,9 @@
 #include <optional>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -173,40 +176,66 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     }
     return local;
   };
-  Stopwatch clock;
-  auto run = [&](const std::vector<LocalContourScale>& scale) {
-    if (progress) progress("fork retry", double(stats.runs) / double(kVariants.size() + 1));
+  // One run of the contour and meshing stages; `seconds` gets the time of each.
+  auto run = [&](const std::vector<LocalContourScale>& scale, std::array<double, 2>& seconds) {
     PipelineParams q = p;
     q.contours.local = local_for(scale);
     Run out;
-    clock.lap();
+    Stopwatch clock;
     out.contours = compute_contours(s, r.particles, r.strands, q.contours);
-    r.timings.add(stage_name(Stage::contours), clock.lap());
+    seconds[0] = clock.lap();
     out.mesh = build_mesh(s, out.contours, q.meshing);
-    r.timings.add(stage_name(Stage::meshing), clock.lap());
-    ++stats.runs;
+    seconds[1] = clock.lap();
+    return out;
+  };
+  // Runs several at once (the fold repair is serial), their wall time shared between the two
+  // stages in proportion to their own times.
+  auto run_all = [&](const std::vector<std::vector<LocalContourScale>>& scales) {
+    std::vector<Run> out(scales.size());
+    std::vector<std::array<double, 2>> seconds(scales.size());
+    Stopwatch wall;
+    tbb::parallel_for(std::size_t{0}, scales.size(), [&](std::size_t k) { out[k] = run(scales[k], seconds[k]); });
+    const double elapsed = wall.lap();
+    double contours = 0, meshing = 0;
+    for (const auto& [c, m] : seconds) {
+      contours += c;
+      meshing += m;
+    }
+    const double share = contours + meshing > 0 ? contours / (contours + meshing) : 0.0;
+    r.timings.add(stage_name(Stage::contours), elapsed * share);
+    r.timings.add(stage_name(Stage::meshing), elapsed * (1.0 - share));
     return out;
   };
 
-  // Every group tries every variant at once (their pairs are counted apart).
+  // Every group tries every variant at once (their pairs are counted apart). The trials run
+  // in batches as wide as the threads, and their results are taken in the order of
+  // kVariants up to the first without pairs, so the outcome is the same for any thread count.
   std::vector<std::size_t> best_count = groups.tally(s, r.mesh.crossings);
   std::vector<LocalContourScale> best_scale(groups.count);
   std::size_t best_total = r.mesh.crossings.size();
   std::optional<Run> best_run;  // the run with the fewest pairs, if better than the first
-  for (const LocalContourScale& v : kVariants) {
-    if (best_total == 0) break;
-    Run out = run(std::vector<LocalContourScale>(groups.count, v));
-    if (!out.mesh.crossings_counted) continue;
-    const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
-    for (std::size_t g = 0; g < groups.count; ++g) {
-      if (count[g] < best_count[g]) {
-        best_count[g] = count[g];
-        best_scale[g] = v;
+  const std::size_t width = std::max(1, tbb::this_task_arena::max_concurrency());
+  for (std::size_t first = 0; first < kVariants.size() && best_total > 0; first += width) {
+    if (progress) progress("fork retry", double(first) / double(kVariants.size() + 1));
+    std::vector<std::vector<LocalContourScale>> batch;
+    for (std::size_t k = first; k < std::min(kVariants.size(), first + width); ++k)
+      batch.emplace_back(groups.count, kVariants[k]);
+    std::vector<Run> runs = run_all(batch);
+    for (std::size_t k = 0; k < runs.size() && best_total > 0; ++k) {
+      Run& out = runs[k];
+      ++stats.runs;
+      if (!out.mesh.crossings_counted) continue;
+      const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
+      for (std::size_t g = 0; g < groups.count; ++g) {
+        if (count[g] < best_count[g]) {
+          best_count[g] = count[g];
+          best_scale[g] = batch[k].front();
+        }
       }
-    }
-    if (out.mesh.crossings.size() < best_total) {
-      best_total = out.mesh.crossings.size();
-      best_run = std::move(out);
+      if (out.mesh.crossings.size() < best_total) {
+        best_total = out.mesh.crossings.size();
+        best_run = std::move(out);
+      }
     }
   }
   // Each group with its best variant, unless that is one of the runs made already (all the
@@ -214,7 +243,9 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   const bool mixed = std::any_of(best_scale.begin(), best_scale.end(),
                                  [&](const LocalContourScale& v) { return !(v == best_scale.front()); });
   if (mixed && best_total > 0) {
-    Run out = run(best_scale);
+    if (progress) progress("fork retry", double(kVariants.size()) / double(kVariants.size() + 1));
+    Run out = std::move(run_all({best_scale}).front());
+    ++stats.runs;
     if (out.mesh.crossings_counted && out.mesh.crossings.size() < best_total) {
       best_total = out.mesh.crossings.size();
       best_run = std::move(out);
