@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <optional>
 #include <vector>
@@ -12,6 +13,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "core/math.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -37,6 +39,7 @@ constexpr std::array<LocalContourScale, 5> kVariants{{
 struct Run {
   ContourSet contours;
   MeshResult mesh;
+  std::vector<std::size_t> outside;  // per group: watched nodes outside the mesh
 };
 
 // The forks a crossing depends on: where the edges of its triangles' corners start (the fork
@@ -151,6 +154,54 @@ struct Groups {
   }
 };
 
+// The thick nodes near the groups (radius at least the median, the nodes `strandmesh check`
+// asks to be inside), each with the group of the fork nearest to it within kReach of that
+// fork's radius: another slicing of a crotch must not leave one of them outside.
+struct Watched {
+  std::vector<NodeId> node;
+  std::vector<std::uint32_t> group;
+
+  Watched(const Skeleton& s, const Groups& groups) {
+    std::vector<double> radii = s.radius;
+    if (radii.empty() || groups.forks.empty()) return;
+    auto mid = radii.begin() + std::ptrdiff_t(radii.size() / 2);
+    std::nth_element(radii.begin(), mid, radii.end());
+    const double median = *mid;
+    for (std::uint32_t i = 0; i < s.size(); ++i) {
+      if (s.radius[i] < median) continue;
+      double best = kReach;
+      std::uint32_t at = UINT32_MAX;
+      for (std::size_t f = 0; f < groups.forks.size(); ++f) {
+        const std::size_t k = groups.forks[f].idx();
+        const double d = glm::length(s.position[i] - s.position[k]) / s.radius[k];
+        if (d <= best) {
+          best = d;
+          at = groups.group[f];
+        }
+      }
+      if (at == UINT32_MAX) continue;
+      node.push_back(NodeId(i));
+      group.push_back(at);
+    }
+  }
+
+  // Per group: the watched nodes outside `mesh` (generalized winding number below 1/2; each
+  // node's sum in triangle order, so the same for any thread count).
+  [[nodiscard]] std::vector<std::size_t> outside(const Skeleton& s, const Mesh& mesh, std::size_t groups) const {
+    std::vector<std::uint8_t> out(node.size(), 0);
+    tbb::parallel_for(std::size_t{0}, node.size(), [&](std::size_t k) {
+      const glm::dvec3& p = s.position[node[k].idx()];
+      double w = 0;
+      for (const auto& t : mesh.triangles)
+        w += solid_angle(mesh.positions[t[0]] - p, mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
+      out[k] = w / (4.0 * std::numbers::pi) < 0.5;
+    });
+    std::vector<std::size_t> count(groups, 0);
+    for (std::size_t k = 0; k < node.size(); ++k) count[group[k]] += out[k];
+    return count;
+  }
+};
+
 }  // namespace
 
 ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const ProgressFn& progress) {
@@ -162,6 +213,10 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   const Groups groups(s, r.mesh.crossings);
   stats.groups = groups.count;
   if (groups.count == 0) return stats;
+  const Watched watched(s, groups);
+  const std::vector<std::size_t> outside_before = watched.outside(s, r.mesh.mesh, groups.count);
+  auto sum = [](const std::vector<std::size_t>& v) { return std::accumulate(v.begin(), v.end(), std::size_t{0}); };
+  const std::size_t outside_total = sum(outside_before);
 
   // Each group's forks (and the edges above them, for the slice step) at `scale[group]`.
   auto local_for = [&](const std::vector<LocalContourScale>& scale) {
@@ -185,6 +240,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     out.contours = compute_contours(s, r.particles, r.strands, q.contours);
     seconds[0] = clock.lap();
     out.mesh = build_mesh(s, out.contours, q.meshing);
+    out.outside = watched.outside(s, out.mesh.mesh, groups.count);
     seconds[1] = clock.lap();
     return out;
   };
@@ -227,12 +283,12 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
       if (!out.mesh.crossings_counted) continue;
       const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
       for (std::size_t g = 0; g < groups.count; ++g) {
-        if (count[g] < best_count[g]) {
+        if (count[g] < best_count[g] && out.outside[g] <= outside_before[g]) {
           best_count[g] = count[g];
           best_scale[g] = batch[k].front();
         }
       }
-      if (out.mesh.crossings.size() < best_total) {
+      if (out.mesh.crossings.size() < best_total && sum(out.outside) <= outside_total) {
         best_total = out.mesh.crossings.size();
         best_run = std::move(out);
       }
@@ -246,7 +302,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     if (progress) progress("fork retry", double(kVariants.size()) / double(kVariants.size() + 1));
     Run out = std::move(run_all({best_scale}).front());
     ++stats.runs;
-    if (out.mesh.crossings_counted && out.mesh.crossings.size() < best_total) {
+    if (out.mesh.crossings_counted && out.mesh.crossings.size() < best_total && sum(out.outside) <= outside_total) {
       best_total = out.mesh.crossings.size();
       best_run = std::move(out);
     }
