@@ -77,7 +77,7 @@ struct MeshParams {
   /// (counted over the whole mesh), try two more orders of its vertex moves from the stitched
   /// mesh and keep the run leaving the fewest (see meshing.cpp, repair_folds). Off by default
   /// since the fork retry (below) does better: samples x particle seeds 1-3, 135 pairs with
-  /// these variants alone, 69 with the retry alone, 67 with both at 1.4 x the retry's time.
+  /// these variants alone, 82 with the retry alone, 73 with both at 1.9 x the retry's time.
   bool fold_repair_variants = false;
   /// Where pairs are still left (counted as for fold_repair_variants), the pipeline re-slices
   /// the forks around them with other split gaps, fork transitions and slice steps and keeps

@@ -21,7 +21,8 @@
 /// and 3: 579 -> 580), at 2-3 x the sample's time (small_pine 2.3 -> 5.2 s). Not adopted: a
 /// second round from the kept result, around the pairs left in it (69 -> 68 without the guard);
 /// grouping by distance to the forks instead of tree paths (76); four more variants (two
-/// parameters changed at once, slice step 0.45: 82 with the guard, as with five). The pairs left
+/// parameters changed at once, slice step 0.45: 82 with the guard, as with five). With
+/// meshing.fold_repair_variants on as well: 73, at 1.9 x the time. The pairs left
 /// are mostly where a branch runs into its own sub-branch or a near-parallel sibling away from
 /// the fork (agraf 395 / 496, 934 / 960), which no variant changes. Deterministic: every run
 /// is, and the choices are made in a fixed order.
