@@ -14,6 +14,7 @@
 #include <tbb/task_arena.h>
 
 #include "core/math.h"
+#include "meshing/checks.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -83,19 +84,33 @@ std::vector<NodeId> forks_of(const Skeleton& s, const Crossing& c) {
   return out;
 }
 
-// The groups of forks around the crossings: the forks of one crossing share a group
-// (union-find), numbered in order of their first fork.
+// The forks a thick node outside the mesh depends on: the forks among the node and its
+// ancestors (up to kAncestors edges down) that lie within kReach of their radii of it. A
+// stub's tip swallowed by a crotch, a node left outside by a fused section.
+std::vector<NodeId> forks_of(const Skeleton& s, NodeId n) {
+  constexpr int kAncestors = 32;
+  std::vector<NodeId> out;
+  int steps = 0;
+  for (NodeId x = n; x.valid() && steps < kAncestors; x = s.parent[x.idx()], ++steps) {
+    if (s.is_fork(x) && glm::length(s.position[n.idx()] - s.position[x.idx()]) <= kReach * s.radius[x.idx()])
+      out.push_back(x);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The groups of forks around the crossings and the thick nodes outside: the forks of one
+// crossing or node share a group (union-find), numbered in order of their first fork.
 struct Groups {
   std::vector<NodeId> forks;          // ascending
   std::vector<std::uint32_t> group;   // per fork
   std::size_t count = 0;
 
-  Groups(const Skeleton& s, const std::vector<Crossing>& crossings) {
+  Groups(const Skeleton& s, const std::vector<Crossing>& crossings, const std::vector<NodeId>& outside) {
     std::vector<std::vector<NodeId>> of;
-    for (const Crossing& c : crossings) {
-      of.push_back(forks_of(s, c));
-      forks.insert(forks.end(), of.back().begin(), of.back().end());
-    }
+    for (const Crossing& c : crossings) of.push_back(forks_of(s, c));
+    for (const NodeId n : outside) of.push_back(forks_of(s, n));
+    for (const auto& list : of) forks.insert(forks.end(), list.begin(), list.end());
     std::sort(forks.begin(), forks.end());
     forks.erase(std::unique(forks.begin(), forks.end()), forks.end());
     std::vector<std::uint32_t> up(forks.size());
@@ -208,15 +223,32 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   ForkRetryStats stats;
   stats.counted = r.mesh.crossings_counted;
   stats.pairs_before = stats.pairs_after = r.mesh.crossings.size();
-  if (!p.meshing.fork_retry || !r.mesh.crossings_counted || r.mesh.crossings.empty()) return stats;
+  if (!p.meshing.fork_retry || !r.mesh.crossings_counted) return stats;
   const Skeleton& s = r.skeleton.skeleton;
-  const Groups groups(s, r.mesh.crossings);
+  // The thick nodes outside the first mesh (as `strandmesh check` finds them). This and the
+  // first mesh's windings count as meshing time.
+  Stopwatch own;
+  std::vector<NodeId> outside_nodes;
+  {
+    MeshCheckParams cp;
+    cp.self_intersections = false;
+    cp.skeleton = &s;
+    cp.max_examples = std::numeric_limits<std::size_t>::max();
+    const MeshCheckReport check = check_mesh(r.mesh.mesh, cp);
+    for (const std::uint32_t n : check.outside_node_examples) outside_nodes.push_back(NodeId(n));
+  }
+  const Groups groups(s, r.mesh.crossings, outside_nodes);
   stats.groups = groups.count;
-  if (groups.count == 0) return stats;
+  if (groups.count == 0) {
+    r.timings.add(stage_name(Stage::meshing), own.lap());
+    return stats;
+  }
   const Watched watched(s, groups);
   const std::vector<std::size_t> outside_before = watched.outside(s, r.mesh.mesh, groups.count);
+  r.timings.add(stage_name(Stage::meshing), own.lap());
   auto sum = [](const std::vector<std::size_t>& v) { return std::accumulate(v.begin(), v.end(), std::size_t{0}); };
   const std::size_t outside_total = sum(outside_before);
+  stats.outside_before = stats.outside_after = outside_total;
 
   // Each group's forks (and the edges above them, for the slice step) at `scale[group]`.
   auto local_for = [&](const std::vector<LocalContourScale>& scale) {
@@ -263,33 +295,42 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     return out;
   };
 
-  // Every group tries every variant at once (their pairs are counted apart). The trials run
-  // in batches as wide as the threads, and their results are taken in the order of
-  // kVariants up to the first without pairs, so the outcome is the same for any thread count.
-  std::vector<std::size_t> best_count = groups.tally(s, r.mesh.crossings);
+  // Every group tries every variant at once (their pairs and nodes are counted apart). A
+  // variant may not leave more pairs or more thick nodes outside at a group than the first run
+  // did, and is better with fewer nodes outside, then fewer pairs. The trials run in batches as
+  // wide as the threads, and their results are taken in the order of kVariants up to the first
+  // without pairs or nodes outside, so the outcome is the same for any thread count.
+  using Score = std::pair<std::size_t, std::size_t>;  // (thick nodes outside, pairs)
+  const std::vector<std::size_t> pairs_before = groups.tally(s, r.mesh.crossings);
+  std::vector<Score> best(groups.count);
+  for (std::size_t g = 0; g < groups.count; ++g) best[g] = {outside_before[g], pairs_before[g]};
   std::vector<LocalContourScale> best_scale(groups.count);
-  std::size_t best_total = r.mesh.crossings.size();
-  std::optional<Run> best_run;  // the run with the fewest pairs, if better than the first
+  Score best_total{outside_total, r.mesh.crossings.size()};
+  const Score first_total = best_total;
+  auto admissible = [](const Score& x, const Score& limit) { return x.first <= limit.first && x.second <= limit.second; };
+  std::optional<Run> best_run;  // the best run, if better than the first
   const std::size_t width = std::max(1, tbb::this_task_arena::max_concurrency());
-  for (std::size_t first = 0; first < kVariants.size() && best_total > 0; first += width) {
+  for (std::size_t first = 0; first < kVariants.size() && best_total != Score{}; first += width) {
     if (progress) progress("fork retry", double(first) / double(kVariants.size() + 1));
     std::vector<std::vector<LocalContourScale>> batch;
     for (std::size_t k = first; k < std::min(kVariants.size(), first + width); ++k)
       batch.emplace_back(groups.count, kVariants[k]);
     std::vector<Run> runs = run_all(batch);
-    for (std::size_t k = 0; k < runs.size() && best_total > 0; ++k) {
+    for (std::size_t k = 0; k < runs.size() && best_total != Score{}; ++k) {
       Run& out = runs[k];
       ++stats.runs;
       if (!out.mesh.crossings_counted) continue;
       const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
       for (std::size_t g = 0; g < groups.count; ++g) {
-        if (count[g] < best_count[g] && out.outside[g] <= outside_before[g]) {
-          best_count[g] = count[g];
+        const Score here{out.outside[g], count[g]};
+        if (admissible(here, {outside_before[g], pairs_before[g]}) && here < best[g]) {
+          best[g] = here;
           best_scale[g] = batch[k].front();
         }
       }
-      if (out.mesh.crossings.size() < best_total && sum(out.outside) <= outside_total) {
-        best_total = out.mesh.crossings.size();
+      const Score total{sum(out.outside), out.mesh.crossings.size()};
+      if (admissible(total, first_total) && total < best_total) {
+        best_total = total;
         best_run = std::move(out);
       }
     }
@@ -298,12 +339,13 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   // same variant).
   const bool mixed = std::any_of(best_scale.begin(), best_scale.end(),
                                  [&](const LocalContourScale& v) { return !(v == best_scale.front()); });
-  if (mixed && best_total > 0) {
+  if (mixed && best_total != Score{}) {
     if (progress) progress("fork retry", double(kVariants.size()) / double(kVariants.size() + 1));
     Run out = std::move(run_all({best_scale}).front());
     ++stats.runs;
-    if (out.mesh.crossings_counted && out.mesh.crossings.size() < best_total && sum(out.outside) <= outside_total) {
-      best_total = out.mesh.crossings.size();
+    const Score total{sum(out.outside), out.mesh.crossings.size()};
+    if (out.mesh.crossings_counted && admissible(total, first_total) && total < best_total) {
+      best_total = total;
       best_run = std::move(out);
     }
   }
@@ -312,6 +354,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     r.mesh = std::move(best_run->mesh);
   }
   stats.pairs_after = r.mesh.crossings.size();
+  stats.outside_after = best_total.first;
   // Where pairs are left, say near which forks (one warning per pair; the viewer's problems
   // layer shows them).
   std::vector<NodeId> named;

@@ -147,6 +147,8 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                 {{"pairs_counted", r.fork_retry.counted},
                  {"pairs_before", r.fork_retry.pairs_before},
                  {"pairs_after", r.fork_retry.pairs_after},
+                 {"thick_nodes_outside_before", r.fork_retry.outside_before},
+                 {"thick_nodes_outside_after", r.fork_retry.outside_after},
                  {"fork_groups", r.fork_retry.groups},
                  {"runs", r.fork_retry.runs}}},
                {"warnings", std::move(warnings)},

@@ -116,9 +116,10 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       log::verbose(line);
       if (const ForkRetryStats& fr = r.fork_retry; fr.runs > 0) {
         std::snprintf(line, sizeof line,
-                      "  fork retry: %zu -> %zu self-intersecting pairs; %zu group(s) of forks sliced again in %zu "
-                      "runs of contours and meshing (in their times above; the phases are the kept run's)",
-                      fr.pairs_before, fr.pairs_after, fr.groups, fr.runs);
+                      "  fork retry: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes outside; %zu group(s) of "
+                      "forks sliced again in %zu runs of contours and meshing (in their times above; the phases are "
+                      "the kept run's)",
+                      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs);
         log::verbose(line);
       }
       if (r.mesh.stats.bad_edges > 0) {
