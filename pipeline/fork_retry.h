@@ -20,15 +20,19 @@
 /// more of those nodes outside at a group than the first run did; among the others, fewer
 /// nodes outside, then fewer pairs, is better (without the node guard the retry left 69 pairs
 /// but lost small_pine seed 1's node 997 and one of agraf seed 3).
-/// Samples x particle seeds 1-3: 135 -> 82 pairs (boutdenoylum2 2 -> 0; agraf 61 -> 39,
-/// small_pine 48 -> 28, rtwig 24 -> 15), thick nodes inside 7,495 -> 7,501 of 7,524
-/// (boutdenoylum2 137 / 138 / 137 -> 138 / 139 / 138, agraf 579 -> 580 at each seed), at 2-3
-/// x the sample's time (small_pine 2.3 -> 5.3 s, boutdenoylum2 0.4 -> 3.0 s); clean meshes pay one
-/// inside test (callistemon 0.05 s). Not adopted: a
+/// Samples x particle seeds 1-3: 135 -> 44 pairs (boutdenoylum2 2 -> 0; agraf 61 -> 8,
+/// small_pine 48 -> 24, rtwig 24 -> 12), thick nodes inside 7,495 -> 7,509 of 7,524
+/// (boutdenoylum2 137 / 138 / 137 -> 139 / 140 / 139, agraf 579 -> 582 / 582 / 581). It costs 12
+/// more runs of contours and meshing where the problems are not all solved, two at a time on two
+/// threads: agraf 0.5 -> 6.8 s, boutdenoylum2 0.4 -> 6.6 s, rtwig 0.2 -> 3.3 s, small_pine 0.7
+/// -> 8.6 s in all (2-core AMD EPYC VM); clean meshes pay one inside test (callistemon 0.05 s). Trials
+/// that repair folds only near the groups (the rest as stitched, pairs counted near the groups)
+/// and one full run of the groups' choices took two thirds of the time but left 68 pairs.
+/// Not adopted either: a
 /// second round from the kept result, around the pairs left in it (69 -> 68 without the guard);
-/// grouping by distance to the forks instead of tree paths (76); four more variants (two
-/// parameters changed at once, slice step 0.45: 82 with the guard, as with five). With
-/// meshing.fold_repair_variants on as well: 73, at 1.9 x the time. The pairs left
+/// grouping by distance to the forks instead of tree paths (76 with five variants); two
+/// parameters changed at once (no gain). With meshing.fold_repair_variants on as well and five
+/// variants: 73 instead of 82, at 1.9 x the time. The pairs left
 /// are mostly where a branch runs into its own sub-branch or a near-parallel sibling away from
 /// the fork (agraf 395 / 496, 934 / 960), which no variant changes. Deterministic: every run
 /// is, and the choices are made in a fixed order.
