@@ -25,8 +25,9 @@ namespace {
 // a radius from the fork's node; a whorl's forks are a tiny step apart and all take part).
 constexpr double kReach = 4.0;
 
-// The variants tried, as factors on the defaults (split gap 1.5, fork transition 1.5, slice
-// step 0.4): split gaps 1.0-4.5, transitions 0.5-3.0, slice steps 0.3 and 0.35. (Each of the
+// The variants tried, as factors on the configured values, written as the values they give
+// at the defaults (split gap 1.5, fork transition 1.5, slice step 0.4): split gaps 1.0-4.5,
+// transitions 0.5-3.0, slice steps 0.3 and 0.35, in the order tried. (Each of the
 // first five applied to the whole tree, samples x particle seeds 1-3: 133 / 174 / 145 / 153 /
 // 142 pairs against the defaults' 135. Retried with these five, 82 pairs left; with these
 // eleven, 44, and thick nodes inside 7,501 -> 7,509 of 7,524: the far ones matter, split gap
