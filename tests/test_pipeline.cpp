@@ -412,7 +412,11 @@ TEST(Pipeline, HubOfThousandsOfTwigsIsMeshed) {
   // many minutes); clustered (SkeletonParams::max_chain_forks) the particles stay near-linear
   // in the twigs, and the tangle of twigs is meshed closed and of genus 0.
   const RawSkeleton raw = test::star(2000);
-  const PipelineResult r = run_pipeline(raw, {});
+  // (The fork retry runs the contour and meshing stages 12 more times on this tangle: 2.5 ->
+  // 25 s, 89 -> 16 pairs, 1,312 -> 995 thick nodes outside. Not what this test is about.)
+  PipelineParams params;
+  params.meshing.fork_retry = false;
+  const PipelineResult r = run_pipeline(raw, params);
   EXPECT_GT(r.skeleton.report.clustered_nodes, 0u);
   EXPECT_EQ(r.warnings().count("dense_branches"), 1u);
   EXPECT_LT(r.particles.position.size(), 400'000u);
