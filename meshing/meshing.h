@@ -79,9 +79,11 @@ struct MeshParams {
   /// since the fork retry (below) does better: samples x particle seeds 1-3, 135 pairs with
   /// these variants alone, 82 with the retry alone, 73 with both at 1.9 x the retry's time.
   bool fold_repair_variants = false;
-  /// Where pairs are still left (counted as for fold_repair_variants), the pipeline re-slices
-  /// the forks around them with other split gaps, fork transitions and slice steps and keeps
-  /// each crotch's best (pipeline/fork_retry.h).
+  /// Where self-intersecting pairs (counted as for fold_repair_variants, on meshes of at most
+  /// 300,000 triangles) or thick skeleton nodes outside the mesh are still left, the pipeline
+  /// re-slices the forks around them with other split gaps, fork transitions and slice steps
+  /// and keeps each crotch's best: up to 12 more runs of contours and meshing
+  /// (pipeline/fork_retry.h).
   bool fork_retry = true;
 };
 
