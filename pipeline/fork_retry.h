@@ -4,40 +4,42 @@
 /// parameters, and each group of forks keeps the variant that does best there.
 ///
 /// The pairs the fold repair cannot untangle sit at crotches (stubs, whorls, three-way hubs),
-/// and whether a crotch folds depends on exactly where its slices and split fall: changing
-/// the split gap, the fork transition or the slice step there moves the pairs (measured on the
-/// samples x particle seeds 1-3, each setting changed for the whole tree: 135 pairs with the
-/// defaults, 133-174 with each of five other settings, but 37 counting per crotch the best of
-/// the six). So the retry meshes the tree once per variant with the variant applied only
-/// around the crossings (ContourParams::local), counts the pairs per group of forks (the forks
-/// on the tree paths between the nodes of a pair's corners, Crossing::nodes), and meshes once
-/// more with each group's best variant. The result with the fewest pairs of all the runs is
+/// and whether a crotch folds, or swallows a stub's tip, depends on exactly where its slices
+/// and split fall: changing the split gap, the fork transition or the slice step there moves
+/// the pairs (samples x particle seeds 1-3, each setting changed for the whole tree: 135 pairs
+/// with the defaults, 133-174 with each of five other settings, but 37 counting per crotch the
+/// best of the six). So the retry meshes the tree once per variant, the variant applied only
+/// at the forks around the problems (ContourParams::local), and counts per group of forks:
+///  - the forks of a pair are those on the tree paths between the nodes of its corners
+///    (Crossing::nodes) within kReach of their radii of it; those of a thick node outside the
+///    first mesh (radius at least the median, found as `strandmesh check` finds them) are the
+///    forks among it and its ancestors within kReach of their radii; forks sharing a problem
+///    form a group;
+///  - the thick nodes near a group are tested in every run (generalized winding numbers).
+/// A variant may leave neither more pairs nor more nodes outside at a group than the first run
+/// did; among those, fewer nodes outside, then fewer pairs, is better. One more run combines
+/// each group's best, and the best run overall (by the same rule, over the whole mesh) is
 /// kept; ties keep the earlier run, so a clean mesh or a failed retry leaves the output as it
-/// was. The thick nodes (radius at least the median, the nodes `strandmesh check` asks inside)
-/// count too: the forks of a node outside the first mesh (found as `check` finds them) are those
-/// among it and its ancestors within kReach of their radii, and the thick nodes near a group
-/// are tested in every run (generalized winding numbers). No variant may leave more pairs or
-/// more of those nodes outside at a group than the first run did; among the others, fewer
-/// nodes outside, then fewer pairs, is better (without the node guard the retry left 69 pairs
-/// but lost small_pine seed 1's node 997 and one of agraf seed 3).
-/// Samples x particle seeds 1-3: 135 -> 44 pairs (boutdenoylum2 2 -> 0; agraf 61 -> 8,
+/// was. Deterministic: every run is, and the choices are made in a fixed order.
+///
+/// Samples x particle seeds 1-3: 135 -> 44 pairs (boutdenoylum2 2 -> 0, agraf 61 -> 8,
 /// small_pine 48 -> 24, rtwig 24 -> 12), thick nodes inside 7,495 -> 7,509 of 7,524
-/// (boutdenoylum2 137 / 138 / 137 -> 139 / 140 / 139, agraf 579 -> 582 / 582 / 581). It costs 12
-/// more runs of contours and meshing where the problems are not all solved, two at a time on two
-/// threads: agraf 0.5 -> 6.8 s, boutdenoylum2 0.4 -> 6.6 s, rtwig 0.2 -> 3.3 s, small_pine 0.7
-/// -> 8.6 s in all (2-core AMD EPYC VM); clean meshes pay one inside test (callistemon 0.05 s).
-/// On a tangle of 2,000 twigs from one node (10,544 triangles): 2.5 -> 25 s, 89 -> 16 pairs,
-/// 1,312 -> 995 thick nodes outside. Trials
-/// that repair folds only near the groups (the rest as stitched, pairs counted near the groups)
-/// and one full run of the groups' choices took two thirds of the time but left 68 pairs.
-/// Not adopted either: a
-/// second round from the kept result, around the pairs left in it (69 -> 68 without the guard);
-/// grouping by distance to the forks instead of tree paths (76 with five variants); two
-/// parameters changed at once (no gain). With meshing.fold_repair_variants on as well and five
-/// variants: 73 instead of 82, at 1.9 x the time. The pairs left
-/// are mostly where a branch runs into its own sub-branch or a near-parallel sibling away from
-/// the fork (agraf 395 / 496, 934 / 960), which no variant changes. Deterministic: every run
-/// is, and the choices are made in a fixed order.
+/// (boutdenoylum2 137 / 138 / 137 -> 139 / 140 / 139, agraf 579 -> 582 / 582 / 581). It costs up
+/// to 12 more runs of contours and meshing, two at a time on two threads: agraf 0.5 -> 6.8 s,
+/// boutdenoylum2 0.4 -> 6.6 s, rtwig 0.2 -> 3.3 s, small_pine 0.7 -> 8.6 s in all (2-core AMD
+/// EPYC VM); clean meshes pay one inside test (callistemon 0.05 s). On a tangle of 2,000 twigs
+/// from one node (10,544 triangles): 2.5 -> 25 s, 89 -> 16 pairs, 1,312 -> 995 thick nodes
+/// outside. The pairs left are mostly where a branch runs into its own sub-branch or a
+/// near-parallel sibling away from the fork (agraf 395 / 496, 934 / 960), which no variant
+/// changes.
+///
+/// Not adopted: no node guard (69 pairs, but small_pine seed 1's node 997 and one of agraf
+/// seed 3 lost); trials that repair folds only near the groups, plus one full run of the
+/// groups' choices (two thirds of the time, 68 pairs); a second round from the kept result
+/// (69 -> 68, five variants, no guard); grouping by distance to the forks instead of tree paths
+/// (77 against 69, likewise); two parameters changed at once (no gain); with
+/// meshing.fold_repair_variants on as well, five variants: 73 pairs instead of 82 at 1.9 x the
+/// time.
 ///
 /// It runs only where the meshing stage counted the pairs over the whole mesh (meshes of at
 /// most 300,000 triangles, MeshResult::crossings_counted) and found some pairs or thick nodes
