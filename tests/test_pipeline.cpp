@@ -490,7 +490,7 @@ TEST(Pipeline, LocalContourFactorsChangeOnlyTheirFork) {
 TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   // boutdenoylum2 at particle seed 1: stitched and repaired, 2 self-intersecting pairs are
   // left at one crotch and 4 thick nodes outside; sliced again around them with other split
-  // gaps, transitions and slice steps, no pair and two nodes fewer outside (measured). The
+  // gaps, transitions and slice steps, no pair and three nodes fewer outside (measured). The
   // retry's figures match the checks of both meshes and the surface stays sound and as faithful.
   const auto file = sample_named("mtg_boutdenoylum2.json");
   if (!file) GTEST_SKIP() << "../shared/skeletons not found";
