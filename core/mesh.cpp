@@ -7,6 +7,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/math.h"
+
 namespace sm {
 
 VertexCorners vertex_corners(const Mesh& mesh) {
@@ -75,6 +77,13 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
     }
   });
   return n;
+}
+
+double winding_number(const Mesh& mesh, const glm::dvec3& p) {
+  double w = 0;
+  for (const auto& t : mesh.triangles)
+    w += solid_angle(mesh.positions[t[0]] - p, mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
+  return w / (4.0 * std::numbers::pi);
 }
 
 }  // namespace sm

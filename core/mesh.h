@@ -47,4 +47,9 @@ VertexCorners vertex_corners(const Mesh& mesh);
 /// with no non-degenerate incident triangle gets (0,0,1)).
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
 
+/// Generalized winding number of the mesh's triangles about p: the solid angles they span
+/// there (core/math.h solid_angle), summed in triangle order, over 4 pi. For a closed,
+/// outward-oriented mesh 1 inside, 0 outside, 2 inside two overlapping parts.
+double winding_number(const Mesh& mesh, const glm::dvec3& p);
+
 }  // namespace sm

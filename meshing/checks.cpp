@@ -258,6 +258,15 @@ std::string fmt(double x, int digits) {
 
 }  // namespace
 
+std::vector<std::uint32_t> thick_node_ids(const Skeleton& skeleton) {
+  const double median = percentile(skeleton.radius, 0.5);
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < skeleton.size(); ++i) {
+    if (skeleton.radius[i] >= median) out.push_back(static_cast<std::uint32_t>(i));
+  }
+  return out;
+}
+
 MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   MeshCheckReport r;
   Stopwatch watch;
@@ -440,14 +449,8 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   if (params.skeleton && !params.skeleton->empty() && r.nonfinite_vertices == 0) {
     const Skeleton& skel = *params.skeleton;
     measure_fidelity(mesh, used, skel, params.max_examples, r);
-    std::vector<double> radii = skel.radius;
-    const double median = percentile(radii, 0.5);
-    for (std::size_t i = 0; i < skel.size(); ++i) {
-      if (skel.radius[i] >= median) {
-        thick.push_back(skel.position[i]);
-        thick_ids.push_back(static_cast<std::uint32_t>(i));
-      }
-    }
+    thick_ids = thick_node_ids(skel);
+    for (const std::uint32_t i : thick_ids) thick.push_back(skel.position[i]);
     r.thick_nodes = thick.size();
   }
   r.timings.add("fidelity", watch.lap());

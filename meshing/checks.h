@@ -53,6 +53,10 @@
 
 namespace sm {
 
+/// The skeleton nodes check_mesh asks to lie inside the mesh: radius at least the median (the
+/// lower median for an even count), in index order.
+std::vector<std::uint32_t> thick_node_ids(const Skeleton& skeleton);
+
 /// Options of check_mesh.
 struct MeshCheckParams {
   bool self_intersections = true;        ///< run the (most expensive) self-intersection test (default true)

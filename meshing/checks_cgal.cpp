@@ -13,7 +13,6 @@
 #include "meshing/checks_cgal.h"
 
 #include <algorithm>
-#include <numbers>
 #include <mutex>
 #include <tuple>
 
@@ -26,7 +25,6 @@
 #include <CGAL/box_intersection_d.h>
 #include <tbb/parallel_for.h>
 
-#include "core/math.h"
 #include "meshing/intersections.h"
 
 namespace sm::detail {
@@ -204,13 +202,8 @@ CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed
     constexpr double kMaxVisits = 2e8;
     outside.resize(std::min(outside.size(), static_cast<std::size_t>(kMaxVisits / double(mesh.triangles.size()))));
     std::vector<std::uint8_t> wound(outside.size(), 0);
-    tbb::parallel_for(std::size_t{0}, outside.size(), [&](std::size_t k) {
-      const glm::dvec3& p = queries[outside[k]];
-      double w = 0;
-      for (const auto& t : mesh.triangles)
-        w += solid_angle(mesh.positions[t[0]] - p, mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
-      wound[k] = w / (4.0 * std::numbers::pi) >= 0.5 ? 1 : 0;
-    });
+    tbb::parallel_for(std::size_t{0}, outside.size(),
+                      [&](std::size_t k) { wound[k] = winding_number(mesh, queries[outside[k]]) >= 0.5 ? 1 : 0; });
     for (std::size_t k = 0; k < outside.size(); ++k) {
       if (!wound[k]) continue;
       result.inside[outside[k]] = 1;

@@ -601,8 +601,8 @@ void Builder::repair_folds() {
   const bool variants = p_.fold_repair_variants && small;
   FoldRepairUndo undo;
   FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, variants ? &undo : nullptr);
-  // The pairs left anywhere, as the midpoints of their triangles' centroids (the pipeline's
-  // fork retry places them; see MeshResult::crossings).
+  // The pairs left anywhere, with where they are and the skeleton nodes of their corners (the
+  // pipeline's fork retry places them by these; see MeshResult::crossings).
   std::vector<Crossing> at;
   auto pairs_left = [&] {
     std::vector<std::uint32_t> all(mesh_.triangles.size());

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <limits>
-#include <numbers>
 #include <numeric>
 #include <optional>
 #include <vector>
@@ -13,7 +12,6 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "core/math.h"
 #include "meshing/checks.h"
 #include "pipeline/pipeline.h"
 
@@ -189,13 +187,8 @@ struct Watched {
   std::vector<std::uint32_t> group;
 
   Watched(const Skeleton& s, const Groups& groups) {
-    std::vector<double> radii = s.radius;
-    if (radii.empty() || groups.forks.empty()) return;
-    auto mid = radii.begin() + std::ptrdiff_t(radii.size() / 2);
-    std::nth_element(radii.begin(), mid, radii.end());
-    const double median = *mid;
-    for (std::uint32_t i = 0; i < s.size(); ++i) {
-      if (s.radius[i] < median) continue;
+    if (groups.forks.empty()) return;
+    for (const std::uint32_t i : thick_node_ids(s)) {
       double best = kReach;
       std::uint32_t at = UINT32_MAX;
       for (std::size_t f = 0; f < groups.forks.size(); ++f) {
@@ -216,13 +209,8 @@ struct Watched {
   // node's sum in triangle order, so the same for any thread count).
   [[nodiscard]] std::vector<std::size_t> outside(const Skeleton& s, const Mesh& mesh, std::size_t groups) const {
     std::vector<std::uint8_t> out(node.size(), 0);
-    tbb::parallel_for(std::size_t{0}, node.size(), [&](std::size_t k) {
-      const glm::dvec3& p = s.position[node[k].idx()];
-      double w = 0;
-      for (const auto& t : mesh.triangles)
-        w += solid_angle(mesh.positions[t[0]] - p, mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
-      out[k] = w / (4.0 * std::numbers::pi) < 0.5;
-    });
+    tbb::parallel_for(std::size_t{0}, node.size(),
+                      [&](std::size_t k) { out[k] = winding_number(mesh, s.position[node[k].idx()]) < 0.5; });
     std::vector<std::size_t> count(groups, 0);
     for (std::size_t k = 0; k < node.size(); ++k) count[group[k]] += out[k];
     return count;

@@ -63,7 +63,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
         [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
   timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
   // (Its runs add their own times to the contours and meshing stages.)
-  if (from <= Stage::meshing) r.fork_retry = retry_forks(r, p, progress);
+  r.fork_retry = retry_forks(r, p, progress);
 }
 
 PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
