@@ -61,11 +61,14 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
   auto contribution = [&](std::uint32_t corner) {
     const auto& t = mesh.triangles[corner / 3];
     const std::uint32_t k = corner % 3;
-    const glm::dvec3 p[3] = {mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
-    const glm::dvec3 fn = glm::cross(p[1] - p[0], p[2] - p[0]);
+    const glm::dvec3 &p0 = mesh.positions[t[0]], &p1 = mesh.positions[t[1]], &p2 = mesh.positions[t[2]];
+    const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
     const double len = glm::length(fn);
     if (!(len > 0)) return glm::dvec3(0);
-    return (fn / len) * fast_angle(len, glm::dot(p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]));
+    // The two edges leaving corner k, named rather than indexed: an array indexed by k would
+    // live on the stack, and reading it back cost more than all the arithmetic.
+    const double cosine = k == 0 ? glm::dot(p1 - p0, p2 - p0) : k == 1 ? glm::dot(p2 - p1, p0 - p1) : glm::dot(p0 - p2, p1 - p2);
+    return (fn / len) * fast_angle(len, cosine);
   };
   std::vector<glm::dvec3> n(nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {

@@ -1,0 +1,84 @@
+// Contours and meshing throughput on the `large` grow preset, seed 1 (the tree `strandmesh
+// bench` measures: 32,817 nodes, 1.66 M particles, 3.41 M triangles), each stage alone and
+// the meshing stage's costliest phases (normals, fold repair's search) on their own.
+//
+// "particles" is the sum over nodes of the cloud sizes, as the paper counts them (its
+// Fig. 9a tree: 564,632 particles meshed in 2.75 s, about 200k particles/s).
+//   build/bench/bench_meshing [--benchmark_filter=...]
+
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+#include <tbb/global_control.h>
+
+#include "contours/contours.h"
+#include "core/mesh.h"
+#include "meshing/meshing.h"
+#include "pipeline/pipeline.h"
+#include "skeleton/grow/presets.h"
+#include "skeleton/grow/tree_grower.h"
+
+namespace {
+
+using namespace sm;
+
+/// The pipeline up to the mesh, once, on the large preset with the default parameters.
+const PipelineResult& tree() {
+  static const PipelineResult r = [] {
+    GrowPreset preset = load_grow_preset(std::filesystem::path(STRANDMESH_CONFIG_DIR) / "grow" / "large.json");
+    preset.params.seed = 1;
+    return run_pipeline(grow_tree(preset.params).skeleton, PipelineParams{});
+  }();
+  return r;
+}
+
+void rate(benchmark::State& state, double per_iteration, const char* name) {
+  state.counters[name] = benchmark::Counter(per_iteration * double(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+/// compute_contours: slicing, split detection and boundary loops.
+void BM_Contours(benchmark::State& state) {
+  const PipelineResult& r = tree();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  for (auto _ : state) {
+    ContourSet c = compute_contours(r.skeleton.skeleton, r.particles, r.strands);
+    benchmark::DoNotOptimize(c.point.data());
+  }
+  rate(state, double(r.particles.stats.particles), "particles_per_s");
+}
+BENCHMARK(BM_Contours)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+/// build_mesh: stitching, fusion, caps, fold repair, normals, UVs and the topology check.
+void BM_Mesh(benchmark::State& state) {
+  const PipelineResult& r = tree();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  MeshParams params;
+  params.fork_retry = false;  // not run above 300,000 triangles anyway
+  std::size_t triangles = 0;
+  for (auto _ : state) {
+    MeshResult m = build_mesh(r.skeleton.skeleton, r.contours, params);
+    triangles = m.mesh.triangles.size();
+    benchmark::DoNotOptimize(m.mesh.triangles.data());
+  }
+  state.counters["triangles"] = double(triangles);
+  rate(state, double(r.particles.stats.particles), "particles_per_s");
+  rate(state, double(triangles), "triangles_per_s");
+}
+BENCHMARK(BM_Mesh)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+/// angle_weighted_normals on the finished mesh.
+void BM_Normals(benchmark::State& state) {
+  const Mesh& mesh = tree().mesh.mesh;
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  for (auto _ : state) {
+    std::vector<glm::dvec3> n = angle_weighted_normals(mesh);
+    benchmark::DoNotOptimize(n.data());
+  }
+  rate(state, double(mesh.positions.size()), "vertices_per_s");
+}
+BENCHMARK(BM_Normals)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
