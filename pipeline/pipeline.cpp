@@ -31,6 +31,15 @@ Warnings PipelineResult::warnings() const {
   return w;
 }
 
+void release_intermediates(PipelineResult& r) {
+  // Swapped with empty vectors: clear() would keep the capacity.
+  std::vector<dvec3>().swap(r.strands.point);
+  std::vector<dvec3>().swap(r.strands.tangent);
+  std::vector<dvec3>().swap(r.strands.tangent_parent);
+  std::vector<dvec3>().swap(r.contours.point);
+  std::vector<StrandId>().swap(r.contours.strand);
+}
+
 void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelineParams& p, Stage from,
                     const ProgressFn& progress) {
   auto report = [&](std::string_view phase, double f) {

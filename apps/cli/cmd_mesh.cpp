@@ -74,7 +74,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       const RawSkeleton raw = read_skeleton(o->input);
       ProgressBar bar(!global.quiet);
       std::mutex m;
-      const PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {
+      PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {
         std::lock_guard lock(m);
         bar.update(phase, f);
       });
@@ -86,6 +86,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         log::warn(line + ")");
       }
       if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
+      release_intermediates(r);  // their memory goes to the exporter
       Stopwatch export_clock;
       ExportParams ep;
       ep.up_axis = r.skeleton.skeleton.up_axis;
