@@ -23,11 +23,13 @@
 #include <limits>
 #include <memory>
 #include <ostream>
+#include <sstream>
 #include <streambuf>
 #include <string_view>
 #include <utility>
 
 #include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -170,20 +172,99 @@ int add_accessor(tinygltf::Model& model, std::size_t count, int component_type, 
   return static_cast<int>(model.accessors.size() - 1);
 }
 
-// Writes f(0) .. f(n - 1) as consecutive values of type T at byte `offset` of `data`.
+// One buffer view's contents: values of one type, item i computed by a function of i.
+struct ViewData {
+  std::size_t offset = 0;  // byte offset in the buffer
+  std::size_t count = 0;   // items
+  std::size_t bytes = 0;   // bytes per item
+  std::function<void(std::size_t begin, std::size_t end, unsigned char* out)> put;  // items [begin, end)
+};
+
 template <class T, class F>
-void fill(std::vector<unsigned char>& data, std::size_t offset, std::size_t n, const F& f) {
-  unsigned char* out = data.data() + offset;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+ViewData view_data(std::size_t offset, std::size_t count, F f) {
+  ViewData v{offset, count, sizeof(T), {}};
+  v.put = [f = std::move(f)](std::size_t begin, std::size_t end, unsigned char* out) {
+    for (std::size_t i = begin; i < end; ++i) {
       const T value = f(i);
-      std::memcpy(out + i * sizeof(T), &value, sizeof(T));
+      std::memcpy(out + (i - begin) * sizeof(T), &value, sizeof(T));
     }
-  });
+  };
+  return v;
+}
+
+// Items per chunk when a view is written chunk by chunk (1-2 MB of output).
+constexpr std::size_t kViewChunk = 1 << 17;
+
+// Fills `data` (the whole buffer) with the views, in parallel.
+void fill_views(std::vector<unsigned char>& data, const std::vector<ViewData>& views) {
+  for (const ViewData& v : views) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, v.count, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
+      v.put(r.begin(), r.end(), data.data() + v.offset + r.begin() * v.bytes);
+    });
+  }
+}
+
+void put_u32(std::ostream& out, std::uint32_t x) {
+  const char b[4] = {static_cast<char>(x & 0xFF), static_cast<char>((x >> 8) & 0xFF),
+                     static_cast<char>((x >> 16) & 0xFF), static_cast<char>((x >> 24) & 0xFF)};
+  out.write(b, 4);
+}
+
+// Writes a GLB file (the glTF 2.0 binary container: header, JSON chunk, BIN chunk) whose BIN
+// chunk is `size` bytes made of `views`, formatted chunk by chunk as it is written: the
+// buffer is never held whole (tinygltf's writer would copy it once more). `json` is the
+// model's JSON, whose buffer 0 declares `size` bytes.
+void write_glb(std::ostream& out, const std::string& json, std::size_t size, const std::vector<ViewData>& views) {
+  const std::size_t json_padded = (json.size() + 3) / 4 * 4, bin_padded = (size + 3) / 4 * 4;
+  const std::size_t total = 12 + 8 + json_padded + (size > 0 ? 8 + bin_padded : 0);
+  if (total > std::numeric_limits<std::uint32_t>::max()) {
+    throw InvalidInputError("mesh too large for a .glb file (" + std::to_string(total) +
+                            " bytes; the format stores sizes in 32 bits): write .gltf, .obj or .ply");
+  }
+  out.write("glTF", 4);
+  put_u32(out, 2);
+  put_u32(out, static_cast<std::uint32_t>(total));
+  put_u32(out, static_cast<std::uint32_t>(json_padded));
+  put_u32(out, 0x4E4F534Au);  // "JSON"
+  out.write(json.data(), static_cast<std::streamsize>(json.size()));
+  out.write("   ", static_cast<std::streamsize>(json_padded - json.size()));  // spaces, as the format asks
+  if (size == 0) return;
+  put_u32(out, static_cast<std::uint32_t>(bin_padded));
+  put_u32(out, 0x004E4942u);  // "BIN\0"
+  const char zeros[4] = {0, 0, 0, 0};
+  std::size_t at = 0;
+  for (const ViewData& v : views) {
+    out.write(zeros, static_cast<std::streamsize>(v.offset - at));  // alignment (under 4 bytes)
+    write_chunks(out, v.count, kViewChunk, [&](std::size_t begin, std::size_t end) {
+      std::string bytes((end - begin) * v.bytes, '\0');
+      v.put(begin, end, reinterpret_cast<unsigned char*>(bytes.data()));
+      return bytes;
+    });
+    at = v.offset + v.count * v.bytes;
+  }
+  out.write(zeros, static_cast<std::streamsize>(bin_padded - at));
+}
+
+// The JSON tinygltf writes for `model` in a .glb, with buffer 0 declaring `size` bytes (the
+// model's buffer is empty: write_glb writes its bytes).
+std::string glb_json(const tinygltf::Model& model, std::size_t size) {
+  std::ostringstream empty_glb;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, empty_glb, /*prettyPrint=*/false, /*writeBinary=*/true)) {
+    throw IoError("glTF serialization failed");
+  }
+  // The container of an empty buffer: 12 bytes of header, the JSON chunk's length and type,
+  // then the JSON (padded with spaces, which the parser skips).
+  const std::string glb = empty_glb.str();
+  std::uint32_t length = 0;
+  std::memcpy(&length, glb.data() + 12, 4);
+  nlohmann::json json = nlohmann::json::parse(glb.substr(20, length));
+  json["buffers"][0]["byteLength"] = size;
+  return json.dump();
 }
 
 PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool binary) {
-  const ExportBuffers b = build_export_buffers(mesh, params);
+  ExportBuffers b = build_export_buffers(mesh, params);
   const std::size_t n = b.positions.size();
   const auto too_big = std::find_if(b.branch.begin(), b.branch.end(), [](std::uint32_t id) { return id > kMaxExactFloatInt; });
   if (too_big != b.branch.end()) {
@@ -228,23 +309,25 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   prim.indices = add_accessor(*model, b.indices.size(), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR);
   prim.material = 0;
 
-  std::vector<unsigned char>& data = model->buffers[0].data;
-  data.resize(size);
-  fill<glm::vec3>(data, pos_at, n, [&](std::size_t i) { return glm::vec3(to_y_up(b.positions[i], params.up_axis) - origin); });
-  if (!b.normals.empty()) {
-    fill<glm::vec3>(data, normal_at, n,
-                    [&](std::size_t i) { return unit_float(to_y_up(glm::dvec3(b.normals[i]), params.up_axis)); });
+  // The buffer's contents, by view, computed from the export buffers as they are written.
+  const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
+  const ExportBuffers& eb = *shared;
+  const UpAxis up = params.up_axis;
+  auto position = [&eb, up, origin](std::size_t i) { return glm::vec3(to_y_up(eb.positions[i], up) - origin); };
+  std::vector<ViewData> views;
+  views.push_back(view_data<glm::vec3>(pos_at, n, position));
+  if (!eb.normals.empty()) {
+    views.push_back(view_data<glm::vec3>(
+        normal_at, n, [&eb, up](std::size_t i) { return unit_float(to_y_up(glm::dvec3(eb.normals[i]), up)); }));
   }
-  if (!b.uvs.empty()) fill<glm::vec2>(data, uv_at, n, [&](std::size_t i) { return b.uvs[i]; });
-  if (!b.branch.empty()) fill<float>(data, branch_at, n, [&](std::size_t i) { return static_cast<float>(b.branch[i]); });
-  fill<std::uint32_t>(data, index_at, b.indices.size(), [&](std::size_t i) { return b.indices[i]; });
+  if (!eb.uvs.empty()) views.push_back(view_data<glm::vec2>(uv_at, n, [&eb](std::size_t i) { return eb.uvs[i]; }));
+  if (!eb.branch.empty()) {
+    views.push_back(view_data<float>(branch_at, n, [&eb](std::size_t i) { return static_cast<float>(eb.branch[i]); }));
+  }
+  views.push_back(view_data<std::uint32_t>(index_at, eb.indices.size(), [&eb](std::size_t i) { return eb.indices[i]; }));
 
   // The validator compares min/max with the stored float values exactly.
-  const auto [pos_lo, pos_hi] = bounds(n, [&](std::size_t i) {
-    glm::vec3 p;
-    std::memcpy(&p, data.data() + pos_at + i * sizeof(glm::vec3), sizeof p);
-    return glm::dvec3(p);
-  });
+  const auto [pos_lo, pos_hi] = bounds(n, [&](std::size_t i) { return glm::dvec3(position(i)); });
   model->accessors[static_cast<std::size_t>(pos_acc)].minValues = {pos_lo.x, pos_lo.y, pos_lo.z};
   model->accessors[static_cast<std::size_t>(pos_acc)].maxValues = {pos_hi.x, pos_hi.y, pos_hi.z};
 
@@ -275,13 +358,24 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   constexpr std::size_t kJsonBytes = 1 << 16;
   PreparedFile file;
   file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
-  file.write = [model, binary](std::ostream& out) {
+  if (binary) {
+    // The views refer to the export buffers, which the writer keeps alive.
+    file.write = [shared, json = glb_json(*model, size), size, views = std::move(views)](std::ostream& out) {
+      write_glb(out, json, size, views);
+    };
+    return file;
+  }
+  // .gltf: tinygltf embeds the buffer as base64, so it is filled first.
+  model->buffers[0].data.resize(size);
+  fill_views(model->buffers[0].data, views);
+  file.write = [model](std::ostream& out) {
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToStream(model.get(), out, /*prettyPrint=*/!binary, /*writeBinary=*/binary)) {
+    if (!writer.WriteGltfSceneToStream(model.get(), out, /*prettyPrint=*/true, /*writeBinary=*/false)) {
       throw IoError("glTF serialization failed");
     }
   };
   return file;
+
 }
 
 // ---------------------------------------------------------------- OBJ
