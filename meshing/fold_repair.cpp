@@ -352,7 +352,6 @@ class FoldRepair {
       if (len > limit) target = origin + offset * (limit / len);
       if (!(glm::length(target - old) > 0)) continue;
       set_vertex(v, target);
-      test_.set_position(v, mesh_.positions[v]);
       bool ok = true;
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
@@ -363,7 +362,6 @@ class FoldRepair {
       }
     }
     set_vertex(v, old);
-    test_.set_position(v, old);
     return false;
   }
 
@@ -719,7 +717,6 @@ class FoldRepair {
     // (each target lies on the segment between u and w).
     for (const glm::dvec3& target : {0.5 * (pu + pw), pu, pw}) {
       set_vertex(u, target);
-      test_.set_position(u, target);
       bool ok = true;
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
         ok = glm::dot(normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
@@ -741,7 +738,6 @@ class FoldRepair {
     for (std::size_t i = 0; i < fan.size(); ++i) set_triangle(fan[i], saved[i]);
     dead_[f1] = dead_[f2] = 0;
     set_vertex(u, pu);
-    test_.set_position(u, pu);
     return false;
   }
 

@@ -19,15 +19,13 @@ namespace sm {
 
 class TriangleIntersections {
  public:
-  /// Copies the vertex positions (changed only through set_position) and keeps a reference to
-  /// `mesh`, whose triangles are read at each call: they may be edited in between (edge flips).
+  /// Keeps a reference to `mesh`, whose positions and triangles are read at each call: they
+  /// may be edited in between (edge flips, vertex moves).
   explicit TriangleIntersections(const Mesh& mesh);
   ~TriangleIntersections();
   TriangleIntersections(const TriangleIntersections&) = delete;
   TriangleIntersections& operator=(const TriangleIntersections&) = delete;
 
-  /// Moves vertex v to p (the caller moves it in the mesh too).
-  void set_position(std::uint32_t v, const glm::dvec3& p);
   /// Whether triangles i and j (distinct) intersect.
   [[nodiscard]] bool intersect(std::uint32_t i, std::uint32_t j) const;
   /// The intersecting pairs among `triangles` (i < j), sorted; degenerate triangles skipped.
