@@ -13,6 +13,7 @@
 #include <tbb/global_control.h>
 
 #include "contours/contours.h"
+#include "core/huge_pages.h"
 #include "core/mesh.h"
 #include "meshing/meshing.h"
 #include "pipeline/pipeline.h"
@@ -37,30 +38,45 @@ void rate(benchmark::State& state, double per_iteration, const char* name) {
   state.counters[name] = benchmark::Counter(per_iteration * double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-/// compute_contours: slicing, split detection and boundary loops.
+/// Each phase's seconds per iteration (summed over the iterations in `sum`).
+void add_phases(Timings& sum, const Timings& run) {
+  for (const auto& e : run.entries) sum.add(e.name, e.seconds);
+}
+void report_phases(benchmark::State& state, const Timings& sum) {
+  for (const auto& e : sum.entries) state.counters[e.name + "_s"] = e.seconds / double(state.iterations());
+}
+
+/// compute_contours: slicing, split detection and boundary loops (with the seconds of each phase).
 void BM_Contours(benchmark::State& state) {
   const PipelineResult& r = tree();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  Timings phases;
   for (auto _ : state) {
     ContourSet c = compute_contours(r.skeleton.skeleton, r.particles, r.strands);
     benchmark::DoNotOptimize(c.point.data());
+    add_phases(phases, c.stats.timings);
   }
+  report_phases(state, phases);
   rate(state, double(r.particles.stats.particles), "particles_per_s");
 }
 BENCHMARK(BM_Contours)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
-/// build_mesh: stitching, fusion, caps, fold repair, normals, UVs and the topology check.
+/// build_mesh: stitching, fusion, caps, fold repair, normals, UVs and the topology check (with
+/// the seconds of each phase).
 void BM_Mesh(benchmark::State& state) {
   const PipelineResult& r = tree();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
   MeshParams params;
   params.fork_retry = false;  // not run above 300,000 triangles anyway
   std::size_t triangles = 0;
+  Timings phases;
   for (auto _ : state) {
     MeshResult m = build_mesh(r.skeleton.skeleton, r.contours, params);
     triangles = m.mesh.triangles.size();
     benchmark::DoNotOptimize(m.mesh.triangles.data());
+    add_phases(phases, m.stats.timings);
   }
+  report_phases(state, phases);
   state.counters["triangles"] = double(triangles);
   rate(state, double(r.particles.stats.particles), "particles_per_s");
   rate(state, double(triangles), "triangles_per_s");
@@ -81,4 +97,11 @@ BENCHMARK(BM_Normals)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMilliseco
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  sm::keep_freed_memory();  // as the command line does (core/huge_pages.h)
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -46,6 +46,29 @@ using Concurrency = CGAL::Sequential_tag;
 
 using Pair = std::array<std::uint32_t, 2>;
 
+// The side of q of the plane through a, b, c (+1 or -1) where floating point decides it for
+// certain, else 0 (nearly coplanar, degenerate, or out of range: the exact predicates decide).
+// The error bound is twenty times the one of CGAL's own static filter for orient3d (its
+// Orientation_3 on translated coordinates), to cover this evaluation order.
+int certain_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& q) {
+  const glm::dvec3 u = b - a, v = c - a, w = q - a;
+  const double mx = std::max({std::abs(u.x), std::abs(v.x), std::abs(w.x)});
+  const double my = std::max({std::abs(u.y), std::abs(v.y), std::abs(w.y)});
+  const double mz = std::max({std::abs(u.z), std::abs(v.z), std::abs(w.z)});
+  constexpr double kLow = 1e-60, kHigh = 1e60;  // no underflow or overflow in the products
+  if (!(std::min({mx, my, mz}) > kLow && std::max({mx, my, mz}) < kHigh)) return 0;
+  const double det = glm::dot(w, glm::cross(u, v));
+  const double bound = 20 * 5.1107127829973299e-15 * mx * my * mz;
+  return det > bound ? 1 : det < -bound ? -1 : 0;
+}
+
+// Whether the points p and q lie on the same side of the plane through a, b, c, for certain.
+bool certainly_one_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p,
+                        const glm::dvec3& q) {
+  const int s = certain_side(a, b, c, p);
+  return s != 0 && certain_side(a, b, c, q) == s;
+}
+
 // Triangle pairs of a soup that intersect other than in their shared vertex or edge.
 class SoupIntersector {
  public:
@@ -103,6 +126,28 @@ class SoupIntersector {
       }
     }
     auto pt = [&](const Mesh::Triangle& t, int k) { return point(t[static_cast<std::size_t>((k % 3 + 3) % 3)]); };
+    // Most pairs the box search reports are neighbours far from touching; where floating
+    // point shows a separating plane for certain, the exact tests are skipped (the same answer,
+    // at a fraction of the cost: 1.76 M pairs in the fold repair's first round on the large
+    // grow preset).
+    auto position = [&](const Mesh::Triangle& t, int k) -> const glm::dvec3& {
+      return mesh_.positions[t[static_cast<std::size_t>((k % 3 + 3) % 3)]];
+    };
+    const glm::dvec3 &a0 = position(a, 0), &a1 = position(a, 1), &a2 = position(a, 2);
+    const glm::dvec3 &b0 = position(b, 0), &b1 = position(b, 1), &b2 = position(b, 2);
+    if (shared == 0) {
+      const int s = certain_side(a0, a1, a2, b0);
+      if (s != 0 && certain_side(a0, a1, a2, b1) == s && certain_side(a0, a1, a2, b2) == s) return false;
+      const int t = certain_side(b0, b1, b2, a0);
+      if (t != 0 && certain_side(b0, b1, b2, a1) == t && certain_side(b0, b1, b2, a2) == t) return false;
+    } else if (shared == 1 && (certainly_one_side(a0, a1, a2, position(b, sb + 1), position(b, sb + 2)) ||
+                               certainly_one_side(b0, b1, b2, position(a, sa + 1), position(a, sa + 2)))) {
+      // One opposite edge strictly on one side of the other triangle's plane suffices: were
+      // b's opposite edge to meet triangle a at x, the line from the shared vertex through x
+      // (in b's plane) would leave a across a's opposite edge, which would then touch b's
+      // plane; and an edge off b's plane cannot meet b.
+      return false;
+    }
     const Triangle3 ta(pt(a, 0), pt(a, 1), pt(a, 2)), tb(pt(b, 0), pt(b, 1), pt(b, 2));
     switch (shared) {
       case 0:

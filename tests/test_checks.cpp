@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <cmath>
+#include <random>
 
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -135,6 +137,36 @@ TEST(Checks, InterpenetratingBoxesSelfIntersect) {
   const MeshCheckReport skipped = check_mesh(m, {.self_intersections = false});
   EXPECT_FALSE(skipped.self_intersections_checked);
   EXPECT_EQ(skipped.self_intersecting_pairs, 0u);
+}
+
+TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
+  // CGAL's own test (the polygon-mesh path) and ours (the soup path, taken once a triangle is
+  // reversed; its floating-point shortcut included) must find the same pairs: on a sphere
+  // jittered until neighbouring triangles fold through each other (pairs sharing a vertex or
+  // an edge), and on two copies of it a few units in the last place apart (nearly coplanar
+  // pairs, where rounding decides the sign of a determinant).
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.15, 0.15);
+  Mesh folded = test::icosphere(3);
+  for (auto& p : folded.positions) p += glm::dvec3(jitter(rng), jitter(rng), jitter(rng));
+  std::uniform_int_distribution<int> ulps(-3, 3);
+  Mesh copy = folded;
+  for (auto& p : copy.positions) {
+    for (int k = 0; k < 3; ++k) {
+      for (int u = ulps(rng); u != 0; u += u > 0 ? -1 : 1) p[k] = std::nextafter(p[k], u > 0 ? 10.0 : -10.0);
+    }
+  }
+  for (const Mesh& m : {folded, test::merged(folded, copy)}) {
+    Mesh soup = m;
+    std::swap(soup.triangles[5][1], soup.triangles[5][2]);
+    const MeshCheckReport rm = check_mesh(m, {.max_examples = 1'000'000});
+    const MeshCheckReport rs = check_mesh(soup, {.max_examples = 1'000'000});
+    ASSERT_TRUE(rm.oriented);
+    ASSERT_FALSE(rs.oriented);
+    EXPECT_GT(rm.self_intersecting_pairs, 100u);
+    EXPECT_EQ(rs.self_intersecting_pairs, rm.self_intersecting_pairs);
+    EXPECT_EQ(rs.self_intersection_examples, rm.self_intersection_examples);
+  }
 }
 
 TEST(Checks, TouchingBoxesIntersectSeparateBoxesDoNot) {
