@@ -196,15 +196,24 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     }
     // By angle; on equal angles the nearer point first, so the farther one survives the scan.
     // Sorted as (key, distance, index) records: no indirection in the comparisons.
+    // Sorted by key alone first (equal keys are rare), then each run of equal keys by
+    // distance and index: the same order, with cheaper comparisons.
     struct Entry {
-      double key, dist;
+      double key;
       std::uint32_t i;
     };
     std::vector<Entry> entries(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) entries[k] = {key[order[k]], dist[order[k]], order[k]};
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-      return a.key != b.key ? a.key < b.key : (a.dist != b.dist ? a.dist < b.dist : a.i < b.i);
-    });
+    for (std::size_t k = 0; k < order.size(); ++k) entries[k] = {key[order[k]], order[k]};
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
+    for (std::size_t k = 0; k < entries.size();) {
+      std::size_t e = k + 1;
+      while (e < entries.size() && entries[e].key == entries[k].key) ++e;
+      if (e - k > 1) {
+        std::sort(entries.begin() + std::ptrdiff_t(k), entries.begin() + std::ptrdiff_t(e),
+                  [&](const Entry& a, const Entry& b) { return dist[a.i] != dist[b.i] ? dist[a.i] < dist[b.i] : a.i < b.i; });
+      }
+      k = e;
+    }
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = entries[k].i;
     return order;
   };
