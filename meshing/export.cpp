@@ -195,20 +195,84 @@ ViewData view_data(std::size_t offset, std::size_t count, F f) {
 // Items per chunk when a view is written chunk by chunk (1-2 MB of output).
 constexpr std::size_t kViewChunk = 1 << 17;
 
-// Fills `data` (the whole buffer) with the views, in parallel.
-void fill_views(std::vector<unsigned char>& data, const std::vector<ViewData>& views) {
-  for (const ViewData& v : views) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, v.count, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
-      v.put(r.begin(), r.end(), data.data() + v.offset + r.begin() * v.bytes);
-    });
-  }
-}
-
 void put_u32(std::ostream& out, std::uint32_t x) {
   const char b[4] = {static_cast<char>(x & 0xFF), static_cast<char>((x >> 8) & 0xFF),
                      static_cast<char>((x >> 16) & 0xFF), static_cast<char>((x >> 24) & 0xFF)};
   out.write(b, 4);
 }
+
+// Writes the buffer the views make up (in offset order, zeros between them where a view is
+// aligned), each view formatted chunk by chunk in parallel and written in order.
+void write_views(std::ostream& out, const std::vector<ViewData>& views) {
+  const char zeros[4] = {0, 0, 0, 0};
+  std::size_t at = 0;
+  for (const ViewData& v : views) {
+    out.write(zeros, static_cast<std::streamsize>(v.offset - at));  // alignment (under 4 bytes)
+    write_chunks(out, v.count, kViewChunk, [&](std::size_t begin, std::size_t end) {
+      std::string bytes((end - begin) * v.bytes, '\0');
+      v.put(begin, end, reinterpret_cast<unsigned char*>(bytes.data()));
+      return bytes;
+    });
+    at = v.offset + v.count * v.bytes;
+  }
+}
+
+// A stream buffer that writes the base64 encoding (RFC 4648, padded with '=') of the bytes
+// put into it to another stream; finish() encodes the last, partial group.
+class Base64Sink : public std::streambuf {
+ public:
+  explicit Base64Sink(std::ostream& out) : out_(out) {}
+  void finish() {
+    if (pending_ == 0) return;
+    char text[4];
+    encode_group(group_, pending_, text);
+    out_.write(text, 4);
+    pending_ = 0;
+  }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    const char ch = traits_type::to_char_type(c);
+    xsputn(&ch, 1);
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(s);
+    std::size_t i = 0;
+    const auto count = static_cast<std::size_t>(n);
+    while (pending_ > 0 && pending_ < 3 && i < count) {  // complete the group begun by an earlier write
+      group_[pending_++] = bytes[i++];
+      if (pending_ == 3) {
+        char text[4];
+        encode_group(group_, 3, text);
+        out_.write(text, 4);
+        pending_ = 0;
+      }
+    }
+    const std::size_t whole = (count - i) / 3;
+    text_.resize(4 * whole);
+    for (std::size_t g = 0; g < whole; ++g) encode_group(bytes + i + 3 * g, 3, text_.data() + 4 * g);
+    out_.write(text_.data(), static_cast<std::streamsize>(text_.size()));
+    for (i += 3 * whole; i < count && pending_ < 3;) group_[pending_++] = bytes[i++];  // under 3 left
+    return n;
+  }
+
+ private:
+  static void encode_group(const unsigned char* b, std::size_t n, char* text) {
+    static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    const std::uint32_t x = (std::uint32_t(b[0]) << 16) | (n > 1 ? std::uint32_t(b[1]) << 8 : 0u) | (n > 2 ? b[2] : 0u);
+    text[0] = kAlphabet[(x >> 18) & 63];
+    text[1] = kAlphabet[(x >> 12) & 63];
+    text[2] = n > 1 ? kAlphabet[(x >> 6) & 63] : '=';
+    text[3] = n > 2 ? kAlphabet[x & 63] : '=';
+  }
+
+  std::ostream& out_;
+  unsigned char group_[3] = {0, 0, 0};
+  std::size_t pending_ = 0;
+  std::string text_;
+};
 
 // Writes a GLB file (the glTF 2.0 binary container: header, JSON chunk, BIN chunk) whose BIN
 // chunk is `size` bytes made of `views`, formatted chunk by chunk as it is written: the
@@ -231,18 +295,36 @@ void write_glb(std::ostream& out, const std::string& json, std::size_t size, con
   if (size == 0) return;
   put_u32(out, static_cast<std::uint32_t>(bin_padded));
   put_u32(out, 0x004E4942u);  // "BIN\0"
+  write_views(out, views);
   const char zeros[4] = {0, 0, 0, 0};
-  std::size_t at = 0;
-  for (const ViewData& v : views) {
-    out.write(zeros, static_cast<std::streamsize>(v.offset - at));  // alignment (under 4 bytes)
-    write_chunks(out, v.count, kViewChunk, [&](std::size_t begin, std::size_t end) {
-      std::string bytes((end - begin) * v.bytes, '\0');
-      v.put(begin, end, reinterpret_cast<unsigned char*>(bytes.data()));
-      return bytes;
-    });
-    at = v.offset + v.count * v.bytes;
+  out.write(zeros, static_cast<std::streamsize>(bin_padded - size));
+}
+
+// Writes a .gltf file: tinygltf's JSON of `model` (its buffer empty) with buffer 0 embedded
+// as a base64 data URI of `size` bytes made of `views`, encoded as it is written (tinygltf
+// would hold the buffer, its encoding and the whole text in memory at once).
+void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t size, const std::vector<ViewData>& views) {
+  std::ostringstream empty;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, empty, /*prettyPrint=*/true, /*writeBinary=*/false)) {
+    throw IoError("glTF serialization failed");
   }
-  out.write(zeros, static_cast<std::streamsize>(bin_padded - at));
+  nlohmann::json json = nlohmann::json::parse(empty.str());
+  constexpr std::string_view kMark = "@strandmesh-buffer@";
+  json["buffers"][0]["byteLength"] = size;
+  json["buffers"][0]["uri"] = std::string(kMark);
+  const std::string text = json.dump(2);
+  const std::size_t mark = text.find(kMark);
+  if (mark == std::string::npos) throw InternalError("write_gltf: buffer placeholder not found");
+  out.write(text.data(), static_cast<std::streamsize>(mark));
+  out << "data:application/octet-stream;base64,";
+  Base64Sink encoder(out);
+  std::ostream bytes(&encoder);
+  bytes.exceptions(std::ios::badbit);
+  write_views(bytes, views);
+  encoder.finish();
+  out.write(text.data() + mark + kMark.size(), static_cast<std::streamsize>(text.size() - mark - kMark.size()));
+  out << '\n';
 }
 
 // The JSON tinygltf writes for `model` in a .glb, with buffer 0 declaring `size` bytes (the
@@ -309,7 +391,8 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   prim.indices = add_accessor(*model, b.indices.size(), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR);
   prim.material = 0;
 
-  // The buffer's contents, by view, computed from the export buffers as they are written.
+  // The buffer's contents, by view, computed from the export buffers as they are written
+  // (the writers keep the buffers alive).
   const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
   const ExportBuffers& eb = *shared;
   const UpAxis up = params.up_axis;
@@ -359,20 +442,13 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   PreparedFile file;
   file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
   if (binary) {
-    // The views refer to the export buffers, which the writer keeps alive.
     file.write = [shared, json = glb_json(*model, size), size, views = std::move(views)](std::ostream& out) {
       write_glb(out, json, size, views);
     };
     return file;
   }
-  // .gltf: tinygltf embeds the buffer as base64, so it is filled first.
-  model->buffers[0].data.resize(size);
-  fill_views(model->buffers[0].data, views);
-  file.write = [model](std::ostream& out) {
-    tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToStream(model.get(), out, /*prettyPrint=*/true, /*writeBinary=*/false)) {
-      throw IoError("glTF serialization failed");
-    }
+  file.write = [shared, model, size, views = std::move(views)](std::ostream& out) {
+    write_gltf(out, *model, size, views);
   };
   return file;
 
