@@ -274,17 +274,24 @@ class Base64Sink : public std::streambuf {
   std::string text_;
 };
 
+// The size of a GLB file with `json` bytes of JSON and a buffer of `size` bytes (chunks
+// padded to 4 bytes). Throws InvalidInputError above 4 GiB, which the format cannot state.
+std::size_t glb_size(std::size_t json, std::size_t size) {
+  const std::size_t total = 12 + 8 + (json + 3) / 4 * 4 + (size > 0 ? 8 + (size + 3) / 4 * 4 : 0);
+  if (total > std::numeric_limits<std::uint32_t>::max()) {
+    throw InvalidInputError("mesh too large for a .glb file (" + std::to_string(total) +
+                            " bytes; the format stores sizes in 32 bits): write .gltf, .obj or .ply");
+  }
+  return total;
+}
+
 // Writes a GLB file (the glTF 2.0 binary container: header, JSON chunk, BIN chunk) whose BIN
 // chunk is `size` bytes made of `views`, formatted chunk by chunk as it is written: the
 // buffer is never held whole (tinygltf's writer would copy it once more). `json` is the
 // model's JSON, whose buffer 0 declares `size` bytes.
 void write_glb(std::ostream& out, const std::string& json, std::size_t size, const std::vector<ViewData>& views) {
   const std::size_t json_padded = (json.size() + 3) / 4 * 4, bin_padded = (size + 3) / 4 * 4;
-  const std::size_t total = 12 + 8 + json_padded + (size > 0 ? 8 + bin_padded : 0);
-  if (total > std::numeric_limits<std::uint32_t>::max()) {
-    throw InvalidInputError("mesh too large for a .glb file (" + std::to_string(total) +
-                            " bytes; the format stores sizes in 32 bits): write .gltf, .obj or .ply");
-  }
+  const std::size_t total = glb_size(json.size(), size);
   out.write("glTF", 4);
   put_u32(out, 2);
   put_u32(out, static_cast<std::uint32_t>(total));
@@ -442,7 +449,9 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   PreparedFile file;
   file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
   if (binary) {
-    file.write = [shared, json = glb_json(*model, size), size, views = std::move(views)](std::ostream& out) {
+    std::string json = glb_json(*model, size);
+    (void)glb_size(json.size(), size);  // too large fails here, before a file is opened
+    file.write = [shared, json = std::move(json), size, views = std::move(views)](std::ostream& out) {
       write_glb(out, json, size, views);
     };
     return file;
