@@ -52,4 +52,12 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
 /// outward-oriented mesh 1 inside, 0 outside, 2 inside two overlapping parts.
 double winding_number(const Mesh& mesh, const glm::dvec3& p);
 
+/// Whether p lies inside a closed, outward-oriented mesh: winding number at least 1/2, found
+/// as the signed count of the mesh's crossings with a ray from p (for a closed surface the
+/// winding number is that integer, overlapping parts included). Where the ray passes within
+/// rounding of an edge or p lies (nearly) on a triangle, it decides by winding_number(). Many
+/// times faster than winding_number() (no trigonometry). Precondition: every edge is shared
+/// by exactly two triangles, in opposite directions.
+bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p);
+
 }  // namespace sm

@@ -205,12 +205,12 @@ struct Watched {
     }
   }
 
-  // Per group: the watched nodes outside `mesh` (generalized winding number below 1/2; each
-  // node's sum in triangle order, so the same for any thread count).
+  // Per group: the watched nodes outside the closed mesh (winding number below 1/2, each
+  // node's in triangle order, so the same for any thread count).
   [[nodiscard]] std::vector<std::size_t> outside(const Skeleton& s, const Mesh& mesh, std::size_t groups) const {
     std::vector<std::uint8_t> out(node.size(), 0);
     tbb::parallel_for(std::size_t{0}, node.size(),
-                      [&](std::size_t k) { out[k] = winding_number(mesh, s.position[node[k].idx()]) < 0.5; });
+                      [&](std::size_t k) { out[k] = !inside_closed_mesh(mesh, s.position[node[k].idx()]); });
     std::vector<std::size_t> count(groups, 0);
     for (std::size_t k = 0; k < node.size(); ++k) count[group[k]] += out[k];
     return count;
@@ -223,7 +223,9 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   ForkRetryStats stats;
   stats.counted = r.mesh.crossings_counted;
   stats.pairs_before = stats.pairs_after = r.mesh.crossings.size();
-  if (!p.meshing.fork_retry || !r.mesh.crossings_counted) return stats;
+  // (A mesh with edges not shared by two triangles is a bug, reported as one; the retry
+  // counts nodes inside by ray crossings, which needs a closed mesh.)
+  if (!p.meshing.fork_retry || !r.mesh.crossings_counted || r.mesh.stats.bad_edges > 0) return stats;
   const Skeleton& s = r.skeleton.skeleton;
   // The thick nodes outside the first mesh (as `strandmesh check` finds them). This and the
   // first mesh's windings count as meshing time.
@@ -272,7 +274,9 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     out.contours = compute_contours(s, r.particles, r.strands, q.contours);
     seconds[0] = clock.lap();
     out.mesh = build_mesh(s, out.contours, q.meshing);
-    out.outside = watched.outside(s, out.mesh.mesh, groups.count);
+    // A trial mesh that is not closed (a bug) counts every node as outside: never kept.
+    out.outside = out.mesh.stats.bad_edges > 0 ? std::vector<std::size_t>(groups.count, s.size())
+                                               : watched.outside(s, out.mesh.mesh, groups.count);
     seconds[1] = clock.lap();
     return out;
   };

@@ -15,7 +15,8 @@
 ///    first mesh (radius at least the median, found as `strandmesh check` finds them) are the
 ///    forks among it and its ancestors within kReach of their radii; forks sharing a problem
 ///    form a group;
-///  - the thick nodes near a group are tested in every run (generalized winding numbers).
+///  - the thick nodes near a group are tested in every run (winding numbers, counted as the
+///    signed crossings of a ray: core/mesh.h inside_closed_mesh).
 /// A variant may leave neither more pairs nor more nodes outside at a group than the first run
 /// did; among those, fewer nodes outside, then fewer pairs, is better. One more run combines
 /// each group's best, and the best run overall (by the same rule, over the whole mesh) is

@@ -169,6 +169,37 @@ TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
   }
 }
 
+TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
+  // Two overlapping jittered spheres (winding number 2 where they overlap) and a box: random
+  // points, the mesh's own vertices, edge midpoints and face centres (on the surface: the
+  // ray test falls back to the winding number there) and points along the ray's axes.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(-0.02, 0.02), coord(-1.6, 2.2);
+  Mesh a = test::icosphere(3);
+  for (auto& p : a.positions) p += glm::dvec3(jitter(rng), jitter(rng), jitter(rng));
+  Mesh b = test::icosphere(2, 0.8, glm::dvec3(0.7, 0.1, 0));
+  const Mesh spheres = test::merged(a, b);
+  for (const Mesh& m : {spheres, test::box(glm::dvec3(0), glm::dvec3(1))}) {
+    std::vector<glm::dvec3> points;
+    for (int i = 0; i < 2000; ++i) points.emplace_back(coord(rng), coord(rng), coord(rng));
+    for (const auto& t : m.triangles) {
+      const glm::dvec3 &p = m.positions[t[0]], &q = m.positions[t[1]], &r = m.positions[t[2]];
+      points.push_back(p);
+      points.push_back(0.5 * (p + q));
+      points.push_back((p + q + r) / 3.0);
+    }
+    for (const double x : {0.0, 0.25, 0.5, 1.0}) points.emplace_back(x, x, x);
+    std::size_t inside = 0;
+    for (const glm::dvec3& p : points) {
+      const bool expected = winding_number(m, p) >= 0.5;
+      EXPECT_EQ(inside_closed_mesh(m, p), expected) << p.x << " " << p.y << " " << p.z;
+      inside += expected;
+    }
+    EXPECT_GT(inside, 20u);
+    EXPECT_LT(inside, points.size() - 20);
+  }
+}
+
 TEST(Checks, TouchingBoxesIntersectSeparateBoxesDoNot) {
   // Boxes that touch along a face through distinct vertices: the coplanar faces overlap.
   const Mesh touching =
