@@ -9,7 +9,11 @@
 // Speed: a grown tree has millions of vertices, so the loops over vertices and corners run in
 // parallel (oneTBB), each one writing only its own outputs or reducing fixed chunks combined in
 // order: the bytes do not depend on the thread count. Files are streamed (write_mesh) or
-// appended to one string reserved up front (encode_mesh), never copied whole.
+// appended to one string reserved up front (encode_mesh), never copied whole. glTF's JSON
+// comes from tinygltf, but its buffer is written here, chunk by chunk as it is formatted (and
+// base64-encoded as it goes for .gltf): tinygltf's writer needs the whole buffer in memory and
+// copies it (on a 3.4 M-triangle tree, 110 MB: export 0.8 -> 0.3 s for .glb, 2.65 -> 0.4 s for
+// .gltf, the bytes unchanged).
 
 #include "meshing/export.h"
 
