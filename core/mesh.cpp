@@ -89,45 +89,44 @@ double winding_number(const Mesh& mesh, const glm::dvec3& p) {
   return w / (4.0 * std::numbers::pi);
 }
 
-bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
-  // A direction unlikely to run along the mesh's edges or faces (no axis, no diagonal).
-  const glm::dvec3 d = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
-                                      glm::dvec3(0.01234567, -0.00987654, 0.00543210));
-  // Moeller-Trumbore; a crossing is ambiguous within this relative margin of an edge, or
-  // of p itself.
+int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
+  // A direction unlikely to run along a mesh's edges or faces (no axis, no diagonal).
+  static const glm::dvec3 d = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
+                                             glm::dvec3(0.01234567, -0.00987654, 0.00543210));
+  // Moeller-Trumbore; a crossing is ambiguous within this relative margin of an edge, or of p.
   constexpr double kMargin = 1e-9;
+  const glm::dvec3 e1 = b - a, e2 = c - a;
+  const glm::dvec3 q = glm::cross(d, e2);
+  const double det = glm::dot(e1, q);
+  const glm::dvec3 s = p - a;
+  const double scale = glm::dot(e1, e1) + glm::dot(e2, e2);
+  if (std::abs(det) <= kMargin * scale) {
+    // The ray runs along the triangle's plane: it misses the triangle unless p lies in that
+    // plane too.
+    const glm::dvec3 n = glm::cross(e1, e2);
+    const double off = glm::dot(s, n);
+    return off * off <= kMargin * kMargin * glm::dot(n, n) * (glm::dot(s, s) + scale) ? kRayAmbiguous : 0;
+  }
+  const double inv = 1.0 / det;
+  const double u = glm::dot(s, q) * inv;
+  if (u < -kMargin || u > 1 + kMargin) return 0;
+  const glm::dvec3 r = glm::cross(s, e1);
+  const double v = glm::dot(d, r) * inv;
+  if (v < -kMargin || u + v > 1 + kMargin) return 0;
+  const double h = glm::dot(e2, r) * inv;  // distance along the ray
+  const double size = std::sqrt(scale);
+  if (h < -kMargin * size) return 0;
+  if (h <= kMargin * size || u <= kMargin || v <= kMargin || u + v >= 1 - kMargin) return kRayAmbiguous;
+  // det = -dot(d, e1 x e2): leaving through the front when det < 0.
+  return det < 0 ? 1 : -1;
+}
+
+bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
   int crossings = 0;
   for (const auto& t : mesh.triangles) {
-    const glm::dvec3& a = mesh.positions[t[0]];
-    const glm::dvec3 e1 = mesh.positions[t[1]] - a, e2 = mesh.positions[t[2]] - a;
-    const glm::dvec3 q = glm::cross(d, e2);
-    const double det = glm::dot(e1, q);
-    const glm::dvec3 s = p - a;
-    const double scale = glm::dot(e1, e1) + glm::dot(e2, e2);
-    if (std::abs(det) <= kMargin * scale) {
-      // The ray runs along the triangle's plane: it misses the triangle unless p lies in
-      // that plane too.
-      const glm::dvec3 n = glm::cross(e1, e2);
-      const double off = glm::dot(s, n);
-      if (off * off <= kMargin * kMargin * glm::dot(n, n) * (glm::dot(s, s) + scale)) {
-        return winding_number(mesh, p) >= 0.5;
-      }
-      continue;
-    }
-    const double inv = 1.0 / det;
-    const double u = glm::dot(s, q) * inv;
-    if (u < -kMargin || u > 1 + kMargin) continue;
-    const glm::dvec3 r = glm::cross(s, e1);
-    const double v = glm::dot(d, r) * inv;
-    if (v < -kMargin || u + v > 1 + kMargin) continue;
-    const double h = glm::dot(e2, r) * inv;  // distance along the ray
-    const double size = std::sqrt(scale);
-    if (h < -kMargin * size) continue;
-    if (h <= kMargin * size || u <= kMargin || v <= kMargin || u + v >= 1 - kMargin) {
-      return winding_number(mesh, p) >= 0.5;  // on the surface, or through an edge or vertex
-    }
-    // Leaving through the triangle (its normal e1 x e2 along d, det < 0) counts +1.
-    crossings += det < 0 ? 1 : -1;
+    const int c = ray_crossing(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], p);
+    if (c == kRayAmbiguous) return winding_number(mesh, p) >= 0.5;  // on the surface, or through an edge
+    crossings += c;
   }
   return crossings >= 1;
 }

@@ -52,6 +52,14 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
 /// outward-oriented mesh 1 inside, 0 outside, 2 inside two overlapping parts.
 double winding_number(const Mesh& mesh, const glm::dvec3& p);
 
+/// How the ray from p in a fixed direction (away from the axes and diagonals) crosses the
+/// triangle (a, b, c): +1 leaving through its front (where its normal (b - a) x (c - a)
+/// points), -1 entering, 0 missing, or kRayAmbiguous where the ray passes within rounding of
+/// an edge or p lies (nearly) in the triangle. Summed over a closed surface: its winding
+/// number about p.
+constexpr int kRayAmbiguous = 2;
+int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p);
+
 /// Whether p lies inside a closed, outward-oriented mesh: winding number at least 1/2, found
 /// as the signed count of the mesh's crossings with a ray from p (for a closed surface the
 /// winding number is that integer, overlapping parts included). Where the ray passes within
