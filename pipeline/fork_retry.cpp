@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <vector>
@@ -301,9 +303,9 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
 
   // Every group tries every variant at once (their pairs and nodes are counted apart). A
   // variant may not leave more pairs or more thick nodes outside at a group than the first run
-  // did, and is better with fewer nodes outside, then fewer pairs. The trials run in batches as
-  // wide as the threads, and their results are taken in the order of kVariants up to the first
-  // without pairs or nodes outside, so the outcome is the same for any thread count.
+  // did, and is better with fewer nodes outside, then fewer pairs. The trials are taken in the
+  // order of kVariants up to the first after which no pairs or nodes are left, so the outcome
+  // is the same for any thread count.
   using Score = std::pair<std::size_t, std::size_t>;  // (thick nodes outside, pairs)
   const std::vector<std::size_t> pairs_before = groups.tally(s, r.mesh.crossings);
   std::vector<Score> best(groups.count);
@@ -313,31 +315,58 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   const Score first_total = best_total;
   auto admissible = [](const Score& x, const Score& limit) { return x.first <= limit.first && x.second <= limit.second; };
   std::optional<Run> best_run;  // the best run, if better than the first
-  const std::size_t width = std::max(1, tbb::this_task_arena::max_concurrency());
-  for (std::size_t first = 0; first < kVariants.size() && best_total != Score{}; first += width) {
-    if (progress) progress("fork retry", double(first) / double(kVariants.size() + 1));
-    std::vector<std::vector<LocalContourScale>> batch;
-    for (std::size_t k = first; k < std::min(kVariants.size(), first + width); ++k)
-      batch.emplace_back(groups.count, kVariants[k]);
-    std::vector<Run> runs = run_all(batch);
-    for (std::size_t k = 0; k < runs.size() && best_total != Score{}; ++k) {
-      Run& out = runs[k];
-      ++stats.runs;
-      if (!out.mesh.crossings_counted) continue;
-      const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
-      for (std::size_t g = 0; g < groups.count; ++g) {
-        const Score here{out.outside[g], count[g]};
-        if (admissible(here, {outside_before[g], pairs_before[g]}) && here < best[g]) {
-          best[g] = here;
-          best_scale[g] = batch[k].front();
-        }
-      }
-      const Score total{sum(out.outside), out.mesh.crossings.size()};
-      if (admissible(total, first_total) && total < best_total) {
-        best_total = total;
-        best_run = std::move(out);
+  auto take = [&](Run& out, const LocalContourScale& variant) {
+    ++stats.runs;
+    if (!out.mesh.crossings_counted) return;
+    const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
+    for (std::size_t g = 0; g < groups.count; ++g) {
+      const Score here{out.outside[g], count[g]};
+      if (admissible(here, {outside_before[g], pairs_before[g]}) && here < best[g]) {
+        best[g] = here;
+        best_scale[g] = variant;
       }
     }
+    const Score total{sum(out.outside), out.mesh.crossings.size()};
+    if (admissible(total, first_total) && total < best_total) {
+      best_total = total;
+      best_run = std::move(out);
+    }
+  };
+  // The trials are handed out in order to one worker per thread as each becomes free (their
+  // lengths differ severalfold: in batches of two, one thread waited for the other), and taken
+  // as soon as all before them are in; once the trials taken leave nothing, no more start.
+  {
+    const std::size_t n = kVariants.size();
+    const std::size_t workers = std::min<std::size_t>(n, std::max(1, tbb::this_task_arena::max_concurrency()));
+    std::vector<std::optional<Run>> finished(n);
+    std::size_t taken = 0;
+    std::atomic<std::size_t> next{0}, stop{n};
+    std::mutex mutex;
+    double contours = 0, meshing = 0;
+    Stopwatch wall;
+    tbb::parallel_for(std::size_t{0}, workers, [&](std::size_t) {
+      for (std::size_t k = next++; k < stop.load(); k = next++) {
+        std::array<double, 2> seconds{};
+        // Isolated: while a trial waits for its own parallel loops, its thread takes no other
+        // trial onto its stack.
+        Run out = tbb::this_task_arena::isolate(
+            [&] { return run(std::vector<LocalContourScale>(groups.count, kVariants[k]), seconds); });
+        const std::lock_guard lock(mutex);
+        contours += seconds[0];
+        meshing += seconds[1];
+        finished[k] = std::move(out);
+        for (; taken < stop.load() && finished[taken]; ++taken) {
+          take(*finished[taken], kVariants[taken]);
+          finished[taken].reset();
+          if (best_total == Score{}) stop = taken + 1;
+        }
+        if (progress) progress("fork retry", double(taken) / double(n + 1));
+      }
+    }, tbb::simple_partitioner());
+    const double elapsed = wall.lap();
+    const double share = contours + meshing > 0 ? contours / (contours + meshing) : 0.0;
+    r.timings.add(stage_name(Stage::contours), elapsed * share);
+    r.timings.add(stage_name(Stage::meshing), elapsed * (1.0 - share));
   }
   // Each group with its best variant, unless that is one of the runs made already (all the
   // same variant).
