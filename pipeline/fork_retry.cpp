@@ -282,23 +282,12 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     seconds[1] = clock.lap();
     return out;
   };
-  // Runs several at once (the fold repair is serial), their wall time shared between the two
-  // stages in proportion to their own times.
-  auto run_all = [&](const std::vector<std::vector<LocalContourScale>>& scales) {
-    std::vector<Run> out(scales.size());
-    std::vector<std::array<double, 2>> seconds(scales.size());
-    Stopwatch wall;
-    tbb::parallel_for(std::size_t{0}, scales.size(), [&](std::size_t k) { out[k] = run(scales[k], seconds[k]); });
-    const double elapsed = wall.lap();
-    double contours = 0, meshing = 0;
-    for (const auto& [c, m] : seconds) {
-      contours += c;
-      meshing += m;
-    }
+  // The wall time of runs made at once, shared between the two stages in proportion to the
+  // runs' own times in them.
+  auto add_times = [&](double elapsed, double contours, double meshing) {
     const double share = contours + meshing > 0 ? contours / (contours + meshing) : 0.0;
     r.timings.add(stage_name(Stage::contours), elapsed * share);
     r.timings.add(stage_name(Stage::meshing), elapsed * (1.0 - share));
-    return out;
   };
 
   // Every group tries every variant at once (their pairs and nodes are counted apart). A
@@ -363,10 +352,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
         if (progress) progress("fork retry", double(taken) / double(n + 1));
       }
     }, tbb::simple_partitioner());
-    const double elapsed = wall.lap();
-    const double share = contours + meshing > 0 ? contours / (contours + meshing) : 0.0;
-    r.timings.add(stage_name(Stage::contours), elapsed * share);
-    r.timings.add(stage_name(Stage::meshing), elapsed * (1.0 - share));
+    add_times(wall.lap(), contours, meshing);
   }
   // Each group with its best variant, unless that is one of the runs made already (all the
   // same variant).
@@ -374,7 +360,10 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
                                  [&](const LocalContourScale& v) { return !(v == best_scale.front()); });
   if (mixed && best_total != Score{}) {
     if (progress) progress("fork retry", double(kVariants.size()) / double(kVariants.size() + 1));
-    Run out = std::move(run_all({best_scale}).front());
+    std::array<double, 2> seconds{};
+    Stopwatch wall;
+    Run out = run(best_scale, seconds);
+    add_times(wall.lap(), seconds[0], seconds[1]);
     ++stats.runs;
     const Score total{sum(out.outside), out.mesh.crossings.size()};
     if (out.mesh.crossings_counted && admissible(total, first_total) && total < best_total) {
