@@ -1,6 +1,6 @@
 // Contours and meshing throughput on the `large` grow preset, seed 1 (the tree `strandmesh
-// bench` measures: 32,817 nodes, 1.66 M particles, 3.41 M triangles), each stage alone and
-// the meshing stage's costliest phases (normals, fold repair's search) on their own.
+// bench` measures: 32,817 nodes, 1.66 M particles, 3.41 M triangles), each stage alone with
+// its phases, the normals on their own, and the fork retry's cost on a sample skeleton.
 //
 // "particles" is the sum over nodes of the cloud sizes, as the paper counts them (its
 // Fig. 9a tree: 564,632 particles meshed in 2.75 s, about 200k particles/s).
@@ -19,6 +19,7 @@
 #include "pipeline/pipeline.h"
 #include "skeleton/grow/presets.h"
 #include "skeleton/grow/tree_grower.h"
+#include "skeleton/io.h"
 
 namespace {
 
@@ -94,6 +95,32 @@ void BM_Normals(benchmark::State& state) {
   rate(state, double(mesh.positions.size()), "vertices_per_s");
 }
 BENCHMARK(BM_Normals)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+/// The whole pipeline on a sample skeleton where the fork retry runs (small_pine: 28 pairs
+/// before, 8 after, 12 more runs of contours and meshing), against the same run without it.
+/// Skipped when ../shared/skeletons is absent.
+void BM_ForkRetry(benchmark::State& state) {
+  const std::filesystem::path path = std::filesystem::path(STRANDMESH_SAMPLE_DIR) / "sapling_small_pine.json";
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError("sample skeleton not found");
+    return;
+  }
+  static const RawSkeleton raw = read_skeleton(path);
+  PipelineParams params;
+  params.meshing.fork_retry = state.range(0) != 0;
+  ForkRetryStats retry;
+  for (auto _ : state) {
+    const PipelineResult r = run_pipeline(raw, params);
+    retry = r.fork_retry;
+    benchmark::DoNotOptimize(r.mesh.mesh.triangles.data());
+  }
+  if (retry.runs > 0) {
+    state.counters["pairs_before"] = double(retry.pairs_before);
+    state.counters["pairs_after"] = double(retry.pairs_after);
+    state.counters["runs"] = double(retry.runs);
+  }
+}
+BENCHMARK(BM_ForkRetry)->ArgName("retry")->Arg(0)->Arg(1)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
