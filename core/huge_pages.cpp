@@ -16,9 +16,7 @@ namespace {
 constexpr const char* kDone = "STRANDMESH_HUGE_PAGES_SET";
 }  // namespace
 
-bool running_with_huge_pages() {
-  return std::getenv(kDone) != nullptr;
-}
+bool running_with_huge_pages() { return std::getenv(kDone) != nullptr; }
 
 void reexec_with_huge_pages(char** argv) {
 #if defined(__linux__) && defined(__GLIBC__)

@@ -44,6 +44,11 @@ double fast_angle(double y, double x) {
   return x < 0 ? std::numbers::pi - a : a;
 }
 
+// The direction of ray_crossing's rays: unlikely to run along a mesh's edges or faces (no
+// axis, no diagonal). Set once at load, not tested for at every triangle.
+const glm::dvec3 kRayDirection = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
+                                                glm::dvec3(0.01234567, -0.00987654, 0.00543210));
+
 }  // namespace
 
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
@@ -90,9 +95,7 @@ double winding_number(const Mesh& mesh, const glm::dvec3& p) {
 }
 
 int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
-  // A direction unlikely to run along a mesh's edges or faces (no axis, no diagonal).
-  static const glm::dvec3 d = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
-                                             glm::dvec3(0.01234567, -0.00987654, 0.00543210));
+  const glm::dvec3& d = kRayDirection;
   // Moeller-Trumbore; a crossing is ambiguous within this relative margin of an edge, or of p.
   constexpr double kMargin = 1e-9;
   const glm::dvec3 e1 = b - a, e2 = c - a;

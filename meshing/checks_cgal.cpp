@@ -125,13 +125,16 @@ class SoupIntersector {
         }
       }
     }
-    auto pt = [&](const Mesh::Triangle& t, int k) { return point(t[static_cast<std::size_t>((k % 3 + 3) % 3)]); };
     // Most pairs the box search reports are neighbours far from touching; where floating
     // point shows a separating plane for certain, the exact tests are skipped (the same answer,
     // at a fraction of the cost: 1.76 M pairs in the fold repair's first round on the large
     // grow preset).
     auto position = [&](const Mesh::Triangle& t, int k) -> const glm::dvec3& {
       return mesh_.positions[t[static_cast<std::size_t>((k % 3 + 3) % 3)]];
+    };
+    auto pt = [&](const Mesh::Triangle& t, int k) {
+      const glm::dvec3& p = position(t, k);
+      return Point(p.x, p.y, p.z);
     };
     const glm::dvec3 &a0 = position(a, 0), &a1 = position(a, 1), &a2 = position(a, 2);
     const glm::dvec3 &b0 = position(b, 0), &b1 = position(b, 1), &b2 = position(b, 2);

@@ -624,8 +624,7 @@ void Builder::repair_folds() {
     at = pairs_left();
     crossings_counted_ = true;
   }
-  std::size_t left = at.size();
-  if (variants && left > 0) {
+  if (variants && !at.empty()) {
     std::vector<glm::dvec3> axis(mesh_.positions.size());
     for (std::size_t v = 0; v < axis.size(); ++v) {
       const NodeId n = mesh_.vertex_node[v];
@@ -649,13 +648,11 @@ void Builder::repair_folds() {
       o.axis_targets = variant;
       FoldRepairUndo u;
       const FoldRepairStats rv = sm::repair_folds(mesh_, suspect, max_move, o, &u);
-      std::vector<Crossing> at_v;
-      if (!rv.gave_up && !rv.out_of_tests) at_v = pairs_left();
-      const std::size_t lv = rv.gave_up || rv.out_of_tests ? left : at_v.size();
-      applied = lv < left;
+      const bool stopped = rv.gave_up || rv.out_of_tests;
+      std::vector<Crossing> at_v = stopped ? std::vector<Crossing>{} : pairs_left();
+      applied = !stopped && at_v.size() < at.size();
       if (applied) {
         r = rv;
-        left = lv;
         at = std::move(at_v);
         undo = std::move(u);
       } else {

@@ -50,6 +50,7 @@ constexpr std::array<LocalContourScale, 11> kVariants{{
 }};
 
 struct Run {
+  std::vector<LocalContourScale> scale;  // per group: the factors its forks were sliced with
   ContourSet contours;
   MeshResult mesh;
   std::vector<std::size_t> outside;  // per group: watched nodes outside the mesh
@@ -272,6 +273,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     PipelineParams q = p;
     q.contours.local = local_for(scale);
     Run out;
+    out.scale = scale;
     Stopwatch clock;
     out.contours = compute_contours(s, r.particles, r.strands, q.contours);
     seconds[0] = clock.lap();
@@ -304,7 +306,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   const Score first_total = best_total;
   auto admissible = [](const Score& x, const Score& limit) { return x.first <= limit.first && x.second <= limit.second; };
   std::optional<Run> best_run;  // the best run, if better than the first
-  auto take = [&](Run& out, const LocalContourScale& variant) {
+  auto take = [&](Run& out) {
     ++stats.runs;
     if (!out.mesh.crossings_counted) return;
     const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
@@ -312,7 +314,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
       const Score here{out.outside[g], count[g]};
       if (admissible(here, {outside_before[g], pairs_before[g]}) && here < best[g]) {
         best[g] = here;
-        best_scale[g] = variant;
+        best_scale[g] = out.scale[g];
       }
     }
     const Score total{sum(out.outside), out.mesh.crossings.size()};
@@ -345,7 +347,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
         meshing += seconds[1];
         finished[k] = std::move(out);
         for (; taken < stop.load() && finished[taken]; ++taken) {
-          take(*finished[taken], kVariants[taken]);
+          take(*finished[taken]);
           finished[taken].reset();
           if (best_total == Score{}) stop = taken + 1;
         }
@@ -364,12 +366,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     Stopwatch wall;
     Run out = run(best_scale, seconds);
     add_times(wall.lap(), seconds[0], seconds[1]);
-    ++stats.runs;
-    const Score total{sum(out.outside), out.mesh.crossings.size()};
-    if (out.mesh.crossings_counted && admissible(total, first_total) && total < best_total) {
-      best_total = total;
-      best_run = std::move(out);
-    }
+    take(out);
   }
   if (best_run) {
     r.contours = std::move(best_run->contours);
