@@ -311,18 +311,25 @@ void write_glb(std::ostream& out, const std::string& json, std::size_t size, con
   out.write(zeros, static_cast<std::streamsize>(bin_padded - size));
 }
 
+// tinygltf's JSON of `model` (its buffer empty: the writers here write its bytes), with
+// buffer 0 declaring `size` bytes and no URI (a .glb's buffer is its BIN chunk).
+nlohmann::json gltf_json(const tinygltf::Model& model, std::size_t size) {
+  std::ostringstream text;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, text, /*prettyPrint=*/false, /*writeBinary=*/false)) {
+    throw IoError("glTF serialization failed");
+  }
+  nlohmann::json json = nlohmann::json::parse(text.str());
+  json["buffers"][0] = {{"byteLength", size}};
+  return json;
+}
+
 // Writes a .gltf file: tinygltf's JSON of `model` (its buffer empty) with buffer 0 embedded
 // as a base64 data URI of `size` bytes made of `views`, encoded as it is written (tinygltf
 // would hold the buffer, its encoding and the whole text in memory at once).
 void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t size, const std::vector<ViewData>& views) {
-  std::ostringstream empty;
-  tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&model, empty, /*prettyPrint=*/true, /*writeBinary=*/false)) {
-    throw IoError("glTF serialization failed");
-  }
-  nlohmann::json json = nlohmann::json::parse(empty.str());
+  nlohmann::json json = gltf_json(model, size);
   constexpr std::string_view kMark = "@strandmesh-buffer@";
-  json["buffers"][0]["byteLength"] = size;
   json["buffers"][0]["uri"] = std::string(kMark);
   const std::string text = json.dump(2);
   const std::size_t mark = text.find(kMark);
@@ -336,24 +343,6 @@ void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t siz
   encoder.finish();
   out.write(text.data() + mark + kMark.size(), static_cast<std::streamsize>(text.size() - mark - kMark.size()));
   out << '\n';
-}
-
-// The JSON tinygltf writes for `model` in a .glb, with buffer 0 declaring `size` bytes (the
-// model's buffer is empty: write_glb writes its bytes).
-std::string glb_json(const tinygltf::Model& model, std::size_t size) {
-  std::ostringstream empty_glb;
-  tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&model, empty_glb, /*prettyPrint=*/false, /*writeBinary=*/true)) {
-    throw IoError("glTF serialization failed");
-  }
-  // The container of an empty buffer: 12 bytes of header, the JSON chunk's length and type,
-  // then the JSON (padded with spaces, which the parser skips).
-  const std::string glb = empty_glb.str();
-  std::uint32_t length = 0;
-  std::memcpy(&length, glb.data() + 12, 4);
-  nlohmann::json json = nlohmann::json::parse(glb.substr(20, length));
-  json["buffers"][0]["byteLength"] = size;
-  return json.dump();
 }
 
 PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool binary) {
@@ -453,7 +442,7 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   PreparedFile file;
   file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
   if (binary) {
-    std::string json = glb_json(*model, size);
+    std::string json = gltf_json(*model, size).dump();  // compact, as tinygltf writes a .glb's
     (void)glb_size(json.size(), size);  // too large fails here, before a file is opened
     file.write = [shared, json = std::move(json), size, views = std::move(views)](std::ostream& out) {
       write_glb(out, json, size, views);
