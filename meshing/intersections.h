@@ -45,4 +45,19 @@ class TriangleIntersections {
 std::vector<std::array<std::uint32_t, 3>> triangulate_polyline(const std::vector<glm::dvec3>& loop,
                                                                const std::vector<glm::dvec3>& outside = {});
 
+/// The outer surface of a closed, manifold mesh whose parts run into each other: CGAL's
+/// autorefinement cuts every pair of intersecting triangles along their intersection, and the
+/// patches that then lie inside another part are removed
+/// (PMP::experimental::autorefine_and_remove_self_intersections; outer_surface_cgal.cpp).
+/// Where the self-intersections are folds of the surface rather than parts inside parts, CGAL
+/// may keep the wrong patches: the result is to be checked.
+struct OuterSurface {
+  bool fixed = false;                     ///< CGAL reports every self-intersection removed
+  std::vector<glm::dvec3> positions;      ///< the input's vertices (same indices), then the new ones
+  std::vector<Mesh::Triangle> triangles;  ///< oriented like the input
+  std::vector<std::uint32_t> origin;      ///< #triangles: the input triangle each one is part of
+};
+/// Empty (no triangles) when `mesh` is not a manifold triangle mesh.
+OuterSurface outer_surface(const Mesh& mesh);
+
 }  // namespace sm

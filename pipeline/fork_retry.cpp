@@ -374,19 +374,22 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   }
   stats.pairs_after = r.mesh.crossings.size();
   stats.outside_after = best_total.first;
-  // Where pairs are left, say near which forks (one warning per pair; the viewer's problems
-  // layer shows them).
+  if (progress) progress("fork retry", 1.0);
+  return stats;
+}
+
+void warn_self_intersections_left(PipelineResult& r) {
+  const Skeleton& s = r.skeleton.skeleton;
   std::vector<NodeId> named;
   for (const Crossing& c : r.mesh.crossings) {
     const std::vector<NodeId> forks = forks_of(s, c);
     const bool fresh = !forks.empty() && std::find(named.begin(), named.end(), forks.front()) == named.end();
     if (fresh) named.push_back(forks.front());
     r.mesh.stats.warnings.add("self_intersections_left",
-                              "self-intersecting triangle pairs left at a crotch after the fold repair and the fork retry",
+                              "self-intersecting triangle pairs left near a crotch after the fold repair, the fork "
+                              "retry and the outer surface",
                               fresh ? s.describe(forks.front()) : std::string{});
   }
-  if (progress) progress("fork retry", 1.0);
-  return stats;
 }
 
 }  // namespace sm

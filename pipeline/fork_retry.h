@@ -69,4 +69,9 @@ struct ForkRetryStats {
 /// stages again, their times added to result.timings). Needs MeshParams::fork_retry.
 ForkRetryStats retry_forks(PipelineResult& result, const PipelineParams& params, const ProgressFn& progress = {});
 
+/// Where `result.mesh.crossings` holds self-intersecting pairs, warns of them (warning
+/// `self_intersections_left`, one per pair, naming the crotch below each once; the viewer's
+/// problems layer shows them).
+void warn_self_intersections_left(PipelineResult& result);
+
 }  // namespace sm

@@ -87,6 +87,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_refills", p.fold_repair_refills);
   v("fold_repair_variants", p.fold_repair_variants);
   v("fork_retry", p.fork_retry);
+  v("outer_surface", p.outer_surface);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

@@ -73,6 +73,11 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
   // (Its runs add their own times to the contours and meshing stages.)
   r.fork_retry = retry_forks(r, p, progress);
+  // (Its time counts as meshing.)
+  report("outer surface", 0);
+  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing);
+  r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
+  warn_self_intersections_left(r);
 }
 
 PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
@@ -160,6 +165,14 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"thick_nodes_outside_after", r.fork_retry.outside_after},
                  {"fork_groups", r.fork_retry.groups},
                  {"runs", r.fork_retry.runs}}},
+               {"outer_surface",
+                {{"tried", r.outer_surface.tried},
+                 {"applied", r.outer_surface.applied},
+                 {"pairs_before", r.outer_surface.pairs_before},
+                 {"pairs_after", r.outer_surface.pairs_after},
+                 {"triangles_removed", r.outer_surface.triangles_removed},
+                 {"triangles_added", r.outer_surface.triangles_added},
+                 {"refused", r.outer_surface.refused}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";

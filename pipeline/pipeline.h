@@ -10,6 +10,7 @@
 #include "core/progress.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
+#include "meshing/outer_surface.h"
 #include "particles/particles.h"
 #include "pipeline/fork_retry.h"
 #include "skeleton/build.h"
@@ -47,6 +48,8 @@ struct PipelineResult {
   MeshResult mesh;
   /// The fork retry's figures (MeshParams::fork_retry).
   ForkRetryStats fork_retry;
+  /// The outer surface's figures (MeshParams::outer_surface), after the fork retry.
+  OuterSurfaceStats outer_surface;
   /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing".
   Timings timings;
   /// Warnings of every stage, in stage order.

@@ -123,6 +123,14 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                       fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs);
         log::verbose(line);
       }
+      if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
+        std::snprintf(line, sizeof line,
+                      "  outer surface: %zu -> %zu self-intersecting pairs (%zu triangles cut or removed, %zu made) in "
+                      "%.3f s%s%s",
+                      os.pairs_before, os.pairs_after, os.triangles_removed, os.triangles_added, os.seconds,
+                      os.applied ? "" : "; not kept: ", os.refused.c_str());
+        log::verbose(line);
+      }
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
                    " edges not shared by exactly two triangles; please report this skeleton");

@@ -1,0 +1,45 @@
+#pragma once
+/// Outer surface: the last resort for self-intersecting pairs the fold repair and the fork
+/// retry leave (MeshParams::outer_surface).
+///
+/// Where two parts of the tree's surface run into each other (a branch into its sibling or its
+/// own sub-branch near a crotch), no retriangulation of either part removes the crossing: the
+/// surfaces have to be cut where they meet and joined, keeping what lies outside both. CGAL's
+/// autorefinement does that (intersections.h, outer_surface). It is judged like any other
+/// change: the result must pass `check_mesh` (meshing/checks.h) at least as well in every
+/// respect as the mesh it replaces (closed, edge- and vertex-manifold, oriented, one component,
+/// the same genus, no degenerate triangles, no more thick skeleton nodes outside, fidelity p95
+/// no worse beyond its tolerance) and have fewer self-intersecting pairs; otherwise the mesh
+/// is kept as it was. Folds of the surface (a fan of triangles over its own vertex), which
+/// are not parts inside parts, are where CGAL's choice of patches goes wrong: those results are
+/// the ones refused.
+///
+/// The new triangles keep the branch and kind of the triangle they were cut from, and UVs
+/// interpolated over it; new vertices (on the cut lines) belong to no strand and to the
+/// skeleton node of the nearest corner of that triangle; normals are recomputed.
+
+#include <cstddef>
+#include <string>
+
+#include "meshing/meshing.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+struct OuterSurfaceStats {
+  bool tried = false;               ///< pairs were left (and counted) and MeshParams::outer_surface is on
+  bool applied = false;             ///< the outer surface replaced the mesh
+  std::size_t pairs_before = 0;     ///< self-intersecting pairs of the mesh given
+  std::size_t pairs_after = 0;      ///< of the mesh kept
+  std::size_t triangles_removed = 0;  ///< triangles of the mesh given not in the outer surface as they were
+  std::size_t triangles_added = 0;    ///< triangles of the outer surface not in the mesh given
+  std::string refused;              ///< why the outer surface was not kept (empty if applied or not tried)
+  double seconds = 0;
+};
+
+/// Replaces `result`'s mesh by its outer surface where pairs are left (see above), updating
+/// the mesh's attributes, triangle kinds, figures and `crossings`. `skeleton` is the sanitized
+/// skeleton the mesh was made from.
+OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params);
+
+}  // namespace sm
