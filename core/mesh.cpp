@@ -134,4 +134,16 @@ bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
   return crossings >= 1;
 }
 
+double float_grid(double reach) {
+  if (!(reach > 0) || !std::isfinite(reach)) return 0x1p-60;
+  return std::ldexp(1.0, std::ilogb(reach) + 1 - 24);  // 2^(floor(log2 reach) + 1) >= reach, over 2^24
+}
+
+double export_grid_spacing(double half_extent) { return 16.0 * float_grid(half_extent); }
+
+glm::dvec3 snap_to_grid(const glm::dvec3& p, double spacing) {
+  return glm::dvec3(std::nearbyint(p.x / spacing), std::nearbyint(p.y / spacing), std::nearbyint(p.z / spacing)) *
+         spacing;
+}
+
 }  // namespace sm

@@ -356,9 +356,14 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   }
 
   // The origin is kept in double precision in the node translation; the bounding-box centre
-  // makes the largest float offset half the extent, whatever the absolute coordinates are.
+  // makes the largest float offset half the extent, whatever the absolute coordinates are. It
+  // is put on a grid (core/mesh.h export_grid_spacing) so that the meshing stage's positions,
+  // which lie on a finer one, are stored exactly.
   const auto [lo, hi] = bounds(n, [&](std::size_t i) { return to_y_up(b.positions[i], params.up_axis); });
-  const glm::dvec3 origin = (params.recenter && n > 0) ? 0.5 * (lo + hi) : glm::dvec3(0);
+  const glm::dvec3 half = 0.5 * (hi - lo);
+  const glm::dvec3 origin = (params.recenter && n > 0)
+                                ? snap_to_grid(0.5 * (lo + hi), export_grid_spacing(std::max({half.x, half.y, half.z})))
+                                : glm::dvec3(0);
 
   auto model = std::make_shared<tinygltf::Model>();
   model->asset.version = "2.0";

@@ -7,7 +7,8 @@
 // of intersecting pairs among the triangles within two rings of the intersecting pair drops.
 // A vertex move (towards the centroid of the vertex's neighbours, 1, 1/2 or 1/4 of the way,
 // or along the normal of its fan, out or in, by max_move or half of it; in all within
-// max_move of where stitching put it) is judged the same way and refused when it turns a
+// max_move of where stitching put it, up to a step of the float grid the
+// position is rounded to) is judged the same way and refused when it turns a
 // triangle around the vertex over. Where neither helps, an edge collapse (optional; u and w
 // become one vertex at u, at w or midway, and the edge's two triangles go) is judged the same
 // way too: it needs the link condition (u and w share exactly the two neighbours across the
@@ -74,6 +75,7 @@ class FoldRepair {
         keep_side_(options.keep_side),
         axis_point_(options.axis_point),
         axis_targets_(options.axis_targets),
+        grid_(options.grid),
         undo_(undo),
         test_(mesh) {}
 
@@ -377,7 +379,7 @@ class FoldRepair {
   }
   void set_vertex(std::uint32_t v, const glm::dvec3& p) {
     if (undo_ && undo_->position_seen.insert(v).second) undo_->positions.emplace_back(v, mesh_.positions[v]);
-    mesh_.positions[v] = p;
+    mesh_.positions[v] = grid_ > 0 ? snap_to_grid(p, grid_) : p;
   }
   // The exact test of two triangles, counted against the budget.
   [[nodiscard]] bool intersect(std::uint32_t f, std::uint32_t g) const {
@@ -855,6 +857,7 @@ class FoldRepair {
   std::span<const glm::dvec3> keep_side_;
   std::span<const glm::dvec3> axis_point_;
   AxisTargets axis_targets_;
+  double grid_;
   FoldRepairUndo* undo_;
   std::map<std::uint32_t, glm::dvec3> origin_;  // where stitching put the vertices tried for moves
   std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round

@@ -85,6 +85,9 @@ struct FoldRepairOptions {
   /// (last) the other targets.
   std::span<const glm::dvec3> axis_point;
   AxisTargets axis_targets = AxisTargets::none;
+  /// When > 0, every position the repair writes is rounded to a multiple of this (the float
+  /// grid, core/mesh.h), so that the mesh it judges is the one exported.
+  double grid = 0;
 };
 
 /// Repairs `mesh` in place; triangles keep their index (a flip rewrites the two triangles of

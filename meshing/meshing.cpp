@@ -458,6 +458,9 @@ class Builder {
   /// others in order.
   void drop_unused_vertices();
   void repair_folds();
+  /// Puts every vertex on the float grid (core/mesh.h float_grid; MeshResult::grid).
+  void snap_to_float_grid();
+  double grid_ = 0;
   std::vector<TriangleKind> kind_;
   std::vector<Crossing> crossings_;  // MeshResult::crossings
   bool crossings_counted_ = false;
@@ -558,6 +561,22 @@ void Builder::plan_stacked_junctions() {
 // touching a fused or split loop. (Caps and plain strips take part in under 1% of the pairs
 // on the sample skeletons, and caps are a large share of a big tree's triangles.) Runs before
 // the unused vertices are dropped, while vertex indices are still those of the contours.
+void Builder::snap_to_float_grid() {
+  if (mesh_.positions.empty()) return;
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const auto& p : mesh_.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::dvec3 half = 0.5 * (hi - lo);
+  grid_ = float_grid(2.0 * std::max({half.x, half.y, half.z}));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.positions.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v < r.end(); ++v)
+                        mesh_.positions[v] = snap_to_grid(mesh_.positions[v], grid_);
+                    });
+}
+
 void Builder::repair_folds() {
   if (p_.fold_repair_rounds == 0) return;
   std::vector<std::uint8_t> near_fork(c_.point.size(), 0);
@@ -585,6 +604,7 @@ void Builder::repair_folds() {
   options.collapse = p_.fold_repair_collapses;
   options.refill = p_.fold_repair_refills;
   options.keep_side = s_.position;
+  options.grid = grid_;
   // Which pairs a repair untangles depends on the order of its attempts. On meshes of at most
   // kVariantTriangles triangles, the pairs left anywhere are counted (the repair itself
   // watches only the triangles around its changes), and where there are
@@ -937,6 +957,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
   };
   for (Part& part : parts) append(part);
   append(root);
+  snap_to_float_grid();
   stats_.timings.add("stitching", clock.lap());
   repair_folds();
   stats_.timings.add("fold_repair", clock.lap());
@@ -980,7 +1001,8 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("check", clock.lap());
   stats_.vertices = mesh_.positions.size();
   stats_.triangles = mesh_.triangles.size();
-  return MeshResult{std::move(mesh_), std::move(kind_), std::move(stats_), std::move(crossings_), crossings_counted_};
+  return MeshResult{std::move(mesh_),      std::move(kind_),   std::move(stats_),
+                    std::move(crossings_), crossings_counted_, grid_};
 }
 
 }  // namespace

@@ -129,6 +129,9 @@ struct MeshResult {
   /// MeshParams::fold_repair_variants or fork_retry, the repair not stopped).
   std::vector<Crossing> crossings;
   bool crossings_counted = false;
+  /// Every position is a multiple of this power of two (core/mesh.h float_grid), so that the
+  /// exported float32 mesh is the mesh checked (0: not snapped).
+  double grid = 0;
 };
 
 /// Builds the branch mesh from the contour loops.

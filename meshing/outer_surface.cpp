@@ -99,7 +99,9 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   for (std::size_t v = 0; v < outer.positions.size(); ++v) {
     if (remap[v] == UINT32_MAX) continue;
     remap[v] = static_cast<std::uint32_t>(out.positions.size());
-    out.positions.push_back(outer.positions[v]);
+    // New vertices go on the float grid too (MeshResult::grid): the result is checked as exported.
+    const bool snap = v >= nv_old && result.grid > 0;
+    out.positions.push_back(snap ? snap_to_grid(outer.positions[v], result.grid) : outer.positions[v]);
     const std::uint32_t from = v < nv_old ? static_cast<std::uint32_t>(v) : nearest_corner[v];
     if (strands) out.vertex_strand.push_back(v < nv_old ? mesh.vertex_strand[v] : StrandId{});
     if (nodes) out.vertex_node.push_back(mesh.vertex_node[from]);

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 #include <filesystem>
 #include <set>
@@ -255,6 +257,35 @@ TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
   // Without recentering float32 cannot even tell the vertices apart at 5,000 km.
   const Mesh coarse = parse_mesh(encode_mesh(m, MeshFormat::glb, {.recenter = false}), MeshFormat::glb, "far.glb");
   EXPECT_LT(coarse.positions.size(), m.positions.size());
+}
+
+TEST(Export, GltfStoresPositionsOnTheFloatGridExactly) {
+  // The meshing stage puts its vertices on core/mesh.h's float grid, so that the .glb holds
+  // the very mesh it checked. A twig far from the origin and off-centre in its box: read back,
+  // every position is one of the mesh's, bit for bit; off the grid, some are not.
+  const dvec3 far(512345.678, 5412345.678, 254.0);
+  const Mesh m = test::translated(test::capped_tube({0, 0, 0}, {0.05, 0.01, 0.3}, 0.005, 12, 6), far);
+  glm::dvec3 lo(1e300), hi(-1e300);
+  for (const auto& p : m.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::dvec3 half = 0.5 * (hi - lo);
+  Mesh snapped = m;
+  const double grid = float_grid(2.0 * std::max({half.x, half.y, half.z}));
+  for (auto& p : snapped.positions) p = snap_to_grid(p, grid);
+  auto all_exact = [](const Mesh& mesh, MeshFormat format) {
+    std::set<std::array<double, 3>> have;
+    for (const auto& p : mesh.positions) have.insert({p.x, p.y, p.z});
+    const Mesh back = parse_mesh(encode_mesh(mesh, format), format, "grid");
+    for (const auto& p : back.positions) {
+      if (!have.count({p.x, p.y, p.z})) return false;
+    }
+    return !back.positions.empty();
+  };
+  EXPECT_TRUE(all_exact(snapped, MeshFormat::glb));
+  EXPECT_TRUE(all_exact(snapped, MeshFormat::gltf));
+  EXPECT_FALSE(all_exact(m, MeshFormat::glb));
 }
 
 TEST(Export, NoBranchIdsOrUvsWhenAbsentOrDisabled) {

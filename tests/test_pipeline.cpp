@@ -246,7 +246,9 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   const Skeleton& sk = b.skeleton.skeleton;
   for (std::size_t v = 0; v < a.mesh.mesh.positions.size(); ++v) {
     const double r = sk.radius[b.mesh.mesh.vertex_node[v].idx()];
-    ASSERT_LE(glm::length(a.mesh.mesh.positions[v] - b.mesh.mesh.positions[v]), 0.25 * r * (1 + 1e-9)) << v;
+    // (Within the limit up to a step of the float grid the moved vertex is rounded to.)
+    ASSERT_LE(glm::length(a.mesh.mesh.positions[v] - b.mesh.mesh.positions[v]), 0.25 * r * (1 + 1e-9) + b.mesh.grid)
+        << v;
   }
 }
 
@@ -424,13 +426,15 @@ TEST(Pipeline, HubOfThousandsOfTwigsIsMeshed) {
 }
 
 TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
-  // boutdenoylum2 at particle seed 2: the fold repair leaves 7 self-intersecting pairs; run
+  // boutdenoylum2 at particle seed 3: the fold repair leaves 9 self-intersecting pairs; run
   // again from the stitched mesh with vertex moves also towards the branches' axes, none.
+  // (Seed 2 until the vertices were put on the float grid, which changed which pairs the
+  // repair meets: now 0 there, and 2 -> 0 / 9 -> 0 / 7 -> 5 / 13 -> 0 at seeds 1 / 3 / 4 / 5.)
   const auto file = sample_named("mtg_boutdenoylum2.json");
   if (!file) GTEST_SKIP() << "../shared/skeletons not found";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams params;
-  params.particles.seed = 2;
+  params.particles.seed = 3;
   params.meshing.fork_retry = false;
   auto pairs = [&](bool variants) {
     params.meshing.fold_repair_variants = variants;
