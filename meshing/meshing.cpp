@@ -557,10 +557,6 @@ void Builder::plan_stacked_junctions() {
   stats_.merged_junctions = static_cast<std::size_t>(std::count(folded_.begin(), folded_.end(), 1));
 }
 
-// Fold repair on the triangles most likely to fold: those of junctions and the strips
-// touching a fused or split loop. (Caps and plain strips take part in under 1% of the pairs
-// on the sample skeletons, and caps are a large share of a big tree's triangles.) Runs before
-// the unused vertices are dropped, while vertex indices are still those of the contours.
 void Builder::snap_to_float_grid() {
   if (mesh_.positions.empty()) return;
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
@@ -577,6 +573,10 @@ void Builder::snap_to_float_grid() {
                     });
 }
 
+// Fold repair on the triangles most likely to fold: those of junctions and the strips
+// touching a fused or split loop. (Caps and plain strips take part in under 1% of the pairs
+// on the sample skeletons, and caps are a large share of a big tree's triangles.) Runs before
+// the unused vertices are dropped, while vertex indices are still those of the contours.
 void Builder::repair_folds() {
   if (p_.fold_repair_rounds == 0) return;
   std::vector<std::uint8_t> near_fork(c_.point.size(), 0);

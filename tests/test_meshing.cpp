@@ -145,6 +145,16 @@ TEST(FoldRepair, StopsAtItsBudgetOfTests) {
   EXPECT_TRUE(closed(held));
 }
 
+/// The sanitized skeleton of a chain of nodes (position, radius), root first.
+Skeleton chain(const std::vector<std::pair<glm::dvec3, double>>& nodes) {
+  RawSkeleton raw;
+  raw.source = "chain";
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    raw.add(static_cast<std::int64_t>(i), static_cast<std::int64_t>(i) - 1, nodes[i].first, nodes[i].second);
+  }
+  return build_skeleton(raw).skeleton;
+}
+
 /// A MeshResult around `mesh` as the meshing stage leaves it where pairs are left.
 MeshResult with_pairs_left(Mesh mesh) {
   MeshResult r;
@@ -167,12 +177,7 @@ TEST(OuterSurface, JoinsTubesRunningIntoEachOther) {
   both.vertex_strand.assign(both.positions.size(), StrandId(7));
   both.vertex_node.assign(both.positions.size(), NodeId(1));
   both.normals = angle_weighted_normals(both);
-  RawSkeleton raw;
-  raw.source = "axis";
-  raw.add(0, -1, glm::dvec3(0, 0, 0.05), 0.1);
-  raw.add(1, 0, glm::dvec3(0, 0, 0.5), 0.1);
-  raw.add(2, 1, glm::dvec3(0, 0, 0.95), 0.1);
-  const Skeleton skeleton = build_skeleton(raw).skeleton;
+  const Skeleton skeleton = chain({{{0, 0, 0.05}, 0.1}, {{0, 0, 0.5}, 0.1}, {{0, 0, 0.95}, 0.1}});
   MeshCheckParams cp;
   cp.skeleton = &skeleton;
   const MeshCheckReport before = check_mesh(both, cp);
@@ -244,11 +249,7 @@ TEST(OuterSurface, RefusesWhatChecksWorse) {
   Mesh folded = test::icosphere(2, 0.5);
   const std::uint32_t w = folded.triangles[0][1], v = folded.triangles[0][0];
   folded.positions[v] = 2.0 * folded.positions[w] - folded.positions[v];
-  RawSkeleton raw;
-  raw.source = "centre";
-  raw.add(0, -1, glm::dvec3(0, 0, -0.3), 0.25);
-  raw.add(1, 0, glm::dvec3(0, 0, 0.3), 0.25);
-  const Skeleton skeleton = build_skeleton(raw).skeleton;
+  const Skeleton skeleton = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
   MeshCheckParams cp;
   cp.skeleton = &skeleton;
   const MeshCheckReport before = check_mesh(folded, cp);
