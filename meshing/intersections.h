@@ -60,4 +60,12 @@ struct OuterSurface {
 /// Empty (no triangles) when `mesh` is not a manifold triangle mesh.
 OuterSurface outer_surface(const Mesh& mesh);
 
+/// The union of the solids bounded by `a` and `b` (closed, manifold, outward; each free of
+/// self-intersections where it meets the other): CGAL's corefinement
+/// (PMP::corefine_and_compute_union). Positions: `a`'s vertices (same indices), then new ones
+/// (cut lines, and `b`'s vertices kept); `origin` indexes `a`'s triangles, then `b`'s
+/// (a.triangles.size() + j). `fixed` is CGAL's success; empty when either is not a manifold
+/// triangle mesh.
+OuterSurface union_of(const Mesh& a, const Mesh& b);
+
 }  // namespace sm

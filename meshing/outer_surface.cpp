@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <map>
 #include <utility>
 
 #include <glm/glm.hpp>
@@ -46,41 +47,26 @@ std::string worse(const MeshCheckReport& before, const MeshCheckReport& after) {
     return std::to_string(before.thick_nodes_inside - after.thick_nodes_inside) + " more thick nodes outside";
   if (after.fidelity_p95 > std::max(before.fidelity_p95, before.fidelity_tolerance))
     return "fidelity p95 " + std::to_string(after.fidelity_p95);
-  if (after.self_intersecting_pairs >= before.self_intersecting_pairs)
+  if (after.self_intersecting_pairs > before.self_intersecting_pairs)
     return std::to_string(after.self_intersecting_pairs) + " self-intersecting pairs";
   return {};
 }
 
-}  // namespace
-
-OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params) {
-  OuterSurfaceStats stats;
-  if (!params.outer_surface || !result.crossings_counted || result.crossings.empty()) return stats;
-  Stopwatch clock;
-  stats.tried = true;
-  const Mesh& mesh = result.mesh;
-  MeshCheckParams check;
-  check.skeleton = &skeleton;
-  check.max_examples = std::numeric_limits<std::size_t>::max();  // every pair, for `crossings`
-  const MeshCheckReport before = check_mesh(mesh, check);
-  stats.pairs_before = stats.pairs_after = before.self_intersecting_pairs;
-
-  auto done = [&](std::string why) {
-    stats.refused = std::move(why);
-    stats.seconds = clock.lap();
-    return stats;
-  };
-  const OuterSurface outer = outer_surface(mesh);
-  if (outer.triangles.empty()) return done("CGAL gave no surface");
-  if (!outer.fixed) return done("CGAL could not remove every self-intersection");
-
-  // The outer surface as a mesh with the attributes of the triangles it was cut from.
-  const std::size_t nv_old = mesh.positions.size();
+/// `outer` (cut from `base`'s mesh) as a mesh with the attributes of the triangles it was cut from.
+struct Candidate {
+  Mesh mesh;
+  std::vector<TriangleKind> kinds;
+};
+/// Vertices below `kept` keep their index (and attributes); the others are new.
+Candidate candidate_mesh(const MeshResult& base, const OuterSurface& outer, std::size_t kept) {
+  const Mesh& mesh = base.mesh;
+  const std::size_t nv_old = kept;
   std::vector<std::uint32_t> remap(outer.positions.size(), UINT32_MAX);
   for (const auto& t : outer.triangles) {
     for (const std::uint32_t v : t) remap[v] = 0;
   }
-  Mesh out;
+  Candidate cand;
+  Mesh& out = cand.mesh;
   const bool strands = !mesh.vertex_strand.empty(), nodes = !mesh.vertex_node.empty();
   // The corner of the origin triangle nearest to each new vertex (first use).
   std::vector<std::uint32_t> nearest_corner(outer.positions.size(), UINT32_MAX);
@@ -100,26 +86,19 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     if (remap[v] == UINT32_MAX) continue;
     remap[v] = static_cast<std::uint32_t>(out.positions.size());
     // New vertices go on the float grid too (MeshResult::grid): the result is checked as exported.
-    const bool snap = v >= nv_old && result.grid > 0;
-    out.positions.push_back(snap ? snap_to_grid(outer.positions[v], result.grid) : outer.positions[v]);
+    const bool snap = v >= nv_old && base.grid > 0;
+    out.positions.push_back(snap ? snap_to_grid(outer.positions[v], base.grid) : outer.positions[v]);
     const std::uint32_t from = v < nv_old ? static_cast<std::uint32_t>(v) : nearest_corner[v];
     if (strands) out.vertex_strand.push_back(v < nv_old ? mesh.vertex_strand[v] : StrandId{});
     if (nodes) out.vertex_node.push_back(mesh.vertex_node[from]);
   }
-  std::vector<TriangleKind> kinds;
-  std::size_t unchanged = 0;
   for (std::size_t f = 0; f < outer.triangles.size(); ++f) {
     const std::uint32_t g = outer.origin[f];
     const Mesh::Triangle& t = outer.triangles[f];
     const Mesh::Triangle& o = mesh.triangles[g];
     out.triangles.push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
     if (!mesh.triangle_branch.empty()) out.triangle_branch.push_back(mesh.triangle_branch[g]);
-    if (!result.triangle_kind.empty()) kinds.push_back(result.triangle_kind[g]);
-    // Unchanged when it is the origin triangle, corners in the same cyclic order.
-    for (int k = 0; k < 3; ++k) {
-      if (t[0] == o[std::size_t(k)] && t[1] == o[std::size_t((k + 1) % 3)] && t[2] == o[std::size_t((k + 2) % 3)])
-        ++unchanged;
-    }
+    if (!base.triangle_kind.empty()) cand.kinds.push_back(base.triangle_kind[g]);
     if (!mesh.corner_uvs.empty()) {
       std::array<glm::vec2, 3> uv{};
       for (int k = 0; k < 3; ++k) {
@@ -138,31 +117,208 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     }
   }
   if (!mesh.normals.empty()) out.normals = angle_weighted_normals(out);
-  stats.triangles_removed = mesh.triangles.size() - unchanged;
-  stats.triangles_added = out.triangles.size() - unchanged;
+  return cand;
+}
 
-  const MeshCheckReport after = check_mesh(out, check);
-  if (std::string why = worse(before, after); !why.empty()) return done("the outer surface has " + why);
+/// The point of triangle (a, b, c) nearest to p (Ericson, Real-Time Collision Detection 5.1.5).
+glm::dvec3 closest_on_triangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const glm::dvec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const glm::dvec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double den = 1.0 / (va + vb + vc);
+  return a + ab * (vb * den) + ac * (vc * den);
+}
 
-  result.mesh = std::move(out);
-  result.triangle_kind = std::move(kinds);
-  result.stats.vertices = result.mesh.positions.size();
-  result.stats.triangles = result.mesh.triangles.size();
-  result.crossings.clear();
-  for (const auto& [a, b] : after.self_intersection_examples) {
-    Crossing c;
-    std::size_t k = 0;
-    for (const std::uint32_t f : {a, b}) {
-      for (const std::uint32_t v : result.mesh.triangles[f]) {
-        c.at += result.mesh.positions[v] / 6.0;
-        if (nodes) c.nodes[k] = result.mesh.vertex_node[v];
-        ++k;
+/// A unit sphere: the octahedron subdivided twice (128 triangles, outward), turned by
+/// `turn` radians about a fixed oblique axis (another turn moves its vertices off whatever
+/// they met in the mesh).
+Mesh unit_sphere(double turn) {
+  Mesh m;
+  m.positions = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  for (int s = 0; s < 2; ++s) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mid;
+    auto midpoint = [&](std::uint32_t a, std::uint32_t b) {
+      const auto [it, fresh] = mid.try_emplace(std::minmax(a, b), static_cast<std::uint32_t>(m.positions.size()));
+      if (fresh) m.positions.push_back(glm::normalize(m.positions[a] + m.positions[b]));
+      return it->second;
+    };
+    std::vector<Mesh::Triangle> next;
+    for (const auto& t : m.triangles) {
+      const std::uint32_t ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+      next.push_back({t[0], ab, ca});
+      next.push_back({t[1], bc, ab});
+      next.push_back({t[2], ca, bc});
+      next.push_back({ab, bc, ca});
+    }
+    m.triangles = std::move(next);
+  }
+  const glm::dvec3 axis = glm::normalize(glm::dvec3(1, 2, 3));
+  for (auto& q : m.positions) {  // Rodrigues' rotation
+    q = q * std::cos(turn) + glm::cross(axis, q) * std::sin(turn) + axis * glm::dot(axis, q) * (1 - std::cos(turn));
+  }
+  return m;
+}
+
+/// `result` with a small sphere added (a separate part, to be joined by a union) around each
+/// of the skeleton `nodes`: centred on the node, reaching `reach` of its radius beyond its
+/// distance to the mesh. Sphere triangles take the branch, kind and UVs of the mesh triangle
+/// nearest the node (one UV for the whole sphere), sphere vertices that node and no strand.
+MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const std::vector<std::uint32_t>& nodes,
+                      double reach, double turn) {
+  MeshResult out;
+  out.mesh = result.mesh;
+  out.triangle_kind = result.triangle_kind;
+  out.grid = result.grid;
+  Mesh& m = out.mesh;
+  const Mesh sphere = unit_sphere(turn);
+  for (const std::uint32_t n : nodes) {
+    const glm::dvec3 c = skeleton.position[n];
+    double distance = std::numeric_limits<double>::infinity();
+    std::uint32_t nearest = 0;
+    for (std::uint32_t f = 0; f < result.mesh.triangles.size(); ++f) {
+      const auto& t = result.mesh.triangles[f];
+      const double d = glm::distance(
+          c, closest_on_triangle(c, result.mesh.positions[t[0]], result.mesh.positions[t[1]], result.mesh.positions[t[2]]));
+      if (d < distance) {
+        distance = d;
+        nearest = f;
       }
     }
-    result.crossings.push_back(c);
+    const double radius = distance + reach * skeleton.radius[n];
+    const auto first = static_cast<std::uint32_t>(m.positions.size());
+    for (const auto& q : sphere.positions) {
+      const glm::dvec3 p = c + radius * q;
+      m.positions.push_back(out.grid > 0 ? snap_to_grid(p, out.grid) : p);
+      if (!result.mesh.vertex_strand.empty()) m.vertex_strand.push_back(StrandId{});
+      if (!result.mesh.vertex_node.empty()) m.vertex_node.push_back(NodeId(n));
+    }
+    if (!m.normals.empty()) m.normals.resize(m.positions.size(), glm::dvec3(0, 0, 1));
+    for (const auto& t : sphere.triangles) {
+      m.triangles.push_back({first + t[0], first + t[1], first + t[2]});
+      if (!result.mesh.triangle_branch.empty()) m.triangle_branch.push_back(result.mesh.triangle_branch[nearest]);
+      if (!result.triangle_kind.empty()) out.triangle_kind.push_back(result.triangle_kind[nearest]);
+      if (!result.mesh.corner_uvs.empty()) {
+        const glm::vec2 uv = result.mesh.corner_uvs[nearest][0];
+        m.corner_uvs.push_back({uv, uv, uv});
+      }
+    }
   }
-  stats.applied = true;
-  stats.pairs_after = after.self_intersecting_pairs;
+  return out;
+}
+
+}  // namespace
+
+OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params,
+                                     bool thick_nodes_outside) {
+  OuterSurfaceStats stats;
+  if (!params.outer_surface || !result.crossings_counted || (result.crossings.empty() && !thick_nodes_outside))
+    return stats;
+  Stopwatch clock;
+  stats.tried = true;
+  MeshCheckParams check;
+  check.skeleton = &skeleton;
+  check.max_examples = std::numeric_limits<std::size_t>::max();  // every pair and node
+  MeshCheckReport now = check_mesh(result.mesh, check);
+  stats.pairs_before = stats.pairs_after = now.self_intersecting_pairs;
+  stats.nodes_inside_before = stats.nodes_inside_after = now.thick_nodes_inside;
+  stats.triangles_before = stats.triangles_after = result.mesh.triangles.size();
+
+  // The outer surface of `base` replaces the mesh if it checks no worse than the mesh in any
+  // respect and has fewer pairs or more thick nodes inside.
+  std::vector<std::string> refused;
+  auto attempt = [&](const MeshResult& base, const OuterSurface& outer, std::size_t kept, const std::string& what) {
+    if (outer.triangles.empty() || !outer.fixed) {
+      refused.push_back(what + ": CGAL failed");
+      return false;
+    }
+    Candidate cand = candidate_mesh(base, outer, kept);
+    const MeshCheckReport after = check_mesh(cand.mesh, check);
+    std::string why = worse(now, after);
+    if (why.empty() && after.self_intersecting_pairs >= now.self_intersecting_pairs &&
+        after.thick_nodes_inside <= now.thick_nodes_inside)
+      why = "no fewer pairs and no more thick nodes inside";
+    if (!why.empty()) {
+      refused.push_back(what + ": " + why);
+      return false;
+    }
+    const bool nodes = !cand.mesh.vertex_node.empty();
+    result.mesh = std::move(cand.mesh);
+    result.triangle_kind = std::move(cand.kinds);
+    result.stats.vertices = result.mesh.positions.size();
+    result.stats.triangles = result.mesh.triangles.size();
+    result.crossings.clear();
+    for (const auto& [a, b] : after.self_intersection_examples) {
+      Crossing c;
+      std::size_t k = 0;
+      for (const std::uint32_t f : {a, b}) {
+        for (const std::uint32_t v : result.mesh.triangles[f]) {
+          c.at += result.mesh.positions[v] / 6.0;
+          if (nodes) c.nodes[k] = result.mesh.vertex_node[v];
+          ++k;
+        }
+      }
+      result.crossings.push_back(c);
+    }
+    now = after;
+    stats.applied = true;
+    return true;
+  };
+  // Parts inside parts.
+  if (now.self_intersecting_pairs > 0) {
+    attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface");
+  }
+  // Thick nodes outside: all at once, then one by one; the spheres reaching a quarter of the
+  // node's radius beyond the mesh, else a tenth (a larger one may bridge a crotch: genus 1),
+  // each turned once more if the first does not do (a sliver where its vertices meet the
+  // mesh's).
+  const std::vector<std::uint32_t> outside = now.outside_node_examples;
+  auto blobs = [&](const std::vector<std::uint32_t>& nodes) {
+    for (const auto& [reach, turn] : {std::pair{0.25, 0.0}, {0.25, 0.5}, {0.1, 0.0}, {0.1, 0.5}}) {
+      const std::string what = "spheres around node" + std::string(nodes.size() > 1 ? "s" : "") + " " +
+                               [&] {
+                                 std::string ids;
+                                 for (const auto n : nodes) ids += (ids.empty() ? "" : ", ") + std::to_string(n);
+                                 return ids;
+                               }();
+      // The spheres joined by a union with the mesh alone (CGAL's corefinement), which leaves
+      // the mesh's own folds elsewhere as they are.
+      const MeshResult base = with_blobs(result, skeleton, nodes, reach, turn);
+      Mesh spheres;
+      const std::size_t nv = result.mesh.positions.size(), nf = result.mesh.triangles.size();
+      spheres.positions.assign(base.mesh.positions.begin() + std::ptrdiff_t(nv), base.mesh.positions.end());
+      for (std::size_t f = nf; f < base.mesh.triangles.size(); ++f) {
+        const auto& t = base.mesh.triangles[f];
+        spheres.triangles.push_back({t[0] - std::uint32_t(nv), t[1] - std::uint32_t(nv), t[2] - std::uint32_t(nv)});
+      }
+      if (attempt(base, union_of(result.mesh, spheres), nv, what)) {
+        stats.blobs += nodes.size();
+        return true;
+      }
+    }
+    return false;
+  };
+  if (!outside.empty() && !blobs(outside) && outside.size() > 1) {
+    for (const std::uint32_t n : outside) blobs({n});
+  }
+  stats.pairs_after = now.self_intersecting_pairs;
+  stats.nodes_inside_after = now.thick_nodes_inside;
+  stats.triangles_after = result.mesh.triangles.size();
+  if (!stats.applied) {
+    for (const auto& r : refused) stats.refused += (stats.refused.empty() ? "" : "; ") + r;
+  }
   stats.seconds = clock.lap();
   return stats;
 }

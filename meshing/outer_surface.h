@@ -27,19 +27,25 @@
 namespace sm {
 
 struct OuterSurfaceStats {
-  bool tried = false;               ///< pairs were left (and counted) and MeshParams::outer_surface is on
-  bool applied = false;             ///< the outer surface replaced the mesh
-  std::size_t pairs_before = 0;     ///< self-intersecting pairs of the mesh given
-  std::size_t pairs_after = 0;      ///< of the mesh kept
-  std::size_t triangles_removed = 0;  ///< triangles of the mesh given not in the outer surface as they were
-  std::size_t triangles_added = 0;    ///< triangles of the outer surface not in the mesh given
-  std::string refused;              ///< why the outer surface was not kept (empty if applied or not tried)
+  bool tried = false;                   ///< pairs or thick nodes outside were left, and MeshParams::outer_surface is on
+  bool applied = false;                 ///< an outer surface replaced the mesh
+  std::size_t pairs_before = 0;         ///< self-intersecting pairs of the mesh given
+  std::size_t pairs_after = 0;          ///< of the mesh kept
+  std::size_t nodes_inside_before = 0;  ///< thick skeleton nodes inside the mesh given
+  std::size_t nodes_inside_after = 0;   ///< of the mesh kept
+  std::size_t triangles_before = 0;
+  std::size_t triangles_after = 0;
+  std::size_t blobs = 0;   ///< thick nodes outside given a sphere that was kept
+  std::string refused;     ///< why nothing was kept (empty if applied or not tried)
   double seconds = 0;
 };
 
-/// Replaces `result`'s mesh by its outer surface where pairs are left (see above), updating
-/// the mesh's attributes, triangle kinds, figures and `crossings`. `skeleton` is the sanitized
-/// skeleton the mesh was made from.
-OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params);
+/// Replaces `result`'s mesh by its outer surface where pairs or thick nodes outside are left
+/// (see above), updating the mesh's attributes, triangle kinds, figures and `crossings`.
+/// `skeleton` is the sanitized skeleton the mesh was made from. Runs where the meshing stage
+/// counted the pairs (MeshResult::crossings_counted) and found some, or where the caller
+/// knows of thick nodes outside (`thick_nodes_outside`: the fork retry's count).
+OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params,
+                                     bool thick_nodes_outside = false);
 
 }  // namespace sm

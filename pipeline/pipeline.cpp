@@ -75,7 +75,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   r.fork_retry = retry_forks(r, p, progress);
   // (Its time counts as meshing.)
   report("outer surface", 0);
-  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing);
+  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, r.fork_retry.outside_after > 0);
   r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
   warn_self_intersections_left(r);
 }
@@ -170,8 +170,11 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"applied", r.outer_surface.applied},
                  {"pairs_before", r.outer_surface.pairs_before},
                  {"pairs_after", r.outer_surface.pairs_after},
-                 {"triangles_removed", r.outer_surface.triangles_removed},
-                 {"triangles_added", r.outer_surface.triangles_added},
+                 {"thick_nodes_inside_before", r.outer_surface.nodes_inside_before},
+                 {"thick_nodes_inside_after", r.outer_surface.nodes_inside_after},
+                 {"triangles_before", r.outer_surface.triangles_before},
+                 {"triangles_after", r.outer_surface.triangles_after},
+                 {"node_spheres", r.outer_surface.blobs},
                  {"refused", r.outer_surface.refused}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};

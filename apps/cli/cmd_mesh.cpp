@@ -125,10 +125,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
         std::snprintf(line, sizeof line,
-                      "  outer surface: %zu -> %zu self-intersecting pairs (%zu triangles cut or removed, %zu made) in "
-                      "%.3f s%s%s",
-                      os.pairs_before, os.pairs_after, os.triangles_removed, os.triangles_added, os.seconds,
-                      os.applied ? "" : "; not kept: ", os.refused.c_str());
+                      "  outer surface: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes inside (%zu with a "
+                      "sphere), %zu -> %zu triangles, in %.3f s%s%s",
+                      os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
+                      os.triangles_before, os.triangles_after, os.seconds, os.applied ? "" : "; not kept: ",
+                      os.refused.c_str());
         log::verbose(line);
       }
       if (r.mesh.stats.bad_edges > 0) {
