@@ -85,11 +85,12 @@ struct MeshParams {
   /// and keeps each crotch's best: up to 12 more runs of contours and meshing
   /// (pipeline/fork_retry.h).
   bool fork_retry = true;
-  /// Where self-intersecting pairs are still left after the fork retry (counted as above, on
-  /// meshes of at most 300,000 triangles), the mesh is replaced by its outer surface: the
-  /// intersecting triangles cut along their intersections and the parts inside other parts
-  /// removed (CGAL's autorefinement; meshing/outer_surface.h), if the result passes the mesh
-  /// checks at least as well in every respect and has fewer pairs.
+  /// Where self-intersecting pairs or thick skeleton nodes outside the mesh are still left after
+  /// the fork retry (meshes of at most 300,000 triangles), the mesh is replaced by its outer
+  /// surface: the intersecting triangles cut along their intersections and the parts inside
+  /// other parts removed (CGAL's autorefinement), and a small sphere joined around each thick
+  /// node outside (CGAL's union; meshing/outer_surface.h), where the result passes the mesh
+  /// checks at least as well in every respect and has fewer pairs or more nodes inside.
   bool outer_surface = true;
 };
 

@@ -1,6 +1,6 @@
 #pragma once
-/// Outer surface: the last resort for self-intersecting pairs the fold repair and the fork
-/// retry leave (MeshParams::outer_surface).
+/// Outer surface: the last resort for self-intersecting pairs and thick skeleton nodes outside
+/// the mesh that the fold repair and the fork retry leave (MeshParams::outer_surface).
 ///
 /// Where two parts of the tree's surface run into each other (a branch into its sibling or its
 /// own sub-branch near a crotch), no retriangulation of either part removes the crossing: the
@@ -14,9 +14,16 @@
 /// are not parts inside parts, are where CGAL's choice of patches goes wrong: those results are
 /// the ones refused.
 ///
+/// Thick nodes outside (a stub's base in the crotch between two tubes, a tip just past its
+/// cap: 0.2-1.4 mm outside on the samples) get a small sphere centred on the node, reaching a
+/// quarter of its radius beyond the mesh (else a tenth: a larger one may bridge a crotch and
+/// make a handle), joined to the mesh by CGAL's corefinement union, which leaves the mesh's
+/// own folds elsewhere alone; judged the same way, with more nodes inside as the gain.
+///
 /// The new triangles keep the branch and kind of the triangle they were cut from, and UVs
-/// interpolated over it; new vertices (on the cut lines) belong to no strand and to the
-/// skeleton node of the nearest corner of that triangle; normals are recomputed.
+/// interpolated over it (a sphere takes those of the mesh triangle nearest its node, one UV
+/// for all of it); new vertices (on the cut lines) belong to no strand and to the skeleton
+/// node of the nearest corner of that triangle; normals are recomputed.
 
 #include <cstddef>
 #include <string>

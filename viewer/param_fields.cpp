@@ -310,8 +310,9 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .min = 0,
        .max = 1},
       {.key = "outer_surface",
-       .help = "where self-intersecting pairs are still left (meshes up to 300,000 triangles), keep the mesh's outer "
-               "surface (CGAL autorefinement) if it checks better",
+       .help = "where self-intersecting pairs or thick nodes outside are still left (meshes up to 300,000 "
+               "triangles), keep the mesh's outer surface (CGAL autorefinement; spheres joined around the nodes) if "
+               "it checks better",
        .value = &p.outer_surface,
        .min = 0,
        .max = 1},
