@@ -1,12 +1,16 @@
-// Outer surface: the last resort for the self-intersections left (see outer_surface.h).
+// Outer surface: the last resort for the self-intersections and thick nodes outside left (see
+// outer_surface.h).
 
 #include "meshing/outer_surface.h"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <map>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include <glm/glm.hpp>
 

@@ -155,6 +155,15 @@ Skeleton chain(const std::vector<std::pair<glm::dvec3, double>>& nodes) {
   return build_skeleton(raw).skeleton;
 }
 
+/// `m` with every vertex on `strand` and made by `node`, and normals, as the meshing stage
+/// leaves its vertices.
+Mesh with_vertex_attributes(Mesh m, StrandId strand, NodeId node) {
+  m.vertex_strand.assign(m.positions.size(), strand);
+  m.vertex_node.assign(m.positions.size(), node);
+  m.normals = angle_weighted_normals(m);
+  return m;
+}
+
 /// A MeshResult around `mesh` as the meshing stage leaves it where pairs are left.
 MeshResult with_pairs_left(Mesh mesh) {
   MeshResult r;
@@ -173,10 +182,7 @@ TEST(OuterSurface, JoinsTubesRunningIntoEachOther) {
   // lines belong to no strand.
   Mesh a = test::capped_tube({0, 0, 0}, {0, 0, 0.63}, 0.1, 16, 6, true, 1);
   Mesh b = test::capped_tube({0.004, 0.002, 0.37}, {0.004, 0.002, 1.0}, 0.1, 15, 6, true, 2);
-  Mesh both = test::merged(a, b);
-  both.vertex_strand.assign(both.positions.size(), StrandId(7));
-  both.vertex_node.assign(both.positions.size(), NodeId(1));
-  both.normals = angle_weighted_normals(both);
+  const Mesh both = with_vertex_attributes(test::merged(a, b), StrandId(7), NodeId(1));
   const Skeleton skeleton = chain({{{0, 0, 0.05}, 0.1}, {{0, 0, 0.5}, 0.1}, {{0, 0, 0.95}, 0.1}});
   MeshCheckParams cp;
   cp.skeleton = &skeleton;
@@ -247,10 +253,8 @@ TEST(OuterSurface, PutsThickNodesOutsideInsideWithASphere) {
   // A tube whose skeleton bends out of it at the top: the last node lies 5 mm outside the
   // wall. Told that thick nodes are outside, the step joins a small sphere around that node
   // to the tube (a union), and every thick node is inside a closed genus-0 surface.
-  Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1.0}, 0.1, 16, 8, true, 1);
-  tube.vertex_strand.assign(tube.positions.size(), StrandId(3));
-  tube.vertex_node.assign(tube.positions.size(), NodeId(0));
-  tube.normals = angle_weighted_normals(tube);
+  const Mesh tube =
+      with_vertex_attributes(test::capped_tube({0, 0, 0}, {0, 0, 1.0}, 0.1, 16, 8, true, 1), StrandId(3), NodeId(0));
   const Skeleton skeleton = chain({{{0, 0, 0.05}, 0.1}, {{0, 0, 0.5}, 0.1}, {{0.105, 0.0, 0.9}, 0.1}});
   MeshCheckParams cp;
   cp.skeleton = &skeleton;
