@@ -57,7 +57,7 @@ struct OuterSurface {
   std::vector<Mesh::Triangle> triangles;  ///< oriented like the input
   std::vector<std::uint32_t> origin;      ///< #triangles: the input triangle each one is part of
 };
-/// Empty (no triangles) when `mesh` is not a manifold triangle mesh.
+/// Empty (no triangles) when `mesh` is not a manifold triangle mesh or CGAL throws.
 OuterSurface outer_surface(const Mesh& mesh);
 
 /// The union of the solids bounded by `a` and `b` (closed, manifold, outward; each free of
@@ -65,7 +65,7 @@ OuterSurface outer_surface(const Mesh& mesh);
 /// (PMP::corefine_and_compute_union). Positions: `a`'s vertices (same indices), then new ones
 /// (cut lines, and `b`'s vertices kept); `origin` indexes `a`'s triangles, then `b`'s
 /// (a.triangles.size() + j). `fixed` is CGAL's success; empty when either is not a manifold
-/// triangle mesh.
+/// triangle mesh or CGAL throws.
 OuterSurface union_of(const Mesh& a, const Mesh& b);
 
 }  // namespace sm

@@ -176,31 +176,46 @@ Mesh unit_sphere(double turn) {
   return m;
 }
 
+/// Thick nodes outside get a sphere only when at most this far from the mesh, relative to their
+/// radius, and at most kMaxSpheres of them.
+constexpr double kMaxMiss = 0.5;
+constexpr std::size_t kMaxSpheres = 16;
+
+/// A thick node outside the mesh: how far, and the mesh triangle nearest to it.
+struct Miss {
+  std::uint32_t node = 0;
+  double distance = 0;
+  std::uint32_t nearest = 0;
+};
+Miss miss_of(const Mesh& mesh, const Skeleton& skeleton, std::uint32_t node) {
+  Miss m{node, std::numeric_limits<double>::infinity(), 0};
+  const glm::dvec3 c = skeleton.position[node];
+  for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+    const auto& t = mesh.triangles[f];
+    const double d =
+        glm::distance(c, closest_on_triangle(c, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]));
+    if (d < m.distance) {
+      m.distance = d;
+      m.nearest = f;
+    }
+  }
+  return m;
+}
+
 /// `result` with a small sphere added (a separate part, to be joined by a union) around each
-/// of the skeleton `nodes`: centred on the node, reaching `reach` of its radius beyond its
-/// distance to the mesh. Sphere triangles take the branch, kind and UVs of the mesh triangle
-/// nearest the node (one UV for the whole sphere), sphere vertices that node and no strand.
-MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const std::vector<std::uint32_t>& nodes,
-                      double reach, double turn) {
+/// node of `misses`: centred on the node, reaching `reach` of its radius beyond its distance
+/// to the mesh. Sphere triangles take the branch, kind and UVs of the mesh triangle nearest
+/// the node (one UV for the whole sphere), sphere vertices that node and no strand.
+MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const std::vector<Miss>& misses, double reach,
+                      double turn) {
   MeshResult out;
   out.mesh = result.mesh;
   out.triangle_kind = result.triangle_kind;
   out.grid = result.grid;
   Mesh& m = out.mesh;
   const Mesh sphere = unit_sphere(turn);
-  for (const std::uint32_t n : nodes) {
+  for (const auto& [n, distance, nearest] : misses) {
     const glm::dvec3 c = skeleton.position[n];
-    double distance = std::numeric_limits<double>::infinity();
-    std::uint32_t nearest = 0;
-    for (std::uint32_t f = 0; f < result.mesh.triangles.size(); ++f) {
-      const auto& t = result.mesh.triangles[f];
-      const double d = glm::distance(
-          c, closest_on_triangle(c, result.mesh.positions[t[0]], result.mesh.positions[t[1]], result.mesh.positions[t[2]]));
-      if (d < distance) {
-        distance = d;
-        nearest = f;
-      }
-    }
     const double radius = distance + reach * skeleton.radius[n];
     const auto first = static_cast<std::uint32_t>(m.positions.size());
     for (const auto& q : sphere.positions) {
@@ -288,13 +303,25 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   // node's radius beyond the mesh, else a tenth (a larger one may bridge a crotch: genus 1),
   // each turned once more if the first does not do (a sliver where its vertices meet the
   // mesh's).
-  const std::vector<std::uint32_t> outside = now.outside_node_examples;
-  auto blobs = [&](const std::vector<std::uint32_t>& nodes) {
+  // Only near misses get one (within kMaxMiss of their radius of the mesh; 0.03-0.3 on the
+  // samples), and only where there are few: many nodes outside are a tangle of branches
+  // through each other (a hub of hundreds of twigs), which spheres do not mend.
+  std::vector<Miss> near;
+  for (const std::uint32_t n : now.outside_node_examples) {
+    const Miss m = miss_of(result.mesh, skeleton, n);
+    if (m.distance <= kMaxMiss * skeleton.radius[n]) near.push_back(m);
+  }
+  if (near.size() > kMaxSpheres) {
+    refused.push_back(std::to_string(near.size()) + " thick nodes just outside: more than " +
+                      std::to_string(kMaxSpheres) + " get no sphere");
+    near.clear();
+  }
+  auto blobs = [&](const std::vector<Miss>& nodes) {
     for (const auto& [reach, turn] : {std::pair{0.25, 0.0}, {0.25, 0.5}, {0.1, 0.0}, {0.1, 0.5}}) {
       const std::string what = "spheres around node" + std::string(nodes.size() > 1 ? "s" : "") + " " +
                                [&] {
                                  std::string ids;
-                                 for (const auto n : nodes) ids += (ids.empty() ? "" : ", ") + std::to_string(n);
+                                 for (const auto& m : nodes) ids += (ids.empty() ? "" : ", ") + std::to_string(m.node);
                                  return ids;
                                }();
       // The spheres joined by a union with the mesh alone (CGAL's corefinement), which leaves
@@ -314,8 +341,8 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     }
     return false;
   };
-  if (!outside.empty() && !blobs(outside) && outside.size() > 1) {
-    for (const std::uint32_t n : outside) blobs({n});
+  if (!near.empty() && !blobs(near) && near.size() > 1) {
+    for (const Miss& m : near) blobs({m});
   }
   stats.pairs_after = now.self_intersecting_pairs;
   stats.nodes_inside_after = now.thick_nodes_inside;

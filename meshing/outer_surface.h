@@ -18,7 +18,9 @@
 /// cap: 0.2-1.4 mm outside on the samples) get a small sphere centred on the node, reaching a
 /// quarter of its radius beyond the mesh (else a tenth: a larger one may bridge a crotch and
 /// make a handle), joined to the mesh by CGAL's corefinement union, which leaves the mesh's
-/// own folds elsewhere alone; judged the same way, with more nodes inside as the gain.
+/// own folds elsewhere alone; judged the same way, with more nodes inside as the gain. Only
+/// near misses (within half their radius of the mesh), and only up to 16 of them: more are a
+/// tangle of branches through each other, which spheres do not mend.
 ///
 /// The new triangles keep the branch and kind of the triangle they were cut from, and UVs
 /// interpolated over it (a sphere takes those of the mesh triangle nearest its node, one UV

@@ -4,6 +4,8 @@
 // removed (experimental::autorefine_and_remove_self_intersections). Kept in its own
 // translation unit: the corefinement headers are the slowest of CGAL's to compile.
 
+#include <exception>
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
@@ -87,8 +89,12 @@ OuterSurface outer_surface(const Mesh& mesh) {
   SurfaceMesh sm;
   OriginMap origin;
   if (!to_surface_mesh(mesh, sm, origin)) return out;
-  out.fixed = PMP::experimental::autorefine_and_remove_self_intersections(
-      sm, CGAL::parameters::visitor(OriginVisitor(origin)));
+  try {
+    out.fixed = PMP::experimental::autorefine_and_remove_self_intersections(
+        sm, CGAL::parameters::visitor(OriginVisitor(origin)));
+  } catch (const std::exception&) {  // a CGAL precondition or an unexpected configuration
+    return OuterSurface{};
+  }
   if (!read_back(sm, origin, out)) return OuterSurface{};
   return out;
 }
@@ -99,7 +105,11 @@ OuterSurface union_of(const Mesh& a, const Mesh& b) {
   OriginMap oa, ob;
   if (!to_surface_mesh(a, sa, oa) || !to_surface_mesh(b, sb, ob, static_cast<std::uint32_t>(a.triangles.size())))
     return out;
-  out.fixed = PMP::corefine_and_compute_union(sa, sb, sa, CGAL::parameters::visitor(OriginVisitor(&sa, oa, ob)));
+  try {
+    out.fixed = PMP::corefine_and_compute_union(sa, sb, sa, CGAL::parameters::visitor(OriginVisitor(&sa, oa, ob)));
+  } catch (const std::exception&) {  // a CGAL precondition or an unexpected configuration
+    return OuterSurface{};
+  }
   if (!read_back(sa, oa, out)) return OuterSurface{};
   return out;
 }

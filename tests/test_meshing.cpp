@@ -283,6 +283,30 @@ TEST(OuterSurface, PutsThickNodesOutsideInsideWithASphere) {
   EXPECT_TRUE(r.crossings.empty());
 }
 
+TEST(OuterSurface, NoSpheresForATangle) {
+  // Twenty thick nodes just outside a tube (its skeleton winds around it): many nodes outside
+  // are branches through each other, not near misses; no spheres, the mesh stays as it was.
+  const Mesh tube =
+      with_vertex_attributes(test::capped_tube({0, 0, 0}, {0, 0, 1.0}, 0.1, 16, 8, true, 1), StrandId(3), NodeId(0));
+  std::vector<std::pair<glm::dvec3, double>> nodes;
+  for (int i = 0; i < 24; ++i) {
+    const double a = 0.9 * i;
+    nodes.push_back({{0.104 * std::cos(a), 0.104 * std::sin(a), 0.1 + 0.035 * i}, 0.1});
+  }
+  const Skeleton skeleton = chain(nodes);
+  MeshCheckParams cp;
+  cp.skeleton = &skeleton;
+  const MeshCheckReport before = check_mesh(tube, cp);
+  ASSERT_GT(before.thick_nodes - before.thick_nodes_inside, 16u);
+  MeshResult r = with_pairs_left(tube);
+  r.crossings.clear();
+  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{}, true);
+  EXPECT_TRUE(s.tried);
+  EXPECT_FALSE(s.applied);
+  EXPECT_NE(s.refused.find("get no sphere"), std::string::npos) << s.refused;
+  EXPECT_EQ(r.mesh.triangles, tube.triangles);
+}
+
 TEST(OuterSurface, RefusesWhatChecksWorse) {
   // A sphere with one vertex dragged across its neighbour: a fold, not a part inside a part.
   // CGAL keeps the wrong patches of such a fold (here, as at rtwig's and small_pine's hubs, the
