@@ -341,7 +341,7 @@ TEST(Skeleton, BranchRunningBackInsideItsParentIsMerged) {
     const dvec3 base = s.position[s.parent[std::size_t(it - s.source_id.begin())].idx()];
     EXPECT_NEAR(base.x, 0.0, 1e-9);  // on the trunk's axis
     EXPECT_NEAR(base.y, 0.0, 1e-9);
-    EXPECT_NEAR(base.z, 1.6, 0.01);
+    EXPECT_NEAR(base.z, 1.6, 0.25 * 0.1);  // within a step of the binarized chain (0.2 x radius)
   }
 }
 
