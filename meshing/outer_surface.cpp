@@ -308,12 +308,12 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   // through each other (a hub of hundreds of twigs), which spheres do not mend.
   std::vector<Miss> near;
   for (const std::uint32_t n : now.outside_node_examples) {
+    if (near.size() > kMaxSpheres) break;  // (each distance is a pass over the mesh)
     const Miss m = miss_of(result.mesh, skeleton, n);
     if (m.distance <= kMaxMiss * skeleton.radius[n]) near.push_back(m);
   }
   if (near.size() > kMaxSpheres) {
-    refused.push_back(std::to_string(near.size()) + " thick nodes just outside: more than " +
-                      std::to_string(kMaxSpheres) + " get no sphere");
+    refused.push_back("more than " + std::to_string(kMaxSpheres) + " thick nodes just outside: none gets a sphere");
     near.clear();
   }
   auto blobs = [&](const std::vector<Miss>& nodes) {

@@ -442,6 +442,8 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
   auto order = t.bfs();
   const std::vector<double> w = tip_weights(t, order);
   auto heavier = [&](std::uint32_t a, std::uint32_t b) { return w[a] != w[b] ? w[a] > w[b] : a < b; };
+  std::unordered_map<std::int64_t, std::size_t> input_children;  // children per input node id
+  for (const std::int64_t p : raw.parent_id) ++input_children[p];
   for (std::uint32_t v : order) {
     auto& ch = t.children[v];
     std::sort(ch.begin(), ch.end(), heavier);
@@ -458,7 +460,11 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     // k - 2 extra nodes, each at least one merge tolerance apart so re-importing the
     // sanitized skeleton does not merge them again.
     const double min_step = 2.0 * params.merge_edge_ratio * t.radius[v];
-    const double step = std::max({params.binarize_step_ratio * t.radius[v], min_step, 1e-9});
+    // Whorls (input nodes with up to max_chain_forks + 1 children in the input) get room for
+    // their laterals to part; hubs and the cluster nodes grouping their children (added
+    // before, so not input nodes) stay compact, their forks a merge tolerance apart.
+    const bool whorl = v < raw.size() && input_children[raw.id[v]] <= params.max_chain_forks + 1;
+    const double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
     ch = {sorted[1]};
     std::uint32_t prev = v;
     for (std::size_t j = 1; j + 1 < k; ++j) {

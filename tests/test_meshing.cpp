@@ -303,7 +303,7 @@ TEST(OuterSurface, NoSpheresForATangle) {
   const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{}, true);
   EXPECT_TRUE(s.tried);
   EXPECT_FALSE(s.applied);
-  EXPECT_NE(s.refused.find("get no sphere"), std::string::npos) << s.refused;
+  EXPECT_NE(s.refused.find("none gets a sphere"), std::string::npos) << s.refused;
   EXPECT_EQ(r.mesh.triangles, tube.triangles);
 }
 
