@@ -164,6 +164,17 @@ Mesh with_vertex_attributes(Mesh m, StrandId strand, NodeId node) {
   return m;
 }
 
+/// One closed, oriented 2-manifold of genus 0 with no self-intersections or degenerate
+/// triangles, every thick node inside.
+void expect_clean(const MeshCheckReport& r) {
+  EXPECT_TRUE(r.closed && r.edge_manifold && r.vertex_manifold && r.oriented);
+  EXPECT_EQ(r.components, 1u);
+  EXPECT_EQ(r.genus, 0);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_EQ(r.thick_nodes_inside, r.thick_nodes);
+}
+
 /// A MeshResult around `mesh` as the meshing stage leaves it where pairs are left.
 MeshResult with_pairs_left(Mesh mesh) {
   MeshResult r;
@@ -200,12 +211,7 @@ TEST(OuterSurface, JoinsTubesRunningIntoEachOther) {
   EXPECT_EQ(s.triangles_after, r.mesh.triangles.size());
   EXPECT_EQ(s.blobs, 0u);
   const MeshCheckReport after = check_mesh(r.mesh, cp);
-  EXPECT_TRUE(after.closed && after.edge_manifold && after.vertex_manifold && after.oriented);
-  EXPECT_EQ(after.components, 1u);
-  EXPECT_EQ(after.genus, 0);
-  EXPECT_EQ(after.self_intersecting_pairs, 0u);
-  EXPECT_EQ(after.degenerate_triangles, 0u);
-  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+  expect_clean(after);
   EXPECT_NEAR(after.signed_volume, 0.1 * 0.1 * kPi, 0.006);  // one tube of length 1, polygonal
   const Mesh& m = r.mesh;
   ASSERT_EQ(m.triangle_branch.size(), m.triangles.size());
@@ -270,12 +276,7 @@ TEST(OuterSurface, PutsThickNodesOutsideInsideWithASphere) {
   EXPECT_EQ(s.nodes_inside_before, before.thick_nodes_inside);
   EXPECT_EQ(s.nodes_inside_after, before.thick_nodes);
   const MeshCheckReport after = check_mesh(r.mesh, cp);
-  EXPECT_TRUE(after.closed && after.edge_manifold && after.vertex_manifold && after.oriented);
-  EXPECT_EQ(after.components, 1u);
-  EXPECT_EQ(after.genus, 0);
-  EXPECT_EQ(after.self_intersecting_pairs, 0u);
-  EXPECT_EQ(after.degenerate_triangles, 0u);
-  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+  expect_clean(after);
   EXPECT_GT(after.signed_volume, before.signed_volume);
   EXPECT_LT(after.signed_volume, before.signed_volume * 1.01);  // a small sphere, not a new part
   EXPECT_EQ(r.mesh.corner_uvs.size(), r.mesh.triangles.size());
