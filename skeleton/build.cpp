@@ -367,16 +367,20 @@ std::vector<double> tip_weights(const WorkTree& t, const std::vector<std::uint32
 /// direction and cut into at most max_chain_forks runs of equal size; each run of more than
 /// one lateral hangs from a new cluster node a short step from the hub towards the run's mean
 /// direction, its radius that of one branch carrying the run (sqrt of the sum of r^2, at most
-/// the hub's). A cluster with too many laterals is clustered again in turn.
-void cluster_fan_outs(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+/// the hub's). A cluster with too many laterals is clustered again in turn. Returns, per node
+/// of the tree before clustering, 1 for the hubs it clustered.
+std::vector<std::uint8_t> cluster_fan_outs(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep,
+                                           const RawSkeleton& raw) {
+  std::vector<std::uint8_t> hub(t.pos.size(), 0);
   const std::size_t limit = params.max_chain_forks;
-  if (limit < 2) return;
+  if (limit < 2) return hub;
   std::vector<std::uint32_t> queue = t.bfs();
   const std::vector<double> w = tip_weights(t, queue);
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const std::uint32_t v = queue[q];
     if (t.children[v].size() <= limit + 1) continue;
     const std::vector<std::uint32_t> ch = t.children[v];  // copy: t.add() below may reallocate
+    if (v < hub.size()) hub[v] = 1;
     ++rep.clustered_nodes;
     rep.warnings.add("clustered_children",
                      "node with more than " + std::to_string(limit + 1) +
@@ -434,16 +438,17 @@ void cluster_fan_outs(WorkTree& t, const SkeletonParams& params, SkeletonReport&
     }
     t.children[v] = std::move(kept);
   }
+  return hub;
 }
 
 /// Orders every node's children main first (largest tip weight, ties by lower index) and
-/// replaces nodes with more than two children by chains of extra nodes.
-void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+/// replaces nodes with more than two children by chains of extra nodes. `hub` marks the nodes
+/// cluster_fan_outs clustered (per node before clustering).
+void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw,
+              const std::vector<std::uint8_t>& hub) {
   auto order = t.bfs();
   const std::vector<double> w = tip_weights(t, order);
   auto heavier = [&](std::uint32_t a, std::uint32_t b) { return w[a] != w[b] ? w[a] > w[b] : a < b; };
-  std::unordered_map<std::int64_t, std::size_t> input_children;  // children per input node id
-  for (const std::int64_t p : raw.parent_id) ++input_children[p];
   for (std::uint32_t v : order) {
     auto& ch = t.children[v];
     std::sort(ch.begin(), ch.end(), heavier);
@@ -460,10 +465,10 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     // k - 2 extra nodes, each at least one merge tolerance apart so re-importing the
     // sanitized skeleton does not merge them again.
     const double min_step = 2.0 * params.merge_edge_ratio * t.radius[v];
-    // Whorls (input nodes with up to max_chain_forks + 1 children in the input) get room for
-    // their laterals to part; hubs and the cluster nodes grouping their children (added
-    // before, so not input nodes) stay compact, their forks a merge tolerance apart.
-    const bool whorl = v < raw.size() && input_children[raw.id[v]] <= params.max_chain_forks + 1;
+    // Whorls (input nodes not clustered) get room for their laterals to part; hubs and the
+    // cluster nodes grouping their children (added by the clustering, so not input nodes)
+    // stay compact, their forks a merge tolerance apart.
+    const bool whorl = v < raw.size() && !(v < hub.size() && hub[v]);
     const double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
     ch = {sorted[1]};
     std::uint32_t prev = v;
@@ -799,8 +804,8 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
-  cluster_fan_outs(t, params, rep, raw);
-  binarize(t, params, rep, raw);
+  const std::vector<std::uint8_t> hubs = cluster_fan_outs(t, params, rep, raw);
+  binarize(t, params, rep, raw, hubs);
   if (refine) {
     raise_steep_laterals(t, params, rep);
     // Again once the upturned lateral bases are in: on a short twig one can itself be a tight
