@@ -628,15 +628,7 @@ void Builder::repair_folds() {
     std::vector<std::uint32_t> all(mesh_.triangles.size());
     std::iota(all.begin(), all.end(), 0u);
     std::vector<Crossing> out;
-    for (const auto& [f, g] : TriangleIntersections(mesh_).pairs(all)) {
-      Crossing c;
-      for (int k = 0; k < 6; ++k) {
-        const std::uint32_t v = mesh_.triangles[k < 3 ? f : g][std::size_t(k % 3)];
-        c.at += mesh_.positions[v] / 6.0;
-        c.nodes[std::size_t(k)] = mesh_.vertex_node[v];
-      }
-      out.push_back(c);
-    }
+    for (const auto& [f, g] : TriangleIntersections(mesh_).pairs(all)) out.push_back(crossing_of(mesh_, f, g));
     return out;
   };
   const bool counted = (variants || (p_.fork_retry && small)) && !r.gave_up && !r.out_of_tests;
@@ -1019,6 +1011,16 @@ void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::
   SM_CHECK(lower.size() >= 3 && upper_main.size() >= 3 && upper_lateral.size() >= 3,
            "fuse_loops: loops need 3 vertices");
   fuse_chains(lower, upper_main, upper_lateral, {}, positions, tangent, out);
+}
+
+Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
+  Crossing c;
+  for (std::size_t k = 0; k < 6; ++k) {
+    const std::uint32_t v = mesh.triangles[k < 3 ? f : g][k % 3];
+    c.at += mesh.positions[v] / 6.0;
+    if (v < mesh.vertex_node.size()) c.nodes[k] = mesh.vertex_node[v];
+  }
+  return c;
 }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,

@@ -121,6 +121,9 @@ struct Crossing {
   std::array<NodeId, 6> nodes{};
 };
 
+/// The Crossing of triangles f and g of `mesh` (nodes left invalid without Mesh::vertex_node).
+Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g);
+
 struct MeshResult {
   Mesh mesh;
   std::vector<TriangleKind> triangle_kind;  ///< #F

@@ -61,10 +61,10 @@ struct Candidate {
   Mesh mesh;
   std::vector<TriangleKind> kinds;
 };
-/// Vertices below `kept` keep their index (and attributes); the others are new.
-Candidate candidate_mesh(const MeshResult& base, const OuterSurface& outer, std::size_t kept) {
+/// Vertices below `nv_old` keep their index (and attributes); the others are new. No normals
+/// (made for the surface kept only).
+Candidate candidate_mesh(const MeshResult& base, const OuterSurface& outer, std::size_t nv_old) {
   const Mesh& mesh = base.mesh;
-  const std::size_t nv_old = kept;
   std::vector<std::uint32_t> remap(outer.positions.size(), UINT32_MAX);
   for (const auto& t : outer.triangles) {
     for (const std::uint32_t v : t) remap[v] = 0;
@@ -120,7 +120,6 @@ Candidate candidate_mesh(const MeshResult& base, const OuterSurface& outer, std:
       out.corner_uvs.push_back(uv);
     }
   }
-  if (!mesh.normals.empty()) out.normals = angle_weighted_normals(out);
   return cand;
 }
 
@@ -202,16 +201,13 @@ Miss miss_of(const Mesh& mesh, const Skeleton& skeleton, std::uint32_t node) {
   return m;
 }
 
-/// `result` with a small sphere added (a separate part, to be joined by a union) around each
-/// node of `misses`: centred on the node, reaching `reach` of its radius beyond its distance
-/// to the mesh. Sphere triangles take the branch, kind and UVs of the mesh triangle nearest
-/// the node (one UV for the whole sphere), sphere vertices that node and no strand.
-MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const std::vector<Miss>& misses, double reach,
-                      double turn) {
+/// A small sphere around each node of `misses` (separate parts, to be joined to the mesh by a
+/// union): centred on the node, reaching `reach` of its radius beyond its distance to the
+/// mesh. Sphere triangles take the branch, kind and UVs of `result`'s triangle nearest the
+/// node (one UV for the whole sphere), sphere vertices that node and no strand.
+MeshResult spheres_around(const MeshResult& result, const Skeleton& skeleton, const std::vector<Miss>& misses,
+                          double reach, double turn) {
   MeshResult out;
-  out.mesh = result.mesh;
-  out.triangle_kind = result.triangle_kind;
-  out.grid = result.grid;
   Mesh& m = out.mesh;
   const Mesh sphere = unit_sphere(turn);
   for (const auto& [n, distance, nearest] : misses) {
@@ -220,11 +216,10 @@ MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const 
     const auto first = static_cast<std::uint32_t>(m.positions.size());
     for (const auto& q : sphere.positions) {
       const glm::dvec3 p = c + radius * q;
-      m.positions.push_back(out.grid > 0 ? snap_to_grid(p, out.grid) : p);
+      m.positions.push_back(result.grid > 0 ? snap_to_grid(p, result.grid) : p);
       if (!result.mesh.vertex_strand.empty()) m.vertex_strand.push_back(StrandId{});
       if (!result.mesh.vertex_node.empty()) m.vertex_node.push_back(NodeId(n));
     }
-    if (!m.normals.empty()) m.normals.resize(m.positions.size(), glm::dvec3(0, 0, 1));
     for (const auto& t : sphere.triangles) {
       m.triangles.push_back({first + t[0], first + t[1], first + t[2]});
       if (!result.mesh.triangle_branch.empty()) m.triangle_branch.push_back(result.mesh.triangle_branch[nearest]);
@@ -235,6 +230,27 @@ MeshResult with_blobs(const MeshResult& result, const Skeleton& skeleton, const 
       }
     }
   }
+  return out;
+}
+
+/// `a` followed by `b` (b's indices shifted; the attributes both carry; no normals): the
+/// triangles a union of the two is cut from, in union_of's order.
+MeshResult joined(const MeshResult& a, const MeshResult& b) {
+  MeshResult out;
+  out.grid = a.grid;
+  Mesh& m = out.mesh;
+  m = a.mesh;
+  m.normals.clear();
+  const auto shift = static_cast<std::uint32_t>(m.positions.size());
+  auto append = [](auto& to, const auto& from) { to.insert(to.end(), from.begin(), from.end()); };
+  append(m.positions, b.mesh.positions);
+  append(m.vertex_strand, b.mesh.vertex_strand);
+  append(m.vertex_node, b.mesh.vertex_node);
+  for (const auto& t : b.mesh.triangles) m.triangles.push_back({t[0] + shift, t[1] + shift, t[2] + shift});
+  append(m.triangle_branch, b.mesh.triangle_branch);
+  append(m.corner_uvs, b.mesh.corner_uvs);
+  out.triangle_kind = a.triangle_kind;
+  append(out.triangle_kind, b.triangle_kind);
   return out;
 }
 
@@ -273,24 +289,13 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
       refused.push_back(what + ": " + why);
       return false;
     }
-    const bool nodes = !cand.mesh.vertex_node.empty();
+    if (!result.mesh.normals.empty()) cand.mesh.normals = angle_weighted_normals(cand.mesh);
     result.mesh = std::move(cand.mesh);
     result.triangle_kind = std::move(cand.kinds);
     result.stats.vertices = result.mesh.positions.size();
     result.stats.triangles = result.mesh.triangles.size();
     result.crossings.clear();
-    for (const auto& [a, b] : after.self_intersection_examples) {
-      Crossing c;
-      std::size_t k = 0;
-      for (const std::uint32_t f : {a, b}) {
-        for (const std::uint32_t v : result.mesh.triangles[f]) {
-          c.at += result.mesh.positions[v] / 6.0;
-          if (nodes) c.nodes[k] = result.mesh.vertex_node[v];
-          ++k;
-        }
-      }
-      result.crossings.push_back(c);
-    }
+    for (const auto& [a, b] : after.self_intersection_examples) result.crossings.push_back(crossing_of(result.mesh, a, b));
     now = after;
     stats.applied = true;
     return true;
@@ -317,24 +322,13 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     near.clear();
   }
   auto blobs = [&](const std::vector<Miss>& nodes) {
+    std::string what = nodes.size() > 1 ? "spheres around nodes" : "sphere around node";
+    for (std::size_t i = 0; i < nodes.size(); ++i) what += (i ? ", " : " ") + std::to_string(nodes[i].node);
     for (const auto& [reach, turn] : {std::pair{0.25, 0.0}, {0.25, 0.5}, {0.1, 0.0}, {0.1, 0.5}}) {
-      const std::string what = "spheres around node" + std::string(nodes.size() > 1 ? "s" : "") + " " +
-                               [&] {
-                                 std::string ids;
-                                 for (const auto& m : nodes) ids += (ids.empty() ? "" : ", ") + std::to_string(m.node);
-                                 return ids;
-                               }();
       // The spheres joined by a union with the mesh alone (CGAL's corefinement), which leaves
       // the mesh's own folds elsewhere as they are.
-      const MeshResult base = with_blobs(result, skeleton, nodes, reach, turn);
-      Mesh spheres;
-      const std::size_t nv = result.mesh.positions.size(), nf = result.mesh.triangles.size();
-      spheres.positions.assign(base.mesh.positions.begin() + std::ptrdiff_t(nv), base.mesh.positions.end());
-      for (std::size_t f = nf; f < base.mesh.triangles.size(); ++f) {
-        const auto& t = base.mesh.triangles[f];
-        spheres.triangles.push_back({t[0] - std::uint32_t(nv), t[1] - std::uint32_t(nv), t[2] - std::uint32_t(nv)});
-      }
-      if (attempt(base, union_of(result.mesh, spheres), nv, what)) {
+      const MeshResult spheres = spheres_around(result, skeleton, nodes, reach, turn);
+      if (attempt(joined(result, spheres), union_of(result.mesh, spheres.mesh), result.mesh.positions.size(), what)) {
         stats.blobs += nodes.size();
         return true;
       }
