@@ -346,20 +346,29 @@ void resample_long_edges(WorkTree& t, const SkeletonParams& params, SkeletonRepo
   }
 }
 
-/// Sum of tip radius² per subtree (bottom-up over a BFS order).
-std::vector<double> tip_weights(const WorkTree& t, const std::vector<std::uint32_t>& order) {
-  std::vector<double> w(t.pos.size(), 0.0);
+/// What each node's branch carries, for choosing the main child at a fork: the larger of the
+/// sum of its tips' radius² (the pipe model's share of the strands, which start at the tips)
+/// and its own radius² (bottom-up over a BFS order). The tips alone misjudge a pruned stub:
+/// sapling_small_pine's input node 491, a bare stub of r 17 mm, outweighed its sibling 41
+/// (r 22 mm, the branch's continuation, whose 24 nodes end in twigs), so the binarized whorl
+/// chain ran along the stub and the continuation left it as a lateral, folding the crotch
+/// (8 pairs at each particle seed). The own radius alone misjudges a QSM's thick short
+/// lateral (rtwig's node 711, r 28 mm, over the 17 mm continuation 510 carrying twice its
+/// tips: 4 and 2 pairs at seeds 1 and 2). With the larger of the two, the samples x particle
+/// seeds 1-3 went from 24 pairs to 0.
+std::vector<double> branch_loads(const WorkTree& t, const std::vector<std::uint32_t>& order) {
+  std::vector<double> tips(t.pos.size(), 0.0), load(t.pos.size(), 0.0);
   for (auto it = order.rbegin(); it != order.rend(); ++it) {
     const std::uint32_t v = *it;
+    const double own = t.radius[v] * t.radius[v];
     if (t.children[v].empty()) {
-      w[v] = t.radius[v] * t.radius[v];
+      tips[v] = own;
     } else {
-      double s = 0;
-      for (auto c : t.children[v]) s += w[c];
-      w[v] = s;
+      for (auto c : t.children[v]) tips[v] += tips[c];
     }
+    load[v] = std::max(tips[v], own);
   }
-  return w;
+  return load;
 }
 
 /// Hubs with more than max_chain_forks children (see SkeletonParams::max_chain_forks): the
@@ -375,7 +384,7 @@ std::vector<std::uint8_t> cluster_fan_outs(WorkTree& t, const SkeletonParams& pa
   const std::size_t limit = params.max_chain_forks;
   if (limit < 2) return hub;
   std::vector<std::uint32_t> queue = t.bfs();
-  const std::vector<double> w = tip_weights(t, queue);
+  const std::vector<double> w = branch_loads(t, queue);
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const std::uint32_t v = queue[q];
     if (t.children[v].size() <= limit + 1) continue;
@@ -441,17 +450,20 @@ std::vector<std::uint8_t> cluster_fan_outs(WorkTree& t, const SkeletonParams& pa
   return hub;
 }
 
-/// Orders every node's children main first (largest tip weight, ties by lower index) and
-/// replaces nodes with more than two children by chains of extra nodes. `hub` marks the nodes
-/// cluster_fan_outs clustered (per node before clustering).
+/// Orders every node's children main first (largest branch_loads, ties by lower index; kept as
+/// they are in a skeleton this stage wrote) and replaces nodes with more than two children by
+/// chains of extra nodes. `hub` marks the nodes cluster_fan_outs clustered (per node before
+/// clustering).
 void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw,
               const std::vector<std::uint8_t>& hub) {
   auto order = t.bfs();
-  const std::vector<double> w = tip_weights(t, order);
+  const std::vector<double> w = branch_loads(t, order);
   auto heavier = [&](std::uint32_t a, std::uint32_t b) { return w[a] != w[b] ? w[a] > w[b] : a < b; };
   for (std::uint32_t v : order) {
     auto& ch = t.children[v];
-    std::sort(ch.begin(), ch.end(), heavier);
+    // A skeleton this stage wrote has its forks in order already (main child first), and its
+    // collars (wider than the laterals they start) would change the loads.
+    if (!raw.sanitized) std::sort(ch.begin(), ch.end(), heavier);
     if (ch.size() <= 2) continue;
     ++rep.binarized_nodes;
     rep.warnings.add("binarized", "node with more than two children replaced by a chain of binary forks",

@@ -51,8 +51,10 @@ struct RawSkeleton {
 ///  - node 0 is the root and `parent[i] < i` for every other node, so iterating indices
 ///    downwards visits children before parents (bottom-up) without recursion;
 ///  - every node has 0, 1 or 2 children; `children[i][0]` is the main continuation (the child
-///    whose subtree has the larger sum of tip radius², ties broken by the lower index) and
-///    `children[i][1]` the lateral; a node with one child stores it in slot 0;
+///    carrying more: the larger of its subtree's sum of tip radius² and its own radius², as
+///    the fork was when binarized, before collar nodes widened laterals' bases; ties broken by
+///    the lower index) and `children[i][1]` the lateral; a node with one child stores it in
+///    slot 0;
 ///  - radii are finite and > 0, positions finite, edges have positive length;
 ///  - `frame[i]` is orthonormal, its tangent along the branch, obtained by parallel transport
 ///    from the root (see skeleton/frames.h).

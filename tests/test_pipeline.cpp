@@ -3,10 +3,10 @@
 // Every mesh must be one closed, consistently oriented 2-manifold of genus 0 with positive
 // volume and no degenerate triangles: that holds by construction and is asserted everywhere.
 // Self-intersections and fidelity to the skeleton are asserted strictly where the pipeline
-// achieves them today (simple forks, the default grown tree); elsewhere (wide or chained
-// forks, the measured and Sapling samples) they are held to regression bounds measured at the
-// time of writing, so progress is kept and any regression fails. Tightening those bounds to
-// zero is open work (see the closing notes of issue 4).
+// achieves them today (simple forks, the default grown tree, and on every sample skeleton no
+// self-intersecting pair and every thick node inside); elsewhere (wide or chained forks of
+// the fixtures, the samples' fidelity p95) they are held to regression bounds measured at the
+// time of writing, so progress is kept and any regression fails.
 
 #include <gtest/gtest.h>
 
@@ -366,10 +366,12 @@ TEST(Pipeline, ForcedSplitsWaitUntilTheBranchesClearEachOther) {
 
 TEST(Pipeline, ShortStubsReachTheirTips) {
   // Pruned stubs 0.16-0.25 m long, nearly as thick as the trunk they leave (r 0.09 on r 0.1),
-  // so their cones overlap the trunk's to the tip and their bundles never separate. Each
-  // splits off at the last slice below its tip and gets its own cap, so its tip node lies
-  // inside the mesh. (Absorbed into the trunk's section instead, 5 of these 6 tips were
-  // left outside, measured.)
+  // so their cones overlap the trunk's to the tip and their bundles mostly never separate.
+  // Those split off at the last slice below their tip and get their own cap, so every tip
+  // node lies inside the mesh. (Absorbed into the trunk's section instead, 5 of these 6 tips
+  // were left outside, measured.) Measured: 5 of the 6 need the forced split (the 0.2 m stub
+  // at 80 degrees parts from the trunk by itself).
+  std::size_t forced = 0;
   for (const double length : {0.16, 0.2, 0.25}) {
     for (const double degrees : {60.0, 80.0}) {
       SCOPED_TRACE(testing::Message() << "stub " << length << " m at " << degrees << " degrees");
@@ -388,9 +390,10 @@ TEST(Pipeline, ShortStubsReachTheirTips) {
       EXPECT_EQ(rep.self_intersecting_pairs, 0u);
       EXPECT_GE(rep.thick_nodes, 4u);
       EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
-      EXPECT_GE(r.contours.stats.forced_splits, 1u);
+      forced += r.contours.stats.forced_splits > 0 ? 1 : 0;
     }
   }
+  EXPECT_GE(forced, 4u);
 }
 
 TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
@@ -531,15 +534,15 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
-  // Regression bounds (self-intersecting pairs, fidelity p95, thick nodes outside), measured
-  // with some margin; see the file comment.
+  // Self-intersecting pairs and thick nodes outside: none (particle seeds 1-3 all measured
+  // so). Fidelity p95: a regression bound measured with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
-      {"mtg_agraf.json", {2, 0.12, 1}},
-      {"mtg_boutdenoylum2.json", {2, 0.115, 1}},
-      {"qsm_simpleforest_rtwig.json", {2, 0.065, 1}},
-      {"sapling_callistemon.json", {0, 0.075, 1}},
-      {"sapling_quaking_aspen.json", {0, 0.05, 1}},
-      {"sapling_small_pine.json", {10, 0.09, 1}}};
+      {"mtg_agraf.json", {0, 0.12, 0}},
+      {"mtg_boutdenoylum2.json", {0, 0.115, 0}},
+      {"qsm_simpleforest_rtwig.json", {0, 0.065, 0}},
+      {"sapling_callistemon.json", {0, 0.075, 0}},
+      {"sapling_quaking_aspen.json", {0, 0.05, 0}},
+      {"sapling_small_pine.json", {0, 0.09, 0}}};
   for (const auto& f : files) {
     const std::string name = f.filename().string();
     SCOPED_TRACE(name);
@@ -557,10 +560,10 @@ TEST(Pipeline, GoldenStatistics) {
   // Fixed seed, fixed parameters: counts within 2% (they move only when an algorithm does).
   PipelineResult r;
   run_and_check(test::grown_tree(1), &r);
-  EXPECT_EQ(r.skeleton.skeleton.size(), 463u);
+  EXPECT_EQ(r.skeleton.skeleton.size(), 471u);
   EXPECT_NEAR(double(r.particles.strand_count()), 2766.0, 2766.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 25285.0, 25285.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 50566.0, 50566.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 24934.0, 24934.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 49864.0, 49864.0 * 0.02);
   EXPECT_EQ(r.mesh.mesh.triangle_count(), 2 * r.mesh.mesh.vertex_count() - 4);  // genus 0, all triangles
 }
 

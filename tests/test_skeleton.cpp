@@ -53,7 +53,10 @@ void expect_valid(const Skeleton& s) {
   for (std::size_t i = 0; i < s.size(); ++i) {
     const auto& c = s.children[i];
     if (c[1].valid()) {
-      // Main child: larger subtree tip weight (checked via a direct recomputation).
+      // Main child: carries more, the larger of its subtree's sum of tip radius² and its own
+      // radius² (recomputed here). A lateral's own radius is read below the nodes the
+      // refinements insert at its base (collars, upturned bases: inserted, one child), which
+      // are wider than the lateral they start.
       auto weight = [&](NodeId root) {
         double w = 0;
         std::vector<NodeId> stack{root};
@@ -64,7 +67,9 @@ void expect_valid(const Skeleton& s) {
           for (NodeId k : s.children[v.idx()])
             if (k.valid()) stack.push_back(k);
         }
-        return w;
+        NodeId own = root;
+        while (s.source_id[own.idx()] < 0 && s.child_count(own) == 1) own = s.children[own.idx()][0];
+        return std::max(w, s.radius[own.idx()] * s.radius[own.idx()]);
       };
       EXPECT_GE(weight(c[0]), weight(c[1]) * (1 - 1e-12)) << s.describe(NodeId(i));
     }
