@@ -341,9 +341,7 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   stats.pairs_after = now.self_intersecting_pairs;
   stats.nodes_inside_after = now.thick_nodes_inside;
   stats.triangles_after = result.mesh.triangles.size();
-  if (!stats.applied) {
-    for (const auto& r : refused) stats.refused += (stats.refused.empty() ? "" : "; ") + r;
-  }
+  for (const auto& r : refused) stats.refused += (stats.refused.empty() ? "" : "; ") + r;
   stats.seconds = clock.lap();
   return stats;
 }

@@ -45,7 +45,7 @@ struct OuterSurfaceStats {
   std::size_t triangles_before = 0;
   std::size_t triangles_after = 0;
   std::size_t blobs = 0;   ///< thick nodes outside given a sphere that was kept
-  std::string refused;     ///< why nothing was kept (empty if applied or not tried)
+  std::string refused;     ///< each attempt refused and why ("; "-separated; empty if none was)
   double seconds = 0;
 };
 

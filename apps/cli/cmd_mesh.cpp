@@ -128,7 +128,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                       "  outer surface: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes inside (%zu with a "
                       "sphere), %zu -> %zu triangles, in %.3f s%s%s",
                       os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
-                      os.triangles_before, os.triangles_after, os.seconds, os.applied ? "" : "; not kept: ",
+                      os.triangles_before, os.triangles_after, os.seconds, os.refused.empty() ? "" : "; not kept: ",
                       os.refused.c_str());
         log::verbose(line);
       }
