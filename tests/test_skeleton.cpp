@@ -111,6 +111,30 @@ TEST(Skeleton, MainChildTieBrokenByInputOrder) {
   EXPECT_EQ(s.source_id[s.children[1][0].idx()], 7);  // first in input order wins the tie
 }
 
+TEST(Skeleton, PrunedStubIsNotTheMainChild) {
+  // A bare stub (r 0.017, its own only tip) beside the branch's continuation (r 0.022), which
+  // runs on and ends in two twigs (r 0.003): the twigs' radius² sum is far below the stub's,
+  // but the continuation itself is thicker. It is the main child, in a whorl's chain too (as
+  // at sapling_small_pine's input node 40, where the stub being main folded the crotch).
+  for (const bool whorl : {false, true}) {
+    SCOPED_TRACE(whorl ? "whorl" : "fork");
+    RawSkeleton raw;
+    raw.add(0, -1, dvec3(0), 0.026);
+    raw.add(1, 0, dvec3(0, 0, 0.3), 0.026);
+    raw.add(2, 1, dvec3(0.1, 0, 0.05 + 0.3), 0.017);   // the stub, 11 cm
+    raw.add(3, 1, dvec3(0, 0, 0.6), 0.022);            // the continuation
+    raw.add(4, 3, dvec3(0.1, 0, 0.8), 0.003);
+    raw.add(5, 3, dvec3(-0.1, 0, 0.8), 0.003);
+    if (whorl) raw.add(6, 1, dvec3(-0.1, 0.05, 0.35), 0.012);  // a third child: a whorl
+    const Skeleton s = built(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+    expect_valid(s);
+    // From node 1 along the main children to the first input node: the continuation.
+    NodeId n = s.children[1][0];
+    while (s.source_id[n.idx()] < 0) n = s.children[n.idx()][0];
+    EXPECT_EQ(s.source_id[n.idx()], 3);
+  }
+}
+
 TEST(Skeleton, TrifurcationIsBinarized) {
   const auto r = build_skeleton(test::trifurcation(), {.collar_ratio = 0});
   expect_valid(r.skeleton);
