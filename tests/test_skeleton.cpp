@@ -121,8 +121,8 @@ TEST(Skeleton, PrunedStubIsNotTheMainChild) {
     RawSkeleton raw;
     raw.add(0, -1, dvec3(0), 0.026);
     raw.add(1, 0, dvec3(0, 0, 0.3), 0.026);
-    raw.add(2, 1, dvec3(0.1, 0, 0.05 + 0.3), 0.017);   // the stub, 11 cm
-    raw.add(3, 1, dvec3(0, 0, 0.6), 0.022);            // the continuation
+    raw.add(2, 1, dvec3(0.1, 0, 0.35), 0.017);  // the stub, 11 cm
+    raw.add(3, 1, dvec3(0, 0, 0.6), 0.022);     // the continuation
     raw.add(4, 3, dvec3(0.1, 0, 0.8), 0.003);
     raw.add(5, 3, dvec3(-0.1, 0, 0.8), 0.003);
     if (whorl) raw.add(6, 1, dvec3(-0.1, 0.05, 0.35), 0.012);  // a third child: a whorl
