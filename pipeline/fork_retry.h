@@ -18,7 +18,9 @@
 ///  - the thick nodes near a group are tested in every run (winding numbers, counted as the
 ///    signed crossings of a ray: core/mesh.h inside_closed_mesh).
 /// A variant may leave neither more pairs nor more nodes outside at a group than the first run
-/// did; among those, fewer nodes outside, then fewer pairs, is better. One more run combines
+/// did, nor lengthen the longest triangle edge near the group's forks (relative to their
+/// radii) by more than half (a web spanning the crotch; see kWebGrowth in fork_retry.cpp);
+/// among those, fewer nodes outside, then fewer pairs, is better. One more run combines
 /// each group's best, and the best run overall (by the same rule, over the whole mesh) is
 /// kept; ties keep the earlier run, so a clean mesh or a failed retry leaves the output as it
 /// was. Deterministic: every run is, and the choices are made in a fixed order.
@@ -62,6 +64,7 @@ struct ForkRetryStats {
   std::size_t outside_after = 0;   ///< of the mesh kept
   std::size_t groups = 0;        ///< groups of forks retried
   std::size_t runs = 0;          ///< extra runs of the contour and meshing stages
+  std::size_t webs_refused = 0;  ///< better results at a group refused for spanning it with a web
   bool counted = false;          ///< the pairs were counted (see above)
 };
 

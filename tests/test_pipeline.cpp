@@ -531,6 +531,42 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   EXPECT_NE(a.contours.point, b.contours.point);  // sliced otherwise somewhere
 }
 
+TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
+  // agraf at particle seed 2: the slicings that untangle the crotch at the fork near
+  // (-0.256, -0.323, 1.148) (a whorl of 6 mm twigs) span it with a web of large flat
+  // triangles, edges 6.3 fork radii long against 3.8 in the first mesh (measured). The retry
+  // refuses them (a group's longest edge may grow by half at most) and keeps another: no
+  // pair left, every thick node inside, and no edge near that fork longer than 1.5 x 3.8.
+  const auto file = sample_named("mtg_agraf.json");
+  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  PipelineParams p;
+  p.particles.seed = 2;
+  PipelineResult r;
+  const MeshCheckReport rep = run_and_check(read_skeleton(*file), &r, p);
+  expect_sound(rep);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+  EXPECT_GE(r.fork_retry.webs_refused, 1u);
+  const Skeleton& s = r.skeleton.skeleton;
+  const glm::dvec3 at(-0.2564, -0.3229, 1.148);
+  NodeId fork;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.is_fork(NodeId(i)) &&
+        (!fork.valid() || glm::length(s.position[i] - at) < glm::length(s.position[fork.idx()] - at)))
+      fork = NodeId(i);
+  }
+  ASSERT_TRUE(fork.valid());
+  ASSERT_LT(glm::length(s.position[fork.idx()] - at), 0.002);
+  const double radius = s.radius[fork.idx()];
+  double longest = 0;
+  for (const auto& t : r.mesh.mesh.triangles) {
+    const auto& m = r.mesh.mesh.positions;
+    if (glm::length((m[t[0]] + m[t[1]] + m[t[2]]) / 3.0 - s.position[fork.idx()]) > 6 * radius) continue;
+    for (int k = 0; k < 3; ++k) longest = std::max(longest, glm::length(m[t[(k + 1) % 3]] - m[t[k]]));
+  }
+  EXPECT_LT(longest / radius, 1.5 * 3.8);
+}
+
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";

@@ -119,8 +119,9 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         std::snprintf(line, sizeof line,
                       "  fork retry: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes outside; %zu group(s) of "
                       "forks sliced again in %zu runs of contours and meshing (in their times above; the phases are "
-                      "the kept run's)",
-                      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs);
+                      "the kept run's); %zu better result(s) refused for spanning a crotch with a web",
+                      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs,
+                      fr.webs_refused);
         log::verbose(line);
       }
       if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
