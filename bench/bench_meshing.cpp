@@ -96,8 +96,9 @@ void BM_Normals(benchmark::State& state) {
 }
 BENCHMARK(BM_Normals)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
-/// The whole pipeline on a sample skeleton where the fork retry runs (small_pine: 28 pairs
-/// before, 8 after, 12 more runs of contours and meshing), against the same run without it.
+/// The whole pipeline on a sample skeleton where the fork retry runs (small_pine: 20 pairs
+/// before, 2 after, 0 after the outer surface; 10 more runs of contours and meshing), against
+/// the same run without it.
 /// Skipped when ../shared/skeletons is absent.
 void BM_ForkRetry(benchmark::State& state) {
   const std::filesystem::path path = std::filesystem::path(STRANDMESH_SAMPLE_DIR) / "sapling_small_pine.json";

@@ -82,7 +82,7 @@ struct MeshParams {
   /// Where self-intersecting pairs (counted as for fold_repair_variants, on meshes of at most
   /// 300,000 triangles) or thick skeleton nodes outside the mesh are still left, the pipeline
   /// re-slices the forks around them with other split gaps, fork transitions and slice steps
-  /// and keeps each crotch's best: up to 12 more runs of contours and meshing
+  /// and keeps each crotch's best: up to 10 more runs of contours and meshing
   /// (pipeline/fork_retry.h).
   bool fork_retry = true;
   /// Where self-intersecting pairs or thick skeleton nodes outside the mesh are still left after

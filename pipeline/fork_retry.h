@@ -28,7 +28,8 @@
 /// Samples x particle seeds 1-3: 135 -> 44 pairs (boutdenoylum2 2 -> 0, agraf 61 -> 8,
 /// small_pine 48 -> 24, rtwig 24 -> 12), thick nodes inside 7,495 -> 7,511 of 7,524
 /// (boutdenoylum2 137 / 138 / 137 -> 140 each, agraf 579 -> 582 / 582 / 581). It costs up
-/// to 12 more runs of contours and meshing, one per thread at a time: agraf 0.5 -> 4.8 s,
+/// to 10 more runs of contours and meshing (12 before two variants that no longer won were
+/// dropped), one per thread at a time: agraf 0.5 -> 4.8 s,
 /// boutdenoylum2 0.4 -> 4.6 s, rtwig 0.2 -> 2.5 s, small_pine 0.7 -> 6.7 s in all (2-core AMD
 /// EPYC VM, 2 threads); clean meshes pay one inside test (callistemon 0.05 s). On a tangle of 2,000 twigs
 /// from one node (10,544 triangles): 2.5 -> 25 s, 89 -> 16 pairs, 1,312 -> 995 thick nodes

@@ -304,7 +304,7 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .max = 1},
       {.key = "fork_retry",
        .help = "where self-intersecting pairs or thick nodes outside are left (meshes up to 300,000 triangles), "
-               "re-slice the forks around them with other contour settings and keep each crotch's best (up to 12 "
+               "re-slice the forks around them with other contour settings and keep each crotch's best (up to 10 "
                "more runs)",
        .value = &p.fork_retry,
        .min = 0,
