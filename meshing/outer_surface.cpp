@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <string>
@@ -344,6 +345,16 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   for (const auto& r : refused) stats.refused += (stats.refused.empty() ? "" : "; ") + r;
   stats.seconds = clock.lap();
   return stats;
+}
+
+std::string to_text(const OuterSurfaceStats& os) {
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "%zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes inside (%zu with a sphere), %zu -> %zu "
+                "triangles, in %.3f s",
+                os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
+                os.triangles_before, os.triangles_after, os.seconds);
+  return line;
 }
 
 }  // namespace sm

@@ -49,6 +49,10 @@ struct OuterSurfaceStats {
   double seconds = 0;
 };
 
+/// One line of the figures ("8 -> 0 self-intersecting pairs, ...", without `refused`), for
+/// `strandmesh -v mesh` and the viewer.
+std::string to_text(const OuterSurfaceStats& stats);
+
 /// Replaces `result`'s mesh by its outer surface where pairs or thick nodes outside are left
 /// (see above), updating the mesh's attributes, triangle kinds, figures and `crossings`.
 /// `skeleton` is the sanitized skeleton the mesh was made from. Runs where the meshing stage

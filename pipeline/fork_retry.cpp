@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cstdio>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -165,6 +166,22 @@ struct Groups {
   }
   [[nodiscard]] bool has(NodeId n) const { return std::binary_search(forks.begin(), forks.end(), n); }
 
+  // The fork (index into `forks`) nearest to p in units of each fork's radius, within kReach of
+  // it (the last of equally near ones); UINT32_MAX if none is.
+  [[nodiscard]] std::uint32_t nearest_within_reach(const Skeleton& s, const glm::dvec3& p) const {
+    double best = kReach;
+    std::uint32_t at = UINT32_MAX;
+    for (std::size_t f = 0; f < forks.size(); ++f) {
+      const std::size_t k = forks[f].idx();
+      const double d = glm::length(p - s.position[k]) / s.radius[k];
+      if (d <= best) {
+        best = d;
+        at = static_cast<std::uint32_t>(f);
+      }
+    }
+    return at;
+  }
+
   // Pairs per group: a crossing goes to the group of its first fork that has one, else to
   // the group of the fork nearest to it in units of the fork's radius (so every crossing
   // counts somewhere, and one a variant did not touch counts the same for all variants).
@@ -205,19 +222,10 @@ struct Watched {
   Watched(const Skeleton& s, const Groups& groups) {
     if (groups.forks.empty()) return;
     for (const std::uint32_t i : thick_node_ids(s)) {
-      double best = kReach;
-      std::uint32_t at = UINT32_MAX;
-      for (std::size_t f = 0; f < groups.forks.size(); ++f) {
-        const std::size_t k = groups.forks[f].idx();
-        const double d = glm::length(s.position[i] - s.position[k]) / s.radius[k];
-        if (d <= best) {
-          best = d;
-          at = groups.group[f];
-        }
-      }
-      if (at == UINT32_MAX) continue;
+      const std::uint32_t f = groups.nearest_within_reach(s, s.position[i]);
+      if (f == UINT32_MAX) continue;
       node.push_back(NodeId(i));
-      group.push_back(at);
+      group.push_back(groups.group[f]);
     }
   }
 
@@ -238,20 +246,18 @@ struct Watched {
 // nearest in radii).
 std::vector<double> webs(const Skeleton& s, const Mesh& mesh, const Groups& groups) {
   std::vector<double> out(groups.count, 0.0);
+  // Triangles outside every fork's reach are skipped before the search over the forks.
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const NodeId f : groups.forks) {
+    lo = glm::min(lo, s.position[f.idx()] - glm::dvec3(kReach * s.radius[f.idx()]));
+    hi = glm::max(hi, s.position[f.idx()] + glm::dvec3(kReach * s.radius[f.idx()]));
+  }
   for (const auto& t : mesh.triangles) {
     const glm::dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
     const glm::dvec3 m = (a + b + c) / 3.0;
-    double best = kReach;
-    std::size_t at = SIZE_MAX;
-    for (std::size_t f = 0; f < groups.forks.size(); ++f) {
-      const std::size_t k = groups.forks[f].idx();
-      const double d = glm::length(m - s.position[k]) / s.radius[k];
-      if (d <= best) {
-        best = d;
-        at = f;
-      }
-    }
-    if (at == SIZE_MAX) continue;
+    if (glm::any(glm::lessThan(m, lo)) || glm::any(glm::greaterThan(m, hi))) continue;
+    const std::uint32_t at = groups.nearest_within_reach(s, m);
+    if (at == UINT32_MAX) continue;
     const double e = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
     double& w = out[groups.group[at]];
     w = std::max(w, e / s.radius[groups.forks[at].idx()]);
@@ -422,6 +428,16 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   stats.outside_after = best_total.first;
   if (progress) progress("fork retry", 1.0);
   return stats;
+}
+
+std::string to_text(const ForkRetryStats& fr) {
+  char line[320];
+  std::snprintf(
+      line, sizeof line,
+      "%zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes outside; %zu group(s) of forks sliced "
+      "again in %zu runs of contours and meshing; %zu better result(s) refused for spanning a crotch with a web",
+      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs, fr.webs_refused);
+  return line;
 }
 
 void warn_self_intersections_left(PipelineResult& r) {

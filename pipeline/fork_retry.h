@@ -50,6 +50,7 @@
 /// outside.
 
 #include <cstddef>
+#include <string>
 
 #include "core/progress.h"
 
@@ -68,6 +69,10 @@ struct ForkRetryStats {
   std::size_t webs_refused = 0;  ///< better results at a group refused for spanning it with a web
   bool counted = false;          ///< the pairs were counted (see above)
 };
+
+/// One line of the retry's figures ("20 -> 2 self-intersecting pairs, ..."), for `strandmesh -v
+/// mesh` and the viewer.
+std::string to_text(const ForkRetryStats& stats);
 
 /// Retries the forks around the self-intersections of `result.mesh` (contours and meshing
 /// stages again, their times added to result.timings). Needs MeshParams::fork_retry.

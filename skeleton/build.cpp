@@ -479,8 +479,9 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     const double min_step = 2.0 * params.merge_edge_ratio * t.radius[v];
     // Whorls (input nodes not clustered) get room for their laterals to part; hubs and the
     // cluster nodes grouping their children (added by the clustering, so not input nodes)
-    // stay compact, their forks a merge tolerance apart.
-    const bool whorl = v < raw.size() && !(v < hub.size() && hub[v]);
+    // stay compact, their forks a merge tolerance apart. (`hub` covers every input node: the
+    // tree only grows.)
+    const bool whorl = v < raw.size() && !hub[v];
     const double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
     ch = {sorted[1]};
     std::uint32_t prev = v;

@@ -183,19 +183,10 @@ void stage_stats(const RunData& run, Stage s) {
                     st.fold_flips, st.fold_moves);
       ImGui::TextWrapped("%s", line);
       // What the fork retry and the outer surface did (see `strandmesh -v mesh`), when they ran.
-      if (const auto& fr = r.fork_retry; fr.runs > 0) {
-        std::snprintf(line, sizeof line,
-                      "fork retry: %zu -> %zu pairs, %zu -> %zu thick nodes outside; %zu groups, %zu runs, %zu "
-                      "results refused for a web",
-                      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs,
-                      fr.webs_refused);
-        ImGui::TextWrapped("%s", line);
-      }
+      if (const auto& fr = r.fork_retry; fr.runs > 0) ImGui::TextWrapped("fork retry: %s", to_text(fr).c_str());
       if (const auto& os = r.outer_surface; os.tried) {
-        std::snprintf(line, sizeof line, "outer surface: %zu -> %zu pairs, %zu -> %zu thick nodes inside (%zu spheres)%s",
-                      os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
-                      os.refused.empty() ? "" : "; some attempts refused (hover)");
-        ImGui::TextWrapped("%s", line);
+        ImGui::TextWrapped("outer surface: %s%s", to_text(os).c_str(),
+                           os.refused.empty() ? "" : "; some attempts refused (hover)");
         if (!os.refused.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", os.refused.c_str());
       }
       return;

@@ -116,22 +116,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
       if (const ForkRetryStats& fr = r.fork_retry; fr.runs > 0) {
-        std::snprintf(line, sizeof line,
-                      "  fork retry: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes outside; %zu group(s) of "
-                      "forks sliced again in %zu runs of contours and meshing (in their times above; the phases are "
-                      "the kept run's); %zu better result(s) refused for spanning a crotch with a web",
-                      fr.pairs_before, fr.pairs_after, fr.outside_before, fr.outside_after, fr.groups, fr.runs,
-                      fr.webs_refused);
-        log::verbose(line);
+        log::verbose("  fork retry: " + to_text(fr) +
+                     " (the runs' times are in the stages above; the phases are the kept run's)");
       }
       if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
-        std::snprintf(line, sizeof line,
-                      "  outer surface: %zu -> %zu self-intersecting pairs, %zu -> %zu thick nodes inside (%zu with a "
-                      "sphere), %zu -> %zu triangles, in %.3f s%s%s",
-                      os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
-                      os.triangles_before, os.triangles_after, os.seconds, os.refused.empty() ? "" : "; not kept: ",
-                      os.refused.c_str());
-        log::verbose(line);
+        log::verbose("  outer surface: " + to_text(os) + (os.refused.empty() ? "" : "; not kept: " + os.refused));
       }
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
