@@ -21,6 +21,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <numbers>
 #include <numeric>
 
@@ -69,16 +71,38 @@ double pseudo_angle(double x, double y) {
   return x >= 0 ? (y >= 0 ? r : 4 + r) : 2 - r;
 }
 
+/// Reused buffers of one thread's boundary selections: most slices are small (three in four
+/// of the large grown tree's 165 k have under 16 points), and allocating these per call cost
+/// more than the walk.
+struct Scratch {
+  std::vector<double> dist, key, smax, lk, edge_length;
+  std::vector<std::uint32_t> order, stack, bucket_begin;
+  struct Entry {
+    double key, dist;
+    std::uint32_t i;
+    /// By angle; on equal angles the nearer point first, so the farther one survives the scan.
+    bool operator<(const Entry& o) const {
+      return key != o.key ? key < o.key : (dist != o.dist ? dist < o.dist : i < o.i);
+    }
+  };
+  std::vector<Entry> entries, bucketed;
+};
+
 /// True when the loop (vertices in increasing `key` around c, the first at key 0) turns
 /// less than pi between consecutive vertices as seen from c (so it is simple and star-shaped
 /// around c) and every point lies inside it or within `tol` of it. `sorted`, when not null,
 /// holds every point but the loop's first vertex in increasing key: each point's sector is
-/// then found by one sweep, O(n); otherwise by binary search on the keys, O(n log m).
-bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const dvec2& c,
-                     const std::vector<std::uint32_t>& loop, double tol, const std::vector<std::uint32_t>* sorted) {
+/// then found by one sweep, O(n); otherwise by binary search on the keys, O(n log m), for the
+/// points farther from c than the loop's nearest edge line (those nearer are inside it).
+bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const std::vector<double>& dist,
+                     const dvec2& c, const std::vector<std::uint32_t>& loop, double tol,
+                     const std::vector<std::uint32_t>* sorted, Scratch& scratch) {
   const std::size_t m = loop.size();
   if (m < 3) return false;
-  std::vector<double> lk(m), edge_length(m);
+  std::vector<double>& lk = scratch.lk;
+  std::vector<double>& edge_length = scratch.edge_length;
+  lk.resize(m);
+  edge_length.resize(m);
   for (std::size_t k = 0; k < m; ++k) {
     lk[k] = key[loop[k]];
     if (k > 0 && !(lk[k] > lk[k - 1])) return false;
@@ -100,7 +124,17 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
     }
     return inside(loop[0], 0);
   }
+  // Every edge line passes at least `inner` from c (c is inside each, the loop being
+  // star-shaped around it), so a point nearer to c than that is inside every sector's
+  // triangle, by more than the rounding of the test (the margin is far below `tol`).
+  double inner = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < m; ++k) {
+    const double len = edge_length[k];
+    if (len > 0) inner = std::min(inner, cross2(p[loop[(k + 1) % m]] - p[loop[k]], c - p[loop[k]]) / len);
+  }
+  inner -= tol;
   for (std::uint32_t i = 0; i < p.size(); ++i) {
+    if (dist[i] < inner) continue;
     const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
     if (!inside(i, static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1)))) return false;
   }
@@ -150,10 +184,12 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     std::iota(all.begin(), all.end(), 0u);
     return all;
   }
+  thread_local Scratch scratch;
   dvec2 c(0);
   for (const auto& q : p) c += q;
   c /= double(n);
-  std::vector<double> dist(n);
+  std::vector<double>& dist = scratch.dist;
+  dist.resize(n);
   for (std::uint32_t i = 0; i < n; ++i) dist[i] = glm::length(p[i] - c);
   // Scale for tolerances.
   const double extent = *std::max_element(dist.begin(), dist.end());
@@ -166,55 +202,59 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     if (p[i].y < p[start].y || (p[i].y == p[start].y && p[i].x < p[start].x)) start = i;
   }
   const double a0 = pseudo_angle(p[start].x - c.x, p[start].y - c.y);
-  std::vector<double> key(n);
+  std::vector<double>& key = scratch.key;
+  key.resize(n);
   for (std::uint32_t i = 0; i < n; ++i) {
     double a = pseudo_angle(p[i].x - c.x, p[i].y - c.y) - a0;
     if (a < 0) a += 4;
     if (a >= 4) a -= 4;
     key[i] = i == start ? 0.0 : a;
   }
-  // Large clouds: only points near the outside of their angular sector can be on the loop;
-  // walk those (the result is verified against every point below, and redone without the
-  // filter if a dropped point turns out to be outside).
-  auto candidates = [&](bool filter) {
-    std::vector<std::uint32_t> order;
-    order.reserve(n);
+  // Every point but the start, by angle; on equal angles the nearer point first, so the
+  // farther one survives the scan. Large clouds: only points near the outside of their angular
+  // sector can be on the loop; walk those (the result is verified against every point below,
+  // and redone without the filter if a dropped point turns out to be outside). The filtered
+  // points are sorted sector by sector (a counting sort by sector, then small sorts): the same
+  // order as one sort, in a fraction of its time on the trunk's thousands of points.
+  auto candidates = [&](bool filter) -> const std::vector<std::uint32_t>& {
+    std::vector<Scratch::Entry>& entries = scratch.entries;
+    entries.clear();
     if (!filter) {
       for (std::uint32_t i = 0; i < n; ++i) {
-        if (i != start) order.push_back(i);
+        if (i != start) entries.push_back({key[i], dist[i], i});
       }
+      std::sort(entries.begin(), entries.end());
     } else {
       const std::size_t sectors = std::clamp<std::size_t>(n / 8, 16, 512);
-      std::vector<double> smax(sectors, 0.0);
       auto sector = [&](std::uint32_t i) {
         return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors)));
       };
+      std::vector<double>& smax = scratch.smax;
+      smax.assign(sectors, 0.0);
       for (std::uint32_t i = 0; i < n; ++i) smax[sector(i)] = std::max(smax[sector(i)], dist[i]);
+      std::vector<std::uint32_t>& begin = scratch.bucket_begin;
+      begin.assign(sectors + 1, 0);
       for (std::uint32_t i = 0; i < n; ++i) {
-        if (i != start && dist[i] >= 0.6 * smax[sector(i)]) order.push_back(i);
+        if (i != start && dist[i] >= 0.6 * smax[sector(i)]) {
+          entries.push_back({key[i], dist[i], i});
+          ++begin[sector(i) + 1];
+        }
       }
-    }
-    // By angle; on equal angles the nearer point first, so the farther one survives the scan.
-    // Sorted as (key, distance, index) records: no indirection in the comparisons.
-    // Sorted by key alone first (equal keys are rare), then each run of equal keys by
-    // distance and index: the same order, with cheaper comparisons.
-    struct Entry {
-      double key;
-      std::uint32_t i;
-    };
-    std::vector<Entry> entries(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) entries[k] = {key[order[k]], order[k]};
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
-    for (std::size_t k = 0; k < entries.size();) {
-      std::size_t e = k + 1;
-      while (e < entries.size() && entries[e].key == entries[k].key) ++e;
-      if (e - k > 1) {
-        std::sort(entries.begin() + std::ptrdiff_t(k), entries.begin() + std::ptrdiff_t(e),
-                  [&](const Entry& a, const Entry& b) { return dist[a.i] != dist[b.i] ? dist[a.i] < dist[b.i] : a.i < b.i; });
+      for (std::size_t k = 0; k < sectors; ++k) begin[k + 1] += begin[k];
+      std::vector<Scratch::Entry>& bucketed = scratch.bucketed;
+      bucketed.resize(entries.size());
+      for (const Scratch::Entry& e : entries) bucketed[begin[sector(e.i)]++] = e;
+      // (begin[k] is now where bucket k ends.)
+      std::size_t from = 0;
+      for (std::size_t k = 0; k < sectors; ++k) {
+        std::sort(bucketed.begin() + std::ptrdiff_t(from), bucketed.begin() + std::ptrdiff_t(begin[k]));
+        from = begin[k];
       }
-      k = e;
+      entries.swap(bucketed);
     }
-    for (std::size_t k = 0; k < order.size(); ++k) order[k] = entries[k].i;
+    std::vector<std::uint32_t>& order = scratch.order;
+    order.resize(entries.size());
+    for (std::size_t k = 0; k < entries.size(); ++k) order[k] = entries[k].i;
     return order;
   };
   const double max_concave = concave_turn_degrees * kPi / 180.0;
@@ -235,9 +275,9 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
     const dvec2 u = p[b] - p[a], v = p[q] - p[b];
     return glm::dot(u, v) < cos_max_concave * glm::length(u) * glm::length(v);
   };
-  auto walk = [&](const std::vector<std::uint32_t>& order) {
-    std::vector<std::uint32_t> stack;
-    stack.reserve(order.size() + 1);
+  auto walk = [&](const std::vector<std::uint32_t>& order) -> const std::vector<std::uint32_t>& {
+    std::vector<std::uint32_t>& stack = scratch.stack;
+    stack.clear();
     stack.push_back(start);
     for (std::uint32_t q : order) {
       while (stack.size() >= 2 && drop(stack[stack.size() - 2], stack.back(), q)) stack.pop_back();
@@ -250,9 +290,10 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   const double valid_tol = tol + 1e-6 * extent;
   for (const bool filter : {true, false}) {
     if (filter && n <= 64) continue;
-    const std::vector<std::uint32_t> order = candidates(filter);
-    std::vector<std::uint32_t> loop = walk(order);
-    if (loop.size() < 3 || !star_loop_valid(p, key, c, loop, valid_tol, filter ? nullptr : &order)) continue;
+    const std::vector<std::uint32_t>& order = candidates(filter);
+    const std::vector<std::uint32_t>& loop = walk(order);
+    if (loop.size() < 3 || !star_loop_valid(p, key, dist, c, loop, valid_tol, filter ? nullptr : &order, scratch))
+      continue;
     // The walk gives a star-shaped loop around every point. Where it bridges one gap much
     // wider than the spacing of its vertices and half as wide as the slice, the points may not be star-shaped around the centroid
     // (a "C"). When they are one connected shape at the spacing of the points (the concave
