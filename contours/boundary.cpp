@@ -261,19 +261,22 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
   const double cos_max_concave = std::cos(max_concave);
   // A turn counts as concave (drop the middle point) when it turns right by more than the
   // threshold, or is straight / degenerate.
+  // (Compared in squares where that saves a square root or a division: the walk runs over
+  // every candidate of every slice.)
+  const double tol2 = tol * tol;
   auto drop = [&](std::uint32_t a, std::uint32_t b, std::uint32_t q) {
     const dvec2 w = p[q] - p[a];
-    const double wl = glm::length(w);
-    if (wl <= tol) return true;  // a and q coincide: b is a spike or a duplicate
-    // Signed distance of b from the chord a -> q, positive inwards (to the left).
-    const double inward = cross2(w, p[b] - p[a]) / wl;
-    if (inward < -1e-7 * wl) return false;  // a convex vertex
-    if (inward <= 1e-7 * wl) return true;   // (nearly) collinear or duplicate: drop
+    const double wl2 = glm::dot(w, w);
+    if (wl2 <= tol2) return true;  // a and q coincide: b is a spike or a duplicate
+    // |w| x the signed distance of b from the chord a -> q, positive inwards (to the left).
+    const double inward = cross2(w, p[b] - p[a]);
+    if (inward < -1e-7 * wl2) return false;  // a convex vertex
+    if (inward <= 1e-7 * wl2) return true;   // (nearly) collinear or duplicate: drop
     if (max_concave <= 0) return true;
     // Concave (b left of the chord, a right turn at b): keep only turns gentler than the
     // threshold, i.e. edges a->b and b->q at an angle below it.
     const dvec2 u = p[b] - p[a], v = p[q] - p[b];
-    return glm::dot(u, v) < cos_max_concave * glm::length(u) * glm::length(v);
+    return glm::dot(u, v) < cos_max_concave * std::sqrt(glm::dot(u, u) * glm::dot(v, v));
   };
   auto walk = [&](const std::vector<std::uint32_t>& order) -> const std::vector<std::uint32_t>& {
     std::vector<std::uint32_t>& stack = scratch.stack;
