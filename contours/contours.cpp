@@ -33,6 +33,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <numbers>
 #include <optional>
 #include <unordered_map>
 #include <unordered_set>
@@ -54,6 +55,13 @@ namespace {
 constexpr double kStubRadius = 0.3;
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+/// How deep inside its cloud (in the cloud's own particle spacings below its angular sector's
+/// farthest point) a particle may still be sliced as a boundary candidate (see outer_points).
+/// Large grown tree: 12.5 M -> 8.9 M strand evaluations, the contours stage 25 % faster; the
+/// same loops (bit for bit) on the samples at particle seeds 1-3 and on the grown presets,
+/// down to a band of 2 (boutdenoylum2 changes there).
+constexpr double kOuterBand = 4.0;
 
 /// One cut edge: the strands of node `node` evaluated at `t` on its edge.
 struct CutEdge {
@@ -88,10 +96,11 @@ struct SliceGeometry {
   double t = 1;
 };
 
-/// Indices of the points that can lie on the boundary of `pts` (those within 40% of the
-/// farthest point of their angular sector around the centroid; all of them for small sets).
-/// A particle deep inside its cloud at both ends of an edge stays inside every section of
-/// the edge (the sections interpolate the two clouds linearly), so only these are sliced.
+/// Indices of the points that can lie on the boundary of `pts`: those within 40% of the
+/// farthest point of their angular sector around the centroid and at most kOuterBand particle
+/// spacings inside it (all of them for small sets). A particle deep inside its cloud at both ends of an edge
+/// stays inside every section of the edge (the sections interpolate the two clouds
+/// linearly), so only these are sliced.
 void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>& out) {
   out.clear();
   if (n <= 32) {
@@ -116,8 +125,12 @@ void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>&
     sec[i] = sector(i);
     smax[sec[i]] = std::max(smax[sec[i]], glm::length(pts[i] - c));
   }
+  // The cloud's own particle spacing (trunk clouds hold every strand of the tree, far denser
+  // than the tips' spacing): its disc's area shared among its particles.
+  const double extent = *std::max_element(smax.begin(), smax.end());
+  const double band = kOuterBand * extent * std::sqrt(std::numbers::pi / double(n));
   for (std::uint32_t i = 0; i < n; ++i) {
-    if (glm::length(pts[i] - c) >= 0.6 * smax[sec[i]]) out.push_back(i);
+    if (glm::length(pts[i] - c) >= std::max(0.6 * smax[sec[i]], smax[sec[i]] - band)) out.push_back(i);
   }
 }
 
