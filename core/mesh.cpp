@@ -73,7 +73,7 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
     // The two edges leaving corner k, named rather than indexed: an array indexed by k would
     // live on the stack, and reading it back cost more than all the arithmetic.
     const double cosine = k == 0 ? glm::dot(p1 - p0, p2 - p0) : k == 1 ? glm::dot(p2 - p1, p0 - p1) : glm::dot(p0 - p2, p1 - p2);
-    return (fn / len) * fast_angle(len, cosine);
+    return fn * (fast_angle(len, cosine) / len);
   };
   std::vector<glm::dvec3> n(nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
