@@ -13,7 +13,7 @@
 #include "meshing/checks_cgal.h"
 
 #include <algorithm>
-#include <mutex>
+#include <cmath>
 #include <tuple>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -23,6 +23,7 @@
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/box_intersection_d.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "meshing/intersections.h"
@@ -82,32 +83,81 @@ class SoupIntersector {
   }
 
   /// The intersecting pairs among `triangles` (i < j), in any order.
+  ///
+  /// Large sets are cut into slabs along the longest axis of their boxes, searched in
+  /// parallel, each with CGAL's sequential box intersection: a pair is reported by the slab
+  /// holding the lower end of its boxes' overlap on that axis (both boxes reach into that
+  /// slab), so once. CGAL's own parallel search splits the boxes by their order rather than
+  /// by place and gained 12 % on two threads (the fold repair's first round on the large
+  /// grown tree: 240 k triangles, 1.8 M overlapping boxes).
   std::vector<Pair> run(const std::vector<std::uint32_t>& triangles) const {
     using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::uint32_t>;
+    std::vector<Box> all(triangles.size());
+    std::vector<std::uint8_t> valid(triangles.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                          const std::uint32_t t = triangles[k];
+                          const auto& tri = mesh_.triangles[t];
+                          const Point p = point(tri[0]), q = point(tri[1]), r = point(tri[2]);
+                          if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r))
+                            continue;  // degenerate
+                          all[k] = Box(p.bbox() + q.bbox() + r.bbox(), t);
+                          valid[k] = 1;
+                        }
+                      });
     std::vector<Box> boxes;
-    boxes.reserve(triangles.size());
-    for (const std::uint32_t t : triangles) {
-      const auto& tri = mesh_.triangles[t];
-      const Point p = point(tri[0]), q = point(tri[1]), r = point(tri[2]);
-      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r)) continue;  // degenerate
-      boxes.emplace_back(p.bbox() + q.bbox() + r.bbox(), t);
+    boxes.reserve(all.size());
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      if (valid[k]) boxes.push_back(all[k]);
     }
-    std::vector<const Box*> ptrs;
-    ptrs.reserve(boxes.size());
-    for (const Box& b : boxes) ptrs.push_back(&b);
-    std::vector<Pair> pairs;
-    std::mutex mutex;
-    auto callback = [&](const Box* a, const Box* b) {
-      const std::uint32_t i = a->info(), j = b->info();
-      if (intersect(i, j)) {
-        const std::lock_guard<std::mutex> lock(mutex);
-        pairs.push_back({std::min(i, j), std::max(i, j)});
-      }
-    };
     // Below 1000 boxes the two-way scan beats further splitting (the default cutoff is 10):
     // 231 k triangles of the fold repair's first round, 0.62 -> 0.28 s.
     constexpr std::ptrdiff_t kCutoff = 1000;
-    CGAL::box_self_intersection_d<Concurrency>(ptrs.begin(), ptrs.end(), callback, kCutoff);
+    constexpr std::size_t kSlabBoxes = 20000;  // fewer: one search
+    const std::size_t slabs = boxes.size() < 2 * kSlabBoxes ? 1 : std::min<std::size_t>(16, boxes.size() / kSlabBoxes);
+    int axis = 0;
+    std::vector<double> cut;  // slab s holds overlaps starting in [cut[s - 1], cut[s])
+    if (slabs > 1) {
+      double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+      for (const Box& b : boxes) {
+        for (int d = 0; d < 3; ++d) {
+          lo[d] = std::min(lo[d], b.min_coord(d));
+          hi[d] = std::max(hi[d], b.max_coord(d));
+        }
+      }
+      for (int d = 1; d < 3; ++d) {
+        if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
+      }
+      // Equal shares of the boxes' lower ends.
+      std::vector<double> mins(boxes.size());
+      for (std::size_t k = 0; k < boxes.size(); ++k) mins[k] = boxes[k].min_coord(axis);
+      for (std::size_t s = 1; s < slabs; ++s) {
+        const auto at = mins.begin() + std::ptrdiff_t(s * mins.size() / slabs);
+        std::nth_element(mins.begin(), at, mins.end());
+        cut.push_back(*at);
+      }
+      std::sort(cut.begin(), cut.end());
+    }
+    std::vector<std::vector<Pair>> found(slabs);
+    tbb::parallel_for(std::size_t{0}, slabs, [&](std::size_t s) {
+      const double from = s == 0 ? -HUGE_VAL : cut[s - 1], to = s + 1 == slabs ? HUGE_VAL : cut[s];
+      std::vector<const Box*> ptrs;
+      for (const Box& b : boxes) {
+        if (slabs == 1 || (b.min_coord(axis) < to && b.max_coord(axis) >= from)) ptrs.push_back(&b);
+      }
+      auto callback = [&](const Box* a, const Box* b) {
+        if (slabs > 1) {
+          const double start = std::max(a->min_coord(axis), b->min_coord(axis));
+          if (start < from || start >= to) return;  // another slab's pair
+        }
+        const std::uint32_t i = a->info(), j = b->info();
+        if (intersect(i, j)) found[s].push_back({std::min(i, j), std::max(i, j)});
+      };
+      CGAL::box_self_intersection_d<CGAL::Sequential_tag>(ptrs.begin(), ptrs.end(), callback, kCutoff);
+    });
+    std::vector<Pair> pairs;
+    for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
     return pairs;
   }
 
