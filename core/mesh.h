@@ -46,6 +46,8 @@ VertexCorners vertex_corners(const Mesh& mesh);
 /// Angle-weighted vertex normals of the welded mesh (unit length; a vertex
 /// with no non-degenerate incident triangle gets (0,0,1)).
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
+/// The same, with the mesh's vertex_corners already at hand.
+std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCorners& corners);
 
 /// Generalized winding number of the mesh's triangles about p: the solid angles they span
 /// there (core/math.h solid_angle), summed in triangle order, over 4 pi. For a closed,

@@ -439,7 +439,7 @@ class Builder {
     vertex_v_[i] = v;
   }
   void compute_uvs();
-  void check_topology();
+  void check_topology(const VertexCorners& corners);
 
   const Skeleton& s_;
   const ContourSet& c_;
@@ -831,20 +831,20 @@ void Builder::compute_uvs() {
                     });
 }
 
-void Builder::check_topology() {
+void Builder::check_topology(const VertexCorners& corners) {
   // Every directed edge a->b must appear once, and its twin b->a once. Half-edges are grouped
-  // by their start vertex (counting sort), so this is linear apart from tiny per-vertex sorts.
+  // by their start vertex (the corners around each vertex), so this is linear apart from tiny
+  // per-vertex sorts.
   const std::size_t nv = mesh_.positions.size();
-  std::vector<std::uint32_t> begin(nv + 1, 0);
-  for (const auto& t : mesh_.triangles) {
-    for (int k = 0; k < 3; ++k) ++begin[t[std::size_t(k)] + 1];
-  }
-  for (std::size_t v = 0; v < nv; ++v) begin[v + 1] += begin[v];
-  std::vector<std::uint32_t> target(begin[nv]);
-  std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-  for (const auto& t : mesh_.triangles) {
-    for (int k = 0; k < 3; ++k) target[fill[t[std::size_t(k)]]++] = t[std::size_t((k + 1) % 3)];
-  }
+  const std::vector<std::uint32_t>& begin = corners.begin;
+  std::vector<std::uint32_t> target(corners.corner.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, target.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const std::uint32_t c = corners.corner[i];
+                        target[i] = mesh_.triangles[c / 3][(c % 3 + 1) % 3];
+                      }
+                    });
   const tbb::blocked_range<std::size_t> vertices(0, nv, 8192);
   tbb::parallel_for(vertices, [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v)
@@ -963,7 +963,9 @@ MeshResult Builder::run(const ProgressFn& progress) {
     }
   }
 
-  if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_);
+  // The corners around each vertex, for the normals and the topology check.
+  const VertexCorners corners = vertex_corners(mesh_);
+  if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_, corners);
   if (p_.uvs) {
     mesh_.corner_uvs.resize(mesh_.triangles.size());
     const double repeat = p_.uv_repeat_u;
@@ -989,7 +991,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
                       });
   }
   stats_.timings.add("normals_uvs", clock.lap());
-  check_topology();
+  check_topology(corners);
   stats_.timings.add("check", clock.lap());
   stats_.vertices = mesh_.positions.size();
   stats_.triangles = mesh_.triangles.size();
