@@ -177,12 +177,19 @@ double backward_turn(const std::vector<dvec2>& p, const dvec2& c, const std::vec
 
 std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, bool* fallback,
                                          double fallback_max_edge) {
+  std::vector<std::uint32_t> loop;
+  boundary_loop(p, concave_turn_degrees, loop, fallback, fallback_max_edge);
+  return loop;
+}
+
+void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std::vector<std::uint32_t>& out,
+                   bool* fallback, double fallback_max_edge) {
   if (fallback) *fallback = false;
   const std::size_t n = p.size();
   if (n < 3) {
-    std::vector<std::uint32_t> all(n);
-    std::iota(all.begin(), all.end(), 0u);
-    return all;
+    out.resize(n);
+    std::iota(out.begin(), out.end(), 0u);
+    return;
   }
   thread_local Scratch scratch;
   dvec2 c(0);
@@ -310,17 +317,19 @@ std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& p, double con
       std::vector<std::uint32_t> outline = concave_hull(p, fallback_max_edge, &connected);
       if (outline.size() >= 3 && connected && backward_turn(p, c, outline) > kHiddenTurn) {
         if (fallback) *fallback = true;
-        return outline;
+        out = std::move(outline);
+        return;
       }
     }
-    return loop;
+    out.assign(loop.begin(), loop.end());
+    return;
   }
   if (fallback) *fallback = true;
   if (fallback_max_edge > 0) {
-    std::vector<std::uint32_t> loop = concave_hull(p, fallback_max_edge);
-    if (loop.size() >= 3) return loop;
+    out = concave_hull(p, fallback_max_edge);
+    if (out.size() >= 3) return;
   }
-  return convex_hull(p);
+  out = convex_hull(p);
 }
 
 }  // namespace sm

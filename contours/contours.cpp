@@ -540,13 +540,26 @@ class Walker {
   double last_fork_base_ = 0, last_u_ = 0, last_gap_ = 0;
   std::optional<double> last_clearance_;
   ContourSet* out_ = nullptr;  // the walk's Fragment::part
-  mutable std::vector<std::pair<NodeId, double>> stack_;
-  // scratch
-  SlicePoints pts_, pts_a_, pts_b_, pts_l_, pts_rest_;
-  std::vector<CutEdge> cut_, cut_a_, cut_b_, cut_n_;
   std::vector<NodeId> excluded_;  // of the task
   double anchor_distance_ = 0;    // of the task's anchor, from the root
-  std::vector<dvec2> flat_;
+  // Scratch buffers, the thread's (a walk runs on one thread from start to end, and most
+  // tubes are a few slices long: buffers of their own were allocated anew for each).
+  struct Scratch {
+    std::vector<std::pair<NodeId, double>> stack;
+    SlicePoints pts, pts_a, pts_b, pts_l, pts_rest;
+    std::vector<CutEdge> cut_a, cut_b, cut_n;
+    std::vector<dvec2> flat;
+  };
+  static Scratch& thread_scratch() {
+    thread_local Scratch scratch;
+    return scratch;
+  }
+  Scratch& scratch_ = thread_scratch();
+  std::vector<std::pair<NodeId, double>>& stack_ = scratch_.stack;
+  SlicePoints &pts_ = scratch_.pts, &pts_a_ = scratch_.pts_a, &pts_b_ = scratch_.pts_b, &pts_l_ = scratch_.pts_l,
+              &pts_rest_ = scratch_.pts_rest;
+  std::vector<CutEdge> &cut_a_ = scratch_.cut_a, &cut_b_ = scratch_.cut_b, &cut_n_ = scratch_.cut_n;
+  std::vector<dvec2>& flat_ = scratch_.flat;
 };
 
 double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough) {
@@ -575,9 +588,10 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   // constant and keeps their order: each of the 27 offsets is one merge of two sorted lists.
   // Only the points within cap of the other set's box can be nearer than cap to it (bundles
   // side by side: about the facing halves).
-  auto sorted_cells = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi) {
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> cells;
-    cells.reserve(pts.size());
+  thread_local std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_a, cells_b;
+  auto sorted_cells = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi,
+                          std::vector<std::pair<std::uint64_t, std::uint32_t>>& cells) -> const auto& {
+    cells.clear();
     const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
     for (std::uint32_t k = 0; k < pts.size(); ++k) {
       const dvec3& p = pts[k];
@@ -587,7 +601,8 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
     std::sort(cells.begin(), cells.end());
     return cells;
   };
-  const auto cb = sorted_cells(b, lo_a, hi_a), ca = sorted_cells(a, lo_b, hi_b);
+  const auto& cb = sorted_cells(b, lo_a, hi_a, cells_b);
+  const auto& ca = sorted_cells(a, lo_b, hi_b, cells_a);
   double best2 = cap * cap;
   const double enough2 = enough * enough;
   for (int dx = -1; dx <= 1 && best2 > enough2; ++dx)
@@ -621,7 +636,8 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   flat_.resize(pts.point.size());
   for (std::size_t i = 0; i < pts.point.size(); ++i) flat_[i] = g.frame.to_local(pts.point[i] - g.center);
   bool fallback = false;
-  std::vector<std::uint32_t> loop = boundary_loop(flat_, p_.concave_turn_degrees, &fallback, p_.fallback_max_edge);
+  thread_local std::vector<std::uint32_t> loop;  // (the walks' scratch memory is per thread: a tube is short)
+  boundary_loop(flat_, p_.concave_turn_degrees, loop, &fallback, p_.fallback_max_edge);
   if (fallback) {
     ++out_->stats.boundary_fallbacks;
     out_->stats.warnings.add("boundary_fallback", "slice not star-shaped around its centroid; concave outline used",
@@ -666,8 +682,10 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
     const double l = glm::length(e);
     return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);  // outward normal of a CCW loop's edge
   };
-  std::vector<dvec2> moved(m);
-  std::vector<dvec3> lift(m);  // each point's component off the slice plane, kept as is
+  thread_local std::vector<dvec2> moved;
+  thread_local std::vector<dvec3> lift;  // each point's component off the slice plane, kept as is
+  moved.resize(m);
+  lift.resize(m);
   for (std::size_t k = 0; k < m; ++k) {
     const dvec2& a = flat_[loop[(k + m - 1) % m]];
     const dvec2& b = flat_[loop[k]];
@@ -754,7 +772,8 @@ bool Walker::surfaces_clear() {
 
 double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const {
   // Edges of x's subtree starting within `reach` above the anchor (x's edge starts at base).
-  std::vector<std::pair<NodeId, double>> stack{{x, base}};
+  thread_local std::vector<std::pair<NodeId, double>> stack;
+  stack.assign(1, {x, base});
   double best = std::numeric_limits<double>::infinity();
   while (!stack.empty()) {
     const auto [y, start] = stack.back();

@@ -195,6 +195,9 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
 /// the points are collinear).
 std::vector<std::uint32_t> boundary_loop(const std::vector<dvec2>& points, double concave_turn_degrees,
                                          bool* fallback = nullptr, double fallback_max_edge = 3.0);
+/// The same into `out` (its memory reused: the contour walk selects a loop per slice).
+void boundary_loop(const std::vector<dvec2>& points, double concave_turn_degrees, std::vector<std::uint32_t>& out,
+                   bool* fallback = nullptr, double fallback_max_edge = 3.0);
 
 /// Concave outline of a point set ("chi-shape"): the Delaunay triangulation with boundary
 /// triangles removed, longest outer edge first, while that edge is longer than
