@@ -70,6 +70,26 @@ int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
 /// by exactly two triangles, in opposite directions.
 bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p);
 
+/// inside_closed_mesh for many points of one mesh (the same answers): the triangles are
+/// binned by their shadow on a plane across the ray direction, so a point's ray is tested
+/// only against the triangles whose shadow's box holds its own shadow. Keeps a reference to
+/// the mesh, which must not change while it is used.
+class ClosedMeshInside {
+ public:
+  explicit ClosedMeshInside(const Mesh& mesh);
+  [[nodiscard]] bool operator()(const glm::dvec3& p) const;
+
+ private:
+  [[nodiscard]] glm::dvec2 shadow(const glm::dvec3& p) const;
+  [[nodiscard]] std::size_t cell(double x, double y) const;
+  const Mesh& mesh_;
+  glm::dvec3 axis_u_{0}, axis_v_{0};  // across the ray direction
+  glm::dvec2 lo_{0};
+  double cell_size_ = 1;
+  std::size_t cells_x_ = 0, cells_y_ = 0;
+  std::vector<std::uint32_t> begin_, triangle_;  // triangles per cell (CSR)
+};
+
 /// Float grid: the .glb and .gltf store positions as float32 offsets from an origin kept in
 /// double precision, so a mesh free of self-intersections in double precision may intersect
 /// itself once exported (measured: agraf and boutdenoylum2, particle seed 3, 0 -> 3 pairs

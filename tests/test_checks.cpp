@@ -170,7 +170,7 @@ TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
 }
 
 TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
-  // Two overlapping jittered spheres (winding number 2 where they overlap) and a box: random
+  // inside_closed_mesh and ClosedMeshInside. Two overlapping jittered spheres (winding number 2 where they overlap) and a box: random
   // points, the mesh's own vertices, edge midpoints and face centres (on the surface: the
   // ray test falls back to the winding number there) and points along the ray's axes.
   std::mt19937 rng(11);
@@ -190,9 +190,11 @@ TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
     }
     for (const double x : {0.0, 0.25, 0.5, 1.0}) points.emplace_back(x, x, x);
     std::size_t inside = 0;
+    const ClosedMeshInside binned(m);  // the same test with the triangles binned by shadow
     for (const glm::dvec3& p : points) {
       const bool expected = winding_number(m, p) >= 0.5;
       EXPECT_EQ(inside_closed_mesh(m, p), expected) << p.x << " " << p.y << " " << p.z;
+      EXPECT_EQ(binned(p), expected) << p.x << " " << p.y << " " << p.z;
       inside += expected;
     }
     EXPECT_GT(inside, 20u);
