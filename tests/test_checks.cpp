@@ -169,6 +169,27 @@ TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
   }
 }
 
+TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
+  // From 40,000 triangles the soup path searches slabs of space in parallel, each pair in the
+  // slab where its boxes' overlap starts: two jittered spheres through each other (40,960
+  // triangles; pairs along their intersection and where the jitter folds neighbours).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.012, 0.012);
+  Mesh a = test::icosphere(5);
+  for (auto& p : a.positions) p += glm::dvec3(jitter(rng), jitter(rng), jitter(rng));
+  const Mesh m = test::merged(a, test::icosphere(5, 0.9, glm::dvec3(0.5, 0.2, 0.1)));
+  ASSERT_GE(m.triangles.size(), 40000u);
+  Mesh soup = m;
+  std::swap(soup.triangles[7][1], soup.triangles[7][2]);
+  const MeshCheckReport rm = check_mesh(m, {.max_examples = 1'000'000});
+  const MeshCheckReport rs = check_mesh(soup, {.max_examples = 1'000'000});
+  ASSERT_TRUE(rm.oriented);
+  ASSERT_FALSE(rs.oriented);
+  EXPECT_GT(rm.self_intersecting_pairs, 500u);
+  EXPECT_EQ(rs.self_intersecting_pairs, rm.self_intersecting_pairs);
+  EXPECT_EQ(rs.self_intersection_examples, rm.self_intersection_examples);
+}
+
 TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
   // inside_closed_mesh and ClosedMeshInside. Two overlapping jittered spheres (winding number 2 where they overlap) and a box: random
   // points, the mesh's own vertices, edge midpoints and face centres (on the surface: the
