@@ -7,6 +7,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "core/math.h"
 
@@ -16,16 +17,28 @@ VertexCorners vertex_corners(const Mesh& mesh) {
   const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   VertexCorners out;
   out.begin.assign(nv + 1, 0);
-  for (const auto& t : mesh.triangles) {
-    for (const std::uint32_t v : t) ++out.begin[v + 1];
-  }
+  // A counting sort. The scattered writes are the cost, so large meshes split the vertices
+  // into ranges, one task each: every task reads all triangles and writes only its vertices'
+  // entries (corners in triangle order either way: the same table for any split).
+  constexpr std::size_t kPerRange = 1 << 18;
+  const std::size_t ranges =
+      std::clamp<std::size_t>(std::min<std::size_t>(nv / kPerRange, tbb::this_task_arena::max_concurrency()), 1, 8);
+  auto in_range = [&](std::size_t r, auto&& visit) {
+    const std::uint32_t lo = static_cast<std::uint32_t>(r * nv / ranges), hi = static_cast<std::uint32_t>((r + 1) * nv / ranges);
+    for (std::size_t f = 0; f < nf; ++f) {
+      for (std::uint32_t k = 0; k < 3; ++k) {
+        const std::uint32_t v = mesh.triangles[f][k];
+        if (v >= lo && v < hi) visit(v, static_cast<std::uint32_t>(3 * f + k));
+      }
+    }
+  };
+  tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) { in_range(r, [&](std::uint32_t v, std::uint32_t) { ++out.begin[v + 1]; }); });
   for (std::size_t v = 0; v < nv; ++v) out.begin[v + 1] += out.begin[v];
   out.corner.resize(out.begin[nv]);
   std::vector<std::uint32_t> fill(out.begin.begin(), out.begin.end() - 1);
-  for (std::size_t f = 0; f < nf; ++f) {
-    for (std::uint32_t k = 0; k < 3; ++k)
-      out.corner[fill[mesh.triangles[f][k]]++] = static_cast<std::uint32_t>(3 * f + k);
-  }
+  tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) {
+    in_range(r, [&](std::uint32_t v, std::uint32_t corner) { out.corner[fill[v]++] = corner; });
+  });
   return out;
 }
 
