@@ -35,6 +35,7 @@
 #include <utility>
 
 #include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "core/math.h"
@@ -155,17 +156,13 @@ class FoldRepair {
   // vertex whose triangles a flip changed (a few thousand at most; far cheaper than a list
   // per vertex).
   void build_around() {
-    const std::size_t nv = mesh_.positions.size();
-    around_begin_.assign(nv + 1, 0);
-    for (const auto& t : mesh_.triangles) {
-      for (const std::uint32_t v : t) ++around_begin_[v + 1];
-    }
-    for (std::size_t v = 0; v < nv; ++v) around_begin_[v + 1] += around_begin_[v];
-    around_flat_.resize(around_begin_[nv]);
-    std::vector<std::uint32_t> next(around_begin_.begin(), around_begin_.end() - 1);
-    for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
-      for (const std::uint32_t v : mesh_.triangles[f]) around_flat_[next[v]++] = f;
-    }
+    VertexCorners corners = vertex_corners(mesh_);
+    around_begin_.assign(corners.begin.begin(), corners.begin.end());
+    around_flat_ = std::move(corners.corner);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, around_flat_.size(), 1 << 16),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) around_flat_[i] /= 3;  // corner -> triangle
+                      });
   }
 
   [[nodiscard]] std::span<const std::uint32_t> around(std::uint32_t v) const {
