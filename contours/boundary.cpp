@@ -125,8 +125,8 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
     return inside(loop[0], 0);
   }
   // Every edge line passes at least `inner` from c (c is inside each, the loop being
-  // star-shaped around it), so a point nearer to c than that is inside every sector's
-  // triangle, by more than the rounding of the test (the margin is far below `tol`).
+  // star-shaped around it), so a point nearer to c than inner - tol lies inside every edge's
+  // line by more than tol: the test below would pass it whatever its sector.
   double inner = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < m; ++k) {
     const double len = edge_length[k];
