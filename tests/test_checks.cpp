@@ -139,6 +139,20 @@ TEST(Checks, InterpenetratingBoxesSelfIntersect) {
   EXPECT_EQ(skipped.self_intersecting_pairs, 0u);
 }
 
+// CGAL's own test (the polygon-mesh path) and ours (the soup path, taken once triangle
+// `reversed` is turned over) find the same pairs, at least `min_pairs` of them.
+void expect_soup_path_agrees(const Mesh& m, std::size_t reversed, std::size_t min_pairs) {
+  Mesh soup = m;
+  std::swap(soup.triangles[reversed][1], soup.triangles[reversed][2]);
+  const MeshCheckReport rm = check_mesh(m, {.max_examples = 1'000'000});
+  const MeshCheckReport rs = check_mesh(soup, {.max_examples = 1'000'000});
+  ASSERT_TRUE(rm.oriented);
+  ASSERT_FALSE(rs.oriented);
+  EXPECT_GT(rm.self_intersecting_pairs, min_pairs);
+  EXPECT_EQ(rs.self_intersecting_pairs, rm.self_intersecting_pairs);
+  EXPECT_EQ(rs.self_intersection_examples, rm.self_intersection_examples);
+}
+
 TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
   // CGAL's own test (the polygon-mesh path) and ours (the soup path, taken once a triangle is
   // reversed; its floating-point shortcut included) must find the same pairs: on a sphere
@@ -156,17 +170,7 @@ TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
       for (int u = ulps(rng); u != 0; u += u > 0 ? -1 : 1) p[k] = std::nextafter(p[k], u > 0 ? 10.0 : -10.0);
     }
   }
-  for (const Mesh& m : {folded, test::merged(folded, copy)}) {
-    Mesh soup = m;
-    std::swap(soup.triangles[5][1], soup.triangles[5][2]);
-    const MeshCheckReport rm = check_mesh(m, {.max_examples = 1'000'000});
-    const MeshCheckReport rs = check_mesh(soup, {.max_examples = 1'000'000});
-    ASSERT_TRUE(rm.oriented);
-    ASSERT_FALSE(rs.oriented);
-    EXPECT_GT(rm.self_intersecting_pairs, 100u);
-    EXPECT_EQ(rs.self_intersecting_pairs, rm.self_intersecting_pairs);
-    EXPECT_EQ(rs.self_intersection_examples, rm.self_intersection_examples);
-  }
+  for (const Mesh& m : {folded, test::merged(folded, copy)}) expect_soup_path_agrees(m, 5, 100);
 }
 
 TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
@@ -179,21 +183,14 @@ TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
   for (auto& p : a.positions) p += glm::dvec3(jitter(rng), jitter(rng), jitter(rng));
   const Mesh m = test::merged(a, test::icosphere(5, 0.9, glm::dvec3(0.5, 0.2, 0.1)));
   ASSERT_GE(m.triangles.size(), 40000u);
-  Mesh soup = m;
-  std::swap(soup.triangles[7][1], soup.triangles[7][2]);
-  const MeshCheckReport rm = check_mesh(m, {.max_examples = 1'000'000});
-  const MeshCheckReport rs = check_mesh(soup, {.max_examples = 1'000'000});
-  ASSERT_TRUE(rm.oriented);
-  ASSERT_FALSE(rs.oriented);
-  EXPECT_GT(rm.self_intersecting_pairs, 500u);
-  EXPECT_EQ(rs.self_intersecting_pairs, rm.self_intersecting_pairs);
-  EXPECT_EQ(rs.self_intersection_examples, rm.self_intersection_examples);
+  expect_soup_path_agrees(m, 7, 500);
 }
 
 TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
-  // inside_closed_mesh and ClosedMeshInside. Two overlapping jittered spheres (winding number 2 where they overlap) and a box: random
-  // points, the mesh's own vertices, edge midpoints and face centres (on the surface: the
-  // ray test falls back to the winding number there) and points along the ray's axes.
+  // inside_closed_mesh and ClosedMeshInside. Two overlapping jittered spheres (winding
+  // number 2 where they overlap) and a box: random points, the mesh's own vertices, edge
+  // midpoints and face centres (on the surface: the ray test falls back to the winding number
+  // there) and points along the ray's axes.
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> jitter(-0.02, 0.02), coord(-1.6, 2.2);
   Mesh a = test::icosphere(3);
