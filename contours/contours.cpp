@@ -539,7 +539,7 @@ class Walker {
   NodeId last_fork_;
   double last_fork_base_ = 0, last_u_ = 0, last_gap_ = 0;
   std::optional<double> last_clearance_;
-  ContourSet* out_ = nullptr;  // the walk's Fragment::part
+  ContourSet* out_ = nullptr;     // the walk's Fragment::part
   std::vector<NodeId> excluded_;  // of the task
   double anchor_distance_ = 0;    // of the task's anchor, from the root
   // Scratch buffers, the thread's (a walk runs on one thread from start to end, and most
@@ -558,7 +558,9 @@ class Walker {
   std::vector<std::pair<NodeId, double>>& stack_ = scratch_.stack;
   SlicePoints &pts_ = scratch_.pts, &pts_a_ = scratch_.pts_a, &pts_b_ = scratch_.pts_b, &pts_l_ = scratch_.pts_l,
               &pts_rest_ = scratch_.pts_rest;
-  std::vector<CutEdge> &cut_a_ = scratch_.cut_a, &cut_b_ = scratch_.cut_b, &cut_n_ = scratch_.cut_n;
+  std::vector<CutEdge>& cut_a_ = scratch_.cut_a;
+  std::vector<CutEdge>& cut_b_ = scratch_.cut_b;
+  std::vector<CutEdge>& cut_n_ = scratch_.cut_n;
   std::vector<dvec2>& flat_ = scratch_.flat;
 };
 

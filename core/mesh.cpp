@@ -24,7 +24,8 @@ VertexCorners vertex_corners(const Mesh& mesh) {
   const std::size_t ranges =
       std::clamp<std::size_t>(std::min<std::size_t>(nv / kPerRange, tbb::this_task_arena::max_concurrency()), 1, 8);
   auto in_range = [&](std::size_t r, auto&& visit) {
-    const std::uint32_t lo = static_cast<std::uint32_t>(r * nv / ranges), hi = static_cast<std::uint32_t>((r + 1) * nv / ranges);
+    const std::uint32_t lo = static_cast<std::uint32_t>(r * nv / ranges),
+                        hi = static_cast<std::uint32_t>((r + 1) * nv / ranges);
     for (std::size_t f = 0; f < nf; ++f) {
       for (std::uint32_t k = 0; k < 3; ++k) {
         const std::uint32_t v = mesh.triangles[f][k];
@@ -32,7 +33,8 @@ VertexCorners vertex_corners(const Mesh& mesh) {
       }
     }
   };
-  tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) { in_range(r, [&](std::uint32_t v, std::uint32_t) { ++out.begin[v + 1]; }); });
+  tbb::parallel_for(std::size_t{0}, ranges,
+                    [&](std::size_t r) { in_range(r, [&](std::uint32_t v, std::uint32_t) { ++out.begin[v + 1]; }); });
   for (std::size_t v = 0; v < nv; ++v) out.begin[v + 1] += out.begin[v];
   out.corner.resize(out.begin[nv]);
   std::vector<std::uint32_t> fill(out.begin.begin(), out.begin.end() - 1);
@@ -65,7 +67,9 @@ const glm::dvec3 kRayDirection = glm::normalize(glm::dvec3(0.5773502691896258, 0
 
 }  // namespace
 
-std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) { return angle_weighted_normals(mesh, vertex_corners(mesh)); }
+std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
+  return angle_weighted_normals(mesh, vertex_corners(mesh));
+}
 
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCorners& vc) {
   // Each vertex sums the contributions of its corners in triangle order, so the vertices are
@@ -217,7 +221,9 @@ ClosedMeshInside::ClosedMeshInside(const Mesh& mesh) : mesh_(mesh) {
     range(box[f], [&](std::size_t c) { triangle_[fill[c]++] = static_cast<std::uint32_t>(f); });
 }
 
-glm::dvec2 ClosedMeshInside::shadow(const glm::dvec3& p) const { return {glm::dot(p, axis_u_), glm::dot(p, axis_v_)}; }
+glm::dvec2 ClosedMeshInside::shadow(const glm::dvec3& p) const {
+  return {glm::dot(p, axis_u_), glm::dot(p, axis_v_)};
+}
 
 std::size_t ClosedMeshInside::cell(double x, double y) const {
   const auto clamp_to = [&](double t, std::size_t n) {
