@@ -579,6 +579,20 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   }
   const dvec3 sep = glm::max(glm::max(lo_a - hi_b, lo_b - hi_a), dvec3(0));
   if (glm::length(sep) >= cap) return std::numeric_limits<double>::infinity();
+  double best2 = cap * cap;
+  const double enough2 = enough * enough;
+  // Small sets pair by pair: up to 16,384 pairs the grid's sorts and 27 merges cost more
+  // (pairwise up to 1,024 / 4,096 / 16,384 / 65,536 pairs: BM_Contours 785 / 763 / 753 / 762 ms
+  // on 1 thread, 812 with the grid alone). The same distance, or where the grid would stop at
+  // another one at most `enough`, this one: callers compare with more than `enough`.
+  constexpr std::size_t kPairwise = 16384;
+  if (a.size() * b.size() <= kPairwise) {
+    for (const dvec3& p : a) {
+      for (const dvec3& q : b) best2 = std::min(best2, glm::dot(p - q, p - q));
+      if (best2 <= enough2) break;
+    }
+    return best2 < cap * cap ? std::sqrt(best2) : std::numeric_limits<double>::infinity();
+  }
   const double inv = 1.0 / cap;
   auto cell = [&](const dvec3& p) { return glm::i64vec3(glm::floor((p - lo_b) * inv)); };
   auto key = [](glm::i64vec3 c) {
@@ -605,8 +619,6 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   };
   const auto& cb = sorted_cells(b, lo_a, hi_a, cells_b);
   const auto& ca = sorted_cells(a, lo_b, hi_b, cells_a);
-  double best2 = cap * cap;
-  const double enough2 = enough * enough;
   for (int dx = -1; dx <= 1 && best2 > enough2; ++dx)
     for (int dy = -1; dy <= 1 && best2 > enough2; ++dy)
       for (int dz = -1; dz <= 1 && best2 > enough2; ++dz) {
