@@ -119,18 +119,19 @@ void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>&
     const double a = d.x >= 0 ? (d.y >= 0 ? r : 4 + r) : 2 - r;
     return std::min(sectors - 1, static_cast<std::size_t>(a * 0.25 * double(sectors)));
   };
-  std::vector<double> smax(sectors, 0.0);
+  std::vector<double> smax(sectors, 0.0), dist(n);
   std::vector<std::size_t> sec(n);
   for (std::uint32_t i = 0; i < n; ++i) {
     sec[i] = sector(i);
-    smax[sec[i]] = std::max(smax[sec[i]], glm::length(pts[i] - c));
+    dist[i] = glm::length(pts[i] - c);
+    smax[sec[i]] = std::max(smax[sec[i]], dist[i]);
   }
   // The cloud's own particle spacing (trunk clouds hold every strand of the tree, far denser
   // than the tips' spacing): its disc's area shared among its particles.
   const double extent = *std::max_element(smax.begin(), smax.end());
   const double band = kOuterBand * extent * std::sqrt(std::numbers::pi / double(n));
   for (std::uint32_t i = 0; i < n; ++i) {
-    if (glm::length(pts[i] - c) >= std::max(0.6 * smax[sec[i]], smax[sec[i]] - band)) out.push_back(i);
+    if (dist[i] >= std::max(0.6 * smax[sec[i]], smax[sec[i]] - band)) out.push_back(i);
   }
 }
 
