@@ -157,7 +157,7 @@ class FoldRepair {
   // per vertex).
   void build_around() {
     VertexCorners corners = vertex_corners(mesh_);
-    around_begin_.assign(corners.begin.begin(), corners.begin.end());
+    around_begin_ = std::move(corners.begin);
     around_flat_ = std::move(corners.corner);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, around_flat_.size(), 1 << 16),
                       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -860,7 +860,7 @@ class FoldRepair {
   std::vector<std::uint32_t> moved_;            // the triangles around the vertices moved in this round
   std::vector<std::uint32_t> flipped_;          // the triangles flipped in this round (two per flip)
   TriangleIntersections test_;
-  std::vector<std::size_t> around_begin_;  // #V + 1 offsets into around_flat_
+  std::vector<std::uint32_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;
   std::map<std::uint32_t, std::vector<std::uint32_t>> changed_;  // vertices whose triangles a flip changed
   std::unordered_set<std::uint64_t> refused_;                    // patches (with surroundings) a refill was refused for
