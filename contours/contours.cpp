@@ -98,9 +98,9 @@ struct SliceGeometry {
 
 /// Indices of the points that can lie on the boundary of `pts`: those within 40% of the
 /// farthest point of their angular sector around the centroid and at most kOuterBand particle
-/// spacings inside it (all of them for small sets). A particle deep inside its cloud at both ends of an edge
-/// stays inside every section of the edge (the sections interpolate the two clouds
-/// linearly), so only these are sliced.
+/// spacings inside it (all of them for small sets). A particle deep inside its cloud at both
+/// ends of an edge stays inside every section of the edge (the sections interpolate the two
+/// clouds linearly), so only these are sliced.
 void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>& out) {
   out.clear();
   if (n <= 32) {
@@ -546,10 +546,12 @@ class Walker {
   // Scratch buffers, the thread's (a walk runs on one thread from start to end, and most
   // tubes are a few slices long: buffers of their own were allocated anew for each).
   struct Scratch {
-    std::vector<std::pair<NodeId, double>> stack;
+    std::vector<std::pair<NodeId, double>> stack, cone_stack;
     SlicePoints pts, pts_a, pts_b, pts_l, pts_rest;
     std::vector<CutEdge> cut_a, cut_b, cut_n;
-    std::vector<dvec2> flat;
+    std::vector<dvec2> flat, moved;
+    std::vector<dvec3> lift;
+    std::vector<std::uint32_t> loop;
   };
   static Scratch& thread_scratch() {
     thread_local Scratch scratch;
@@ -651,7 +653,7 @@ std::uint32_t Walker::add_loop(const SlicePoints& pts, const SliceGeometry& g, L
   flat_.resize(pts.point.size());
   for (std::size_t i = 0; i < pts.point.size(); ++i) flat_[i] = g.frame.to_local(pts.point[i] - g.center);
   bool fallback = false;
-  thread_local std::vector<std::uint32_t> loop;  // (the walks' scratch memory is per thread: a tube is short)
+  std::vector<std::uint32_t>& loop = scratch_.loop;
   boundary_loop(flat_, p_.concave_turn_degrees, loop, &fallback, p_.fallback_max_edge);
   if (fallback) {
     ++out_->stats.boundary_fallbacks;
@@ -697,8 +699,8 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
     const double l = glm::length(e);
     return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);  // outward normal of a CCW loop's edge
   };
-  thread_local std::vector<dvec2> moved;
-  thread_local std::vector<dvec3> lift;  // each point's component off the slice plane, kept as is
+  std::vector<dvec2>& moved = scratch_.moved;
+  std::vector<dvec3>& lift = scratch_.lift;  // each point's component off the slice plane, kept as is
   moved.resize(m);
   lift.resize(m);
   for (std::size_t k = 0; k < m; ++k) {
@@ -787,7 +789,7 @@ bool Walker::surfaces_clear() {
 
 double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, double reach, double enough) const {
   // Edges of x's subtree starting within `reach` above the anchor (x's edge starts at base).
-  thread_local std::vector<std::pair<NodeId, double>> stack;
+  std::vector<std::pair<NodeId, double>>& stack = scratch_.cone_stack;
   stack.assign(1, {x, base});
   double best = std::numeric_limits<double>::infinity();
   while (!stack.empty()) {
