@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <unistd.h>
 
+#include "core/log.h"
+
 namespace sm::cli {
 
 namespace {
@@ -58,6 +60,14 @@ void ProgressBar::finish() {
     std::fprintf(stderr, "\r%*s\r", 60, "");
     std::fflush(stderr);
     drawn_ = false;
+  }
+}
+
+void verbose_phases(const Timings& phases) {
+  char line[128];
+  for (const auto& e : phases.entries) {
+    std::snprintf(line, sizeof line, "    %-12s %8.3f s", e.name.c_str(), e.seconds);
+    log::verbose(line);
   }
 }
 

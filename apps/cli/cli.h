@@ -10,6 +10,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/report.h"
+
 namespace sm::cli {
 
 enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3 };
@@ -34,6 +36,10 @@ Action parsed_action();
 /// A subcommand that exists in the interface but not yet in the code: it fails with
 /// "not yet available" and exit code 2.
 void add_unavailable_command(CLI::App& app, const std::string& name, const std::string& description);
+
+/// With --verbose: a stage's phases (its Timings), one indented line each, as `mesh` and
+/// `bench` print them under the stage's own line.
+void verbose_phases(const Timings& phases);
 
 /// A progress bar on stderr (only when stderr is a terminal or --verbose, and not --quiet).
 class ProgressBar {

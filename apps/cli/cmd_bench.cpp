@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <string_view>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -88,6 +89,9 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
                   quality.c_str(), t.total(), threads);
       for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) {
         std::printf("  %-10s %8.3f s\n", s, t.get(s));
+        std::fflush(stdout);  // (the phases below go to stderr)
+        if (std::string_view(s) == "contours") verbose_phases(best.contours.stats.timings);
+        if (std::string_view(s) == "meshing") verbose_phases(best.mesh.stats.timings);
       }
       std::printf("  relaxation %10.0f particles/s (paper: ~170,000)\n", particles / std::max(t.get("particles"), 1e-9));
       std::printf("  meshing    %10.0f particles/s (paper: ~200,000), %.0f triangles/s (strands + contours + meshing)\n",

@@ -107,11 +107,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       for (const auto& [stage, phases] : stages) {
         std::snprintf(line, sizeof line, "  %-10s %8.3f s", stage, r.timings.get(stage));
         log::verbose(line);
-        for (std::size_t k = 0; phases != nullptr && k < phases->entries.size(); ++k) {
-          const auto& e = phases->entries[k];
-          std::snprintf(line, sizeof line, "    %-12s %8.3f s", e.name.c_str(), e.seconds);
-          log::verbose(line);
-        }
+        if (phases != nullptr) verbose_phases(*phases);
       }
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
