@@ -1134,25 +1134,26 @@ ContourSet assemble(Fragment& root) {
     std::uint32_t start_junction;
     std::size_t side;  // which upper loop of start_junction the tube's first loop is
   };
+  // The fragments in depth-first order (main child first) with where their loops and
+  // vertices go; tubes, junctions and figures as they come. The loops and vertices are then
+  // copied to their places in parallel (on the large grown tree 1.7 M vertices and 136 k
+  // loops: one thread copying them took a twentieth of the stage).
+  struct Placed {
+    const ContourSet* part;
+    std::uint32_t loop_offset, vertex_offset;
+  };
+  std::vector<Placed> placed;
+  std::uint32_t loops = 0, vertices = 0;
   std::vector<Item> stack{{&root, 0, kNone, 0}};
   while (!stack.empty()) {
     const Item item = stack.back();
     stack.pop_back();
     Fragment& fr = *item.fragment;
     const ContourSet& part = fr.part;
-    const auto loop_offset = static_cast<std::uint32_t>(out.loop_count());
-    const std::uint32_t vertex_offset = out.loop_begin.back();
-    out.point.insert(out.point.end(), part.point.begin(), part.point.end());
-    out.strand.insert(out.strand.end(), part.strand.begin(), part.strand.end());
-    for (std::size_t l = 1; l < part.loop_begin.size(); ++l)
-      out.loop_begin.push_back(vertex_offset + part.loop_begin[l]);
-    out.loop_node.insert(out.loop_node.end(), part.loop_node.begin(), part.loop_node.end());
-    out.loop_t.insert(out.loop_t.end(), part.loop_t.begin(), part.loop_t.end());
-    out.loop_distance.insert(out.loop_distance.end(), part.loop_distance.begin(), part.loop_distance.end());
-    out.loop_center.insert(out.loop_center.end(), part.loop_center.begin(), part.loop_center.end());
-    out.loop_frame.insert(out.loop_frame.end(), part.loop_frame.begin(), part.loop_frame.end());
-    out.loop_radius.insert(out.loop_radius.end(), part.loop_radius.begin(), part.loop_radius.end());
-    out.loop_kind.insert(out.loop_kind.end(), part.loop_kind.begin(), part.loop_kind.end());
+    const std::uint32_t loop_offset = loops;
+    placed.push_back({&part, loops, vertices});
+    loops += static_cast<std::uint32_t>(part.loop_count());
+    vertices += static_cast<std::uint32_t>(part.point.size());
     {
       Tube& t = out.tubes[item.tube];
       t.branch = part.tubes[0].branch;
@@ -1180,6 +1181,34 @@ ContourSet assemble(Fragment& root) {
     stack.push_back({fr.child[1], first_child + 1, junction, 1});
     stack.push_back({fr.child[0], first_child, junction, 0});
   }
+  out.point.resize(vertices);
+  out.strand.resize(vertices);
+  out.loop_begin.resize(std::size_t(loops) + 1);
+  out.loop_begin[loops] = vertices;
+  out.loop_node.resize(loops);
+  out.loop_t.resize(loops);
+  out.loop_distance.resize(loops);
+  out.loop_center.resize(loops);
+  out.loop_frame.resize(loops);
+  out.loop_radius.resize(loops);
+  out.loop_kind.resize(loops);
+  auto copy = [](const auto& from, auto& to, std::size_t at) {
+    std::copy(from.begin(), from.end(), to.begin() + std::ptrdiff_t(at));
+  };
+  tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
+    const ContourSet& part = *placed[k].part;
+    const std::uint32_t lo = placed[k].loop_offset, vo = placed[k].vertex_offset;
+    copy(part.point, out.point, vo);
+    copy(part.strand, out.strand, vo);
+    for (std::size_t l = 0; l + 1 < part.loop_begin.size(); ++l) out.loop_begin[lo + l] = vo + part.loop_begin[l];
+    copy(part.loop_node, out.loop_node, lo);
+    copy(part.loop_t, out.loop_t, lo);
+    copy(part.loop_distance, out.loop_distance, lo);
+    copy(part.loop_center, out.loop_center, lo);
+    copy(part.loop_frame, out.loop_frame, lo);
+    copy(part.loop_radius, out.loop_radius, lo);
+    copy(part.loop_kind, out.loop_kind, lo);
+  });
   out.stats.loops = out.loop_count();
   out.stats.loop_vertices = out.point.size();
   return out;
