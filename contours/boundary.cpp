@@ -141,20 +141,15 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
   return true;
 }
 
-/// True when exactly one edge of the loop (of at least 4) is longer than both `relative` x its
-/// median edge and kLongBridge x `extent`: clusters a gap apart need two or more such bridges
-/// (one on each side of every gap), so a single one spans a concavity of one connected shape.
-/// No allocation unless some edge is longer than kLongBridge x extent (the common case).
-bool single_bridge(const std::vector<dvec2>& p, const std::vector<std::uint32_t>& loop, double relative,
-                   double extent) {
-  const std::size_t m = loop.size();
+/// True when exactly one edge of the loop (of at least 4; `len` its edge lengths, as
+/// star_loop_valid left them) is longer than both `relative` x its median edge and
+/// kLongBridge x `extent`: clusters a gap apart need two or more such bridges (one on each
+/// side of every gap), so a single one spans a concavity of one connected shape. No
+/// allocation unless some edge is longer than kLongBridge x extent (the common case).
+bool single_bridge(const std::vector<double>& len, double relative, double extent) {
+  const std::size_t m = len.size();
   if (m < 4) return false;
-  auto edge = [&](std::size_t k) { return glm::length(p[loop[(k + 1) % m]] - p[loop[k]]); };
-  bool any = false;
-  for (std::size_t k = 0; k < m && !any; ++k) any = edge(k) > kLongBridge * extent;
-  if (!any) return false;
-  std::vector<double> len(m);
-  for (std::size_t k = 0; k < m; ++k) len[k] = edge(k);
+  if (std::none_of(len.begin(), len.end(), [&](double l) { return l > kLongBridge * extent; })) return false;
   std::vector<double> sorted = len;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(m / 2), sorted.end());
   const double long_edge = std::max(relative * sorted[m / 2], kLongBridge * extent);
@@ -305,14 +300,15 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
     if (loop.size() < 3 || !star_loop_valid(p, key, dist, c, loop, valid_tol, filter ? nullptr : &order, scratch))
       continue;
     // The walk gives a star-shaped loop around every point. Where it bridges one gap much
-    // wider than the spacing of its vertices and half as wide as the slice, the points may not be star-shaped around the centroid
-    // (a "C"). When they are one connected shape at the spacing of the points (the concave
-    // outline needs no long edge) and that outline turns back around the centroid by more
-    // than kHiddenTurn, the outline is the true outer loop. Kept with the walk: separate
-    // clusters (bundles a gap apart, which branch fusion wants bridged) and the notches of a
-    // concave union (carving them into the loop was measured to add self-intersections at
-    // forks: boutdenoylum2 879 -> 1262 pairs, small_pine 4695 -> 5864).
-    if (fallback_max_edge > 0 && max_concave > 0 && single_bridge(p, loop, fallback_max_edge, extent)) {
+    // wider than the spacing of its vertices and half as wide as the slice, the points may
+    // not be star-shaped around the centroid (a "C"). When they are one connected shape at the
+    // spacing of the points (the concave outline needs no long edge) and that outline turns
+    // back around the centroid by more than kHiddenTurn, the outline is the true outer loop.
+    // Kept with the walk: separate clusters (bundles a gap apart, which branch fusion wants
+    // bridged) and the notches of a concave union (carving them into the loop was measured to
+    // add self-intersections at forks: boutdenoylum2 879 -> 1262 pairs, small_pine 4695 ->
+    // 5864). star_loop_valid left the loop's edge lengths in scratch.edge_length.
+    if (fallback_max_edge > 0 && max_concave > 0 && single_bridge(scratch.edge_length, fallback_max_edge, extent)) {
       bool connected = false;
       std::vector<std::uint32_t> outline = concave_hull(p, fallback_max_edge, &connected);
       if (outline.size() >= 3 && connected && backward_turn(p, c, outline) > kHiddenTurn) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <ranges>
+#include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -157,14 +159,26 @@ int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
   return det < 0 ? 1 : -1;
 }
 
-bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
+namespace {
+
+/// inside_closed_mesh over the triangles `ids` (those the ray from p can cross).
+template <class Ids>
+bool inside_by_crossings(const Mesh& mesh, const Ids& ids, const glm::dvec3& p) {
   int crossings = 0;
-  for (const auto& t : mesh.triangles) {
+  for (const std::uint32_t f : ids) {
+    const auto& t = mesh.triangles[f];
     const int c = ray_crossing(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], p);
     if (c == kRayAmbiguous) return winding_number(mesh, p) >= 0.5;  // on the surface, or through an edge
     crossings += c;
   }
   return crossings >= 1;
+}
+
+}  // namespace
+
+bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
+  return inside_by_crossings(mesh,
+                             std::views::iota(std::uint32_t{0}, static_cast<std::uint32_t>(mesh.triangles.size())), p);
 }
 
 ClosedMeshInside::ClosedMeshInside(const Mesh& mesh) : mesh_(mesh) {
@@ -236,16 +250,9 @@ bool ClosedMeshInside::operator()(const glm::dvec3& p) const {
   if (begin_.empty()) return false;
   const glm::dvec2 q = shadow(p);
   const std::size_t c = cell(q.x, q.y);
-  int crossings = 0;
   // Triangles whose shadow misses p's cannot meet its ray (but may, lying along it, make the
   // brute-force test fall back to the winding number: both give the winding number's answer).
-  for (std::uint32_t k = begin_[c]; k < begin_[c + 1]; ++k) {
-    const auto& t = mesh_.triangles[triangle_[k]];
-    const int x = ray_crossing(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], p);
-    if (x == kRayAmbiguous) return winding_number(mesh_, p) >= 0.5;
-    crossings += x;
-  }
-  return crossings >= 1;
+  return inside_by_crossings(mesh_, std::span(triangle_.data() + begin_[c], begin_[c + 1] - begin_[c]), p);
 }
 
 double float_grid(double reach) {

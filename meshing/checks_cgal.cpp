@@ -129,7 +129,7 @@ class SoupIntersector {
       for (int d = 1; d < 3; ++d) {
         if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
       }
-      // Equal shares of the boxes' lower ends.
+      // Equal shares of the boxes' lower ends (order statistics at increasing ranks: ascending).
       std::vector<double> mins(boxes.size());
       for (std::size_t k = 0; k < boxes.size(); ++k) mins[k] = boxes[k].min_coord(axis);
       for (std::size_t s = 1; s < slabs; ++s) {
@@ -137,7 +137,6 @@ class SoupIntersector {
         std::nth_element(mins.begin(), at, mins.end());
         cut.push_back(*at);
       }
-      std::sort(cut.begin(), cut.end());
     }
     std::vector<std::vector<Pair>> found(slabs);
     tbb::parallel_for(std::size_t{0}, slabs, [&](std::size_t s) {

@@ -232,8 +232,8 @@ struct Watched {
   // Per group: the watched nodes outside the closed mesh (winding number below 1/2, each
   // node's in triangle order, so the same for any thread count).
   [[nodiscard]] std::vector<std::size_t> outside(const Skeleton& s, const Mesh& mesh, std::size_t groups) const {
-    std::vector<std::uint8_t> out(node.size(), 0);
     if (node.empty()) return std::vector<std::size_t>(groups, 0);
+    std::vector<std::uint8_t> out(node.size(), 0);
     const ClosedMeshInside inside(mesh);
     tbb::parallel_for(std::size_t{0}, node.size(), [&](std::size_t k) { out[k] = !inside(s.position[node[k].idx()]); });
     std::vector<std::size_t> count(groups, 0);

@@ -16,7 +16,7 @@
 ///    forks among it and its ancestors within kReach of their radii; forks sharing a problem
 ///    form a group;
 ///  - the thick nodes near a group are tested in every run (winding numbers, counted as the
-///    signed crossings of a ray: core/mesh.h inside_closed_mesh).
+///    signed crossings of a ray with the triangles it can meet: core/mesh.h ClosedMeshInside).
 /// A variant may leave neither more pairs nor more nodes outside at a group than the first run
 /// did, nor lengthen the longest triangle edge near the group's forks (relative to their
 /// radii) by more than half (a web spanning the crotch; see kWebGrowth in fork_retry.cpp);

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <string_view>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -87,11 +86,11 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
       std::printf("%s: %zu nodes, %zu strands, %.0f particles => %.0f triangles (%s) in %.2f s on %u threads\n",
                   name.c_str(), best.skeleton.skeleton.size(), best.particles.strand_count(), particles, tris,
                   quality.c_str(), t.total(), threads);
-      for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) {
-        std::printf("  %-10s %8.3f s\n", s, t.get(s));
-        std::fflush(stdout);  // (the phases below go to stderr)
-        if (std::string_view(s) == "contours") verbose_phases(best.contours.stats.timings);
-        if (std::string_view(s) == "meshing") verbose_phases(best.mesh.stats.timings);
+      // Per stage, and (with --verbose, on stderr) the phases of contours and meshing under them.
+      for (const auto& [stage, phases] : stage_phases(best)) {
+        std::printf("  %-10s %8.3f s\n", stage, t.get(stage));
+        std::fflush(stdout);
+        if (phases != nullptr) verbose_phases(*phases);
       }
       std::printf("  relaxation %10.0f particles/s (paper: ~170,000)\n", particles / std::max(t.get("particles"), 1e-9));
       std::printf("  meshing    %10.0f particles/s (paper: ~200,000), %.0f triangles/s (strands + contours + meshing)\n",

@@ -99,12 +99,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
-      const std::pair<const char*, const Timings*> stages[] = {{"skeleton", nullptr},
-                                                               {"particles", nullptr},
-                                                               {"strands", nullptr},
-                                                               {"contours", &r.contours.stats.timings},
-                                                               {"meshing", &r.mesh.stats.timings}};
-      for (const auto& [stage, phases] : stages) {
+      for (const auto& [stage, phases] : stage_phases(r)) {
         std::snprintf(line, sizeof line, "  %-10s %8.3f s", stage, r.timings.get(stage));
         log::verbose(line);
         if (phases != nullptr) verbose_phases(*phases);

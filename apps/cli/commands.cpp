@@ -2,6 +2,14 @@
 
 namespace sm::cli {
 
+std::array<std::pair<const char*, const Timings*>, 5> stage_phases(const PipelineResult& r) {
+  return {{{"skeleton", nullptr},
+           {"particles", nullptr},
+           {"strands", nullptr},
+           {"contours", &r.contours.stats.timings},
+           {"meshing", &r.mesh.stats.timings}}};
+}
+
 void register_commands(CLI::App& app, const GlobalOptions& global) {
   add_info_command(app, global);
   add_grow_command(app, global);
