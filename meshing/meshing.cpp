@@ -579,26 +579,37 @@ void Builder::snap_to_float_grid() {
 // the unused vertices are dropped, while vertex indices are still those of the contours.
 void Builder::repair_folds() {
   if (p_.fold_repair_rounds == 0) return;
+  // (Per loop, triangle and vertex in parallel: each writes only its own entries.)
   std::vector<std::uint8_t> near_fork(c_.point.size(), 0);
-  for (std::uint32_t l = 0; l < c_.loop_count(); ++l) {
-    if (c_.loop_kind[l] != LoopKind::fused && c_.loop_kind[l] != LoopKind::split) continue;
-    for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) near_fork[v] = 1;
-  }
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, c_.loop_count(), 4096),
+                    [&](const tbb::blocked_range<std::uint32_t>& r) {
+                      for (std::uint32_t l = r.begin(); l != r.end(); ++l) {
+                        if (c_.loop_kind[l] != LoopKind::fused && c_.loop_kind[l] != LoopKind::split) continue;
+                        for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) near_fork[v] = 1;
+                      }
+                    });
   std::vector<std::uint8_t> suspect(mesh_.triangles.size(), 0);
-  for (std::size_t f = 0; f < suspect.size(); ++f) {
-    if (kind_[f] == TriangleKind::fusion) {
-      suspect[f] = 1;
-    } else if (kind_[f] == TriangleKind::strip) {
-      for (const std::uint32_t v : mesh_.triangles[f]) {
-        if (v < near_fork.size() && near_fork[v]) suspect[f] = 1;
-      }
-    }
-  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, suspect.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        if (kind_[f] == TriangleKind::fusion) {
+                          suspect[f] = 1;
+                        } else if (kind_[f] == TriangleKind::strip) {
+                          for (const std::uint32_t v : mesh_.triangles[f]) {
+                            if (v < near_fork.size() && near_fork[v]) suspect[f] = 1;
+                          }
+                        }
+                      }
+                    });
   std::vector<double> max_move(mesh_.positions.size(), 0.0);
-  for (std::size_t v = 0; v < max_move.size(); ++v) {
-    const NodeId n = mesh_.vertex_node[v];
-    if (n.valid()) max_move[v] = std::max(0.0, p_.fold_repair_max_move) * s_.radius[n.idx()];
-  }
+  const double max_move_factor = std::max(0.0, p_.fold_repair_max_move);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, max_move.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                        const NodeId n = mesh_.vertex_node[v];
+                        if (n.valid()) max_move[v] = max_move_factor * s_.radius[n.idx()];
+                      }
+                    });
   FoldRepairOptions options;
   options.max_rounds = static_cast<int>(std::min(p_.fold_repair_rounds, 1000u));
   options.collapse = p_.fold_repair_collapses;
@@ -833,8 +844,8 @@ void Builder::compute_uvs() {
 
 void Builder::check_topology(const VertexCorners& corners) {
   // Every directed edge a->b must appear once, and its twin b->a once. Half-edges are grouped
-  // by their start vertex (the corners around each vertex), so this is linear apart from tiny
-  // per-vertex sorts.
+  // by their start vertex (the corners around each vertex, a handful each), so this is linear:
+  // each half-edge is compared with the others leaving a and with those leaving b.
   const std::size_t nv = mesh_.positions.size();
   const std::vector<std::uint32_t>& begin = corners.begin;
   std::vector<std::uint32_t> target(corners.corner.size());
@@ -846,20 +857,16 @@ void Builder::check_topology(const VertexCorners& corners) {
                       }
                     });
   const tbb::blocked_range<std::size_t> vertices(0, nv, 8192);
-  tbb::parallel_for(vertices, [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v)
-      std::sort(target.begin() + begin[v], target.begin() + begin[v + 1]);
-  });
   const std::size_t bad = tbb::parallel_reduce(
       vertices, std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
         for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
-            const std::uint32_t b = target[k];
-            const bool repeated = k + 1 < begin[a + 1] && target[k + 1] == b;
-            const auto first = target.begin() + begin[b], last = target.begin() + begin[b + 1];
-            const auto range = std::equal_range(first, last, static_cast<std::uint32_t>(a));
-            if (repeated || range.second - range.first != 1) ++count;
+          const auto from_a = target.begin() + begin[a], end_a = target.begin() + begin[a + 1];
+          for (auto k = from_a; k != end_a; ++k) {
+            const std::uint32_t b = *k;
+            const bool repeated = std::count(from_a, end_a, b) != 1;
+            const auto twins = std::count(target.begin() + begin[b], target.begin() + begin[b + 1], a);
+            if (repeated || twins != 1) ++count;
           }
         }
         return count;
