@@ -34,8 +34,6 @@ Warnings PipelineResult::warnings() const {
 void release_intermediates(PipelineResult& r) {
   // Swapped with empty vectors: clear() would keep the capacity.
   std::vector<dvec3>().swap(r.strands.point);
-  std::vector<dvec3>().swap(r.strands.tangent);
-  std::vector<dvec3>().swap(r.strands.tangent_parent);
   std::vector<dvec3>().swap(r.contours.point);
   std::vector<StrandId>().swap(r.contours.strand);
 }

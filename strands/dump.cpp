@@ -53,9 +53,19 @@ std::string strands_to_json(const Skeleton& sk, const ParticleField& f, const St
   j["parent_global"] = std::move(parent_global);
   j["strand_start"] = std::move(start);
   j["start_global"] = std::move(start_global);
+  // The tangents, computed from the points (StrandSet::tangents; zeros at the root).
+  std::vector<dvec3> tangent(f.position.size(), dvec3(0)), tangent_parent(f.position.size(), dvec3(0));
+  for (std::size_t i = 1; i < n; ++i) {
+    const NodeId node(i);
+    for (std::uint32_t k = 0; k < f.count(node); ++k) {
+      const SegmentTangents m = strands.tangents(sk, f, node, k);
+      tangent[f.global(node, k)] = m.at_node;
+      tangent_parent[f.global(node, k)] = m.at_parent;
+    }
+  }
   j["point"] = flatten(strands.point);
-  j["tangent"] = flatten(strands.tangent);
-  j["tangent_parent"] = flatten(strands.tangent_parent);
+  j["tangent"] = flatten(tangent);
+  j["tangent_parent"] = flatten(tangent_parent);
   nlohmann::json timings = nlohmann::json::object();
   for (const auto& e : strands.stats.timings.entries) timings[e.name] = e.seconds;
   nlohmann::json warnings = nlohmann::json::array();

@@ -7,7 +7,8 @@
 // two end points are particle points and its two end tangents come from the Barry-Goldman
 // formulation with the knot spacings |P_{i+1} - P_i|^alpha, rescaled from knot units to the
 // segment parameter t in [0, 1]. At the ends of a strand (its start node, the root) the
-// missing neighbour is mirrored, which gives the natural end condition.
+// missing neighbour is mirrored, which gives the natural end condition. The tangents are
+// computed from the points where a segment is evaluated (StrandSet::tangents).
 //
 // Everything is computed per particle from finished particle data, so the parallel loop over
 // nodes writes by index and the result does not depend on the thread count.
@@ -32,37 +33,59 @@ double knot(const dvec3& a, const dvec3& b, double alpha) {
   return alpha == 0.5 ? std::sqrt(l) : std::pow(l, alpha);
 }
 
+/// Whether the segment P1 -> P2 is a single point (within rounding of its coordinates).
+bool coincide(const dvec3& p1, const dvec3& p2, double& eps) {
+  eps = 1e-12 * (glm::length(p1) + glm::length(p2) + 1.0);
+  return !(glm::length(p2 - p1) > eps);
+}
+
 /// Hermite tangents (per unit t of the segment P1 -> P2) of the Catmull-Rom curve through
 /// P0, P1, P2, P3 with knot exponent alpha. Degenerate neighbours (coincident with the
 /// segment's ends) are replaced by mirror images.
-void segment_tangents(dvec3 p0, const dvec3& p1, const dvec3& p2, dvec3 p3, double alpha, dvec3& m1, dvec3& m2,
-                      bool& degenerate) {
-  const double len12 = glm::length(p2 - p1);
-  const double eps = 1e-12 * (glm::length(p1) + glm::length(p2) + 1.0);
-  degenerate = !(len12 > eps);
-  if (degenerate) {
-    m1 = m2 = dvec3(0);
-    return;
-  }
+SegmentTangents segment_tangents(dvec3 p0, const dvec3& p1, const dvec3& p2, dvec3 p3, double alpha) {
+  SegmentTangents out;
+  double eps = 0;
+  out.degenerate = coincide(p1, p2, eps);
+  if (out.degenerate) return out;
   if (!(glm::length(p1 - p0) > eps)) p0 = 2.0 * p1 - p2;
   if (!(glm::length(p3 - p2) > eps)) p3 = 2.0 * p2 - p1;
   const double t01 = knot(p0, p1, alpha), t12 = knot(p1, p2, alpha), t23 = knot(p2, p3, alpha);
   const dvec3 d1 = (p1 - p0) / t01 - (p2 - p0) / (t01 + t12) + (p2 - p1) / t12;
   const dvec3 d2 = (p2 - p1) / t12 - (p3 - p1) / (t12 + t23) + (p3 - p2) / t23;
-  m1 = d1 * t12;
-  m2 = d2 * t12;
+  out.at_parent = d1 * t12;
+  out.at_node = d2 * t12;
+  return out;
 }
 
 }  // namespace
+
+SegmentTangents StrandSet::tangents(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j) const {
+  const std::size_t i = n.idx();
+  const NodeId parent = s.parent[i];
+  const NodeId grand = s.parent[parent.idx()];
+  const std::uint32_t pj = parent_index(s, f, n, j);
+  const dvec3& p2 = point[f.global(n, j)];
+  const dvec3& p1 = point[f.global(parent, pj)];
+  // The strand's neighbouring points: at the grandparent, and in the child it comes from
+  // (mirrored where the strand ends: the root's edge, its start node).
+  const dvec3 p0 = grand.valid() ? point[f.global(grand, parent_index(s, f, parent, pj))] : 2.0 * p1 - p2;
+  dvec3 p3 = 2.0 * p2 - p1;
+  if (j < f.new_begin[i]) {
+    const NodeId c0 = s.children[i][0], c1 = s.children[i][1];
+    const std::uint32_t n0 = c0.valid() ? f.count(c0) : 0;
+    p3 = j < n0 ? point[f.global(c0, j)] : point[f.global(c1, j - n0)];
+  }
+  return segment_tangents(p0, p1, p2, p3, alpha);
+}
 
 dvec3 StrandSet::evaluate(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const {
   const NodeId p = s.parent[n.idx()];
   const std::uint32_t g = f.global(n, j);
   const dvec3& p1 = point[f.global(p, parent_index(s, f, n, j))];
   const dvec3& p2 = point[g];
+  const SegmentTangents m = tangents(s, f, n, j);
   const double t2 = t * t, t3 = t2 * t;
-  return (2 * t3 - 3 * t2 + 1) * p1 + (t3 - 2 * t2 + t) * tangent_parent[g] + (-2 * t3 + 3 * t2) * p2 +
-         (t3 - t2) * tangent[g];
+  return (2 * t3 - 3 * t2 + 1) * p1 + (t3 - 2 * t2 + t) * m.at_parent + (-2 * t3 + 3 * t2) * p2 + (t3 - t2) * m.at_node;
 }
 
 dvec3 StrandSet::derivative(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const {
@@ -70,9 +93,10 @@ dvec3 StrandSet::derivative(const Skeleton& s, const ParticleField& f, NodeId n,
   const std::uint32_t g = f.global(n, j);
   const dvec3& p1 = point[f.global(p, parent_index(s, f, n, j))];
   const dvec3& p2 = point[g];
+  const SegmentTangents m = tangents(s, f, n, j);
   const double t2 = t * t;
-  return (6 * t2 - 6 * t) * p1 + (3 * t2 - 4 * t + 1) * tangent_parent[g] + (-6 * t2 + 6 * t) * p2 +
-         (3 * t2 - 2 * t) * tangent[g];
+  return (6 * t2 - 6 * t) * p1 + (3 * t2 - 4 * t + 1) * m.at_parent + (-6 * t2 + 6 * t) * p2 +
+         (3 * t2 - 2 * t) * m.at_node;
 }
 
 StrandSet build_strands(const Skeleton& sk, const ParticleField& f, const StrandParams& params) {
@@ -82,11 +106,10 @@ StrandSet build_strands(const Skeleton& sk, const ParticleField& f, const Strand
   SM_CHECK(f.node_count() == sk.size(), "build_strands: particle field and skeleton differ in node count");
   Stopwatch watch;
   StrandSet out;
+  out.alpha = params.alpha;
   const std::size_t n = sk.size();
   const std::size_t total = f.position.size();
   out.point.resize(total);
-  out.tangent.assign(total, dvec3(0));
-  out.tangent_parent.assign(total, dvec3(0));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const Frame& fr = sk.frame[i];
@@ -97,34 +120,20 @@ StrandSet build_strands(const Skeleton& sk, const ParticleField& f, const Strand
   });
   out.stats.timings.add("points", watch.lap());
 
+  // Segments whose two end points coincide (their curves are a point, their tangents zero).
   std::vector<std::uint8_t> degenerate(n, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(1, std::max<std::size_t>(n, 1), 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const NodeId node(i);
-                        const NodeId parent = sk.parent[i];
-                        const NodeId grand = sk.parent[parent.idx()];
-                        const NodeId c0 = sk.children[i][0], c1 = sk.children[i][1];
-                        const std::uint32_t n0 = c0.valid() ? f.count(c0) : 0;
-                        const std::uint32_t m = f.count(node);
-                        for (std::uint32_t j = 0; j < m; ++j) {
-                          const std::uint32_t g = f.global(node, j);
-                          const std::uint32_t pj = parent_index(sk, f, node, j);
-                          const dvec3& p2 = out.point[g];
-                          const dvec3& p1 = out.point[f.global(parent, pj)];
-                          const dvec3 p0 = grand.valid() ? out.point[f.global(grand, parent_index(sk, f, parent, pj))]
-                                                         : 2.0 * p1 - p2;
-                          dvec3 p3 = 2.0 * p2 - p1;
-                          if (j < f.new_begin[i]) {
-                            p3 = j < n0 ? out.point[f.global(c0, j)] : out.point[f.global(c1, j - n0)];
-                          }
-                          bool deg = false;
-                          segment_tangents(p0, p1, p2, p3, params.alpha, out.tangent_parent[g], out.tangent[g], deg);
-                          if (deg) degenerate[i] = 1;
+                        const NodeId node(i), parent = sk.parent[i];
+                        for (std::uint32_t j = 0; j < f.count(node) && !degenerate[i]; ++j) {
+                          double eps = 0;
+                          const dvec3& p1 = out.point[f.global(parent, parent_index(sk, f, node, j))];
+                          if (coincide(p1, out.point[f.global(node, j)], eps)) degenerate[i] = 1;
                         }
                       }
                     });
-  out.stats.timings.add("tangents", watch.lap());
+  out.stats.timings.add("segments", watch.lap());
   out.stats.strands = f.strand_count();
   out.stats.segments = total - (n > 0 ? f.count(Skeleton::root()) : 0);
   for (std::size_t i = 0; i < n; ++i) {

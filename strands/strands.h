@@ -34,16 +34,27 @@ struct StrandStats {
   Timings timings;
 };
 
+/// The Hermite end tangents of one strand segment (metres per unit t of the segment).
+struct SegmentTangents {
+  dvec3 at_parent{0.0};     ///< at t = 0, the parent's end of the edge
+  dvec3 at_node{0.0};       ///< at t = 1, the node's end
+  bool degenerate = false;  ///< the segment's two end points coincide (both tangents zero)
+};
+
 /// All strand curves (indexed like ParticleField: #P entries, particle (n, j) at
-/// field.global(n, j)).
+/// field.global(n, j)). A curve is its points and the Catmull-Rom rule: each segment's
+/// tangents follow from four points of its strand (SegmentTangents), computed where a curve
+/// is evaluated rather than stored. Only the viewer, the dumps and sample_strand evaluate
+/// curves; the contours slice the particles' cross-section positions, and two stored tangents
+/// per particle were 80 MB and two thirds of this stage's time on the large grown tree.
 struct StrandSet {
-  std::vector<dvec3> point;    ///< #P 3D point of each particle (metres, world)
-  std::vector<dvec3> tangent;  ///< #P Hermite tangent at the particle's end (t = 1) of the edge
-                               ///< of node n, in metres per unit t; unused for the root
-  std::vector<dvec3> tangent_parent;  ///< #P Hermite tangent at the parent end (t = 0) of the
-                                      ///< same segment, metres per unit t
+  std::vector<dvec3> point;  ///< #P 3D point of each particle (metres, world)
+  double alpha = 0.5;        ///< the knot exponent of the curves (StrandParams::alpha)
   StrandStats stats;
 
+  /// The end tangents of local particle j of node n's strand on n's edge.
+  /// Precondition: n is not the root.
+  [[nodiscard]] SegmentTangents tangents(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j) const;
   /// Point of local particle j of node n's strand on n's edge at t in [0, 1]
   /// (t = 0: at parent(n), t = 1: at n). Precondition: n is not the root.
   [[nodiscard]] dvec3 evaluate(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const;

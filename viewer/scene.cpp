@@ -198,8 +198,7 @@ std::vector<Batch> strand_batches(const Skeleton& s, const ParticleField& f, con
   b.primitive = Primitive::lines;
   b.label = stride > 1 ? "strands (every " + std::to_string(stride) + "th)" : "strands";
   b.positions.reserve(2 * std::min(segments_total * static_cast<std::size_t>(samples), budget * 2));
-  const bool have_curves = strands.point.size() == f.position.size() && strands.tangent.size() == f.position.size() &&
-                           strands.tangent_parent.size() == f.position.size();
+  const bool have_curves = strands.point.size() == f.position.size();
   for (std::size_t n = 1; n < nodes; ++n) {
     const NodeId node(n);
     const NodeId parent = s.parent[n];
