@@ -75,14 +75,14 @@ double pseudo_angle(double x, double y) {
 /// of the large grown tree's 165 k have under 16 points), and allocating these per call cost
 /// more than the walk.
 struct Scratch {
-  std::vector<double> dist, key, smax, lk, edge_length;
+  std::vector<double> dist2, key, smax2, lk, edge_length;
   std::vector<std::uint32_t> order, stack, bucket_begin;
   struct Entry {
-    double key, dist;
+    double key, dist2;
     std::uint32_t i;
     /// By angle; on equal angles the nearer point first, so the farther one survives the scan.
     bool operator<(const Entry& o) const {
-      return key != o.key ? key < o.key : (dist != o.dist ? dist < o.dist : i < o.i);
+      return key != o.key ? key < o.key : (dist2 != o.dist2 ? dist2 < o.dist2 : i < o.i);
     }
   };
   std::vector<Entry> entries, bucketed;
@@ -94,7 +94,7 @@ struct Scratch {
 /// holds every point but the loop's first vertex in increasing key: each point's sector is
 /// then found by one sweep, O(n); otherwise by binary search on the keys, O(n log m), for the
 /// points farther from c than the loop's nearest edge line (those nearer are inside it).
-bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const std::vector<double>& dist,
+bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key, const std::vector<double>& dist2,
                      const dvec2& c, const std::vector<std::uint32_t>& loop, double tol,
                      const std::vector<std::uint32_t>* sorted, Scratch& scratch) {
   const std::size_t m = loop.size();
@@ -133,8 +133,9 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
     if (len > 0) inner = std::min(inner, cross2(p[loop[(k + 1) % m]] - p[loop[k]], c - p[loop[k]]) / len);
   }
   inner -= tol;
+  const double inner2 = inner > 0 ? inner * inner : -1.0;  // (no shortcut when inner <= 0)
   for (std::uint32_t i = 0; i < p.size(); ++i) {
-    if (dist[i] < inner) continue;
+    if (dist2[i] < inner2) continue;
     const auto it = std::upper_bound(lk.begin(), lk.end(), key[i]);
     if (!inside(i, static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - lk.begin()) - 1)))) return false;
   }
@@ -190,11 +191,12 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
   dvec2 c(0);
   for (const auto& q : p) c += q;
   c /= double(n);
-  std::vector<double>& dist = scratch.dist;
-  dist.resize(n);
-  for (std::uint32_t i = 0; i < n; ++i) dist[i] = glm::length(p[i] - c);
+  // Squared distances from the centroid (only compared; one square root for the extent).
+  std::vector<double>& dist2 = scratch.dist2;
+  dist2.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) dist2[i] = glm::dot(p[i] - c, p[i] - c);
   // Scale for tolerances.
-  const double extent = *std::max_element(dist.begin(), dist.end());
+  const double extent = std::sqrt(*std::max_element(dist2.begin(), dist2.end()));
   const double tol = 1e-9 * std::max(extent, 1e-300);
 
   // Start at the lowest point (ties: leftmost): it is a vertex of the convex hull, so it is
@@ -223,7 +225,7 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
     entries.clear();
     if (!filter) {
       for (std::uint32_t i = 0; i < n; ++i) {
-        if (i != start) entries.push_back({key[i], dist[i], i});
+        if (i != start) entries.push_back({key[i], dist2[i], i});
       }
       std::sort(entries.begin(), entries.end());
     } else {
@@ -231,14 +233,14 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
       auto sector = [&](std::uint32_t i) {
         return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors)));
       };
-      std::vector<double>& smax = scratch.smax;
-      smax.assign(sectors, 0.0);
-      for (std::uint32_t i = 0; i < n; ++i) smax[sector(i)] = std::max(smax[sector(i)], dist[i]);
+      std::vector<double>& smax2 = scratch.smax2;
+      smax2.assign(sectors, 0.0);
+      for (std::uint32_t i = 0; i < n; ++i) smax2[sector(i)] = std::max(smax2[sector(i)], dist2[i]);
       std::vector<std::uint32_t>& begin = scratch.bucket_begin;
       begin.assign(sectors + 1, 0);
       for (std::uint32_t i = 0; i < n; ++i) {
-        if (i != start && dist[i] >= 0.6 * smax[sector(i)]) {
-          entries.push_back({key[i], dist[i], i});
+        if (i != start && dist2[i] >= 0.36 * smax2[sector(i)]) {  // within 40 % of the farthest
+          entries.push_back({key[i], dist2[i], i});
           ++begin[sector(i) + 1];
         }
       }
@@ -297,7 +299,7 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
     if (filter && n <= 64) continue;
     const std::vector<std::uint32_t>& order = candidates(filter);
     const std::vector<std::uint32_t>& loop = walk(order);
-    if (loop.size() < 3 || !star_loop_valid(p, key, dist, c, loop, valid_tol, filter ? nullptr : &order, scratch))
+    if (loop.size() < 3 || !star_loop_valid(p, key, dist2, c, loop, valid_tol, filter ? nullptr : &order, scratch))
       continue;
     // The walk gives a star-shaped loop around every point. Where it bridges one gap much
     // wider than the spacing of its vertices and half as wide as the slice, the points may
