@@ -27,6 +27,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <iterator>
 #include <map>
 #include <numbers>
@@ -155,7 +156,9 @@ class FoldRepair {
 
   // Triangles around each vertex: a compressed table of the stitched mesh, and a copy per
   // vertex whose triangles a flip changed (a few thousand at most; far cheaper than a list
-  // per vertex).
+  // per vertex), found through the vertex's slot rather than an ordered map (the repair asks
+  // for the triangles around a vertex tens of times per pair; large grown tree's first round
+  // 42.6 -> 41.3 ms).
   void build_around() {
     VertexCorners corners = vertex_corners(mesh_);
     around_begin_ = std::move(corners.begin);
@@ -164,20 +167,22 @@ class FoldRepair {
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t i = r.begin(); i != r.end(); ++i) around_flat_[i] /= 3;  // corner -> triangle
                       });
+    changed_slot_.assign(mesh_.positions.size(), kUnchanged);
   }
 
   [[nodiscard]] std::span<const std::uint32_t> around(std::uint32_t v) const {
-    if (const auto it = changed_.find(v); it != changed_.end()) return it->second;
+    if (const std::uint32_t slot = changed_slot_[v]; slot != kUnchanged) return changed_lists_[slot];
     return {around_flat_.data() + around_begin_[v], around_begin_[v + 1] - around_begin_[v]};
   }
 
   std::vector<std::uint32_t>& changed(std::uint32_t v) {
-    const auto [it, inserted] = changed_.try_emplace(v);
-    if (inserted) {
+    std::uint32_t& slot = changed_slot_[v];
+    if (slot == kUnchanged) {
+      slot = static_cast<std::uint32_t>(changed_lists_.size());
       const auto a = around_flat_.begin() + around_begin_[v], b = around_flat_.begin() + around_begin_[v + 1];
-      it->second.assign(a, b);
+      changed_lists_.emplace_back(a, b);
     }
-    return it->second;
+    return changed_lists_[slot];
   }
 
   // The suspect triangles with a crease (an edge where the surface turns by more than
@@ -877,7 +882,9 @@ class FoldRepair {
   TriangleIntersections test_;
   std::vector<std::uint32_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;
-  std::map<std::uint32_t, std::vector<std::uint32_t>> changed_;  // vertices whose triangles a flip changed
+  static constexpr std::uint32_t kUnchanged = UINT32_MAX;
+  std::vector<std::uint32_t> changed_slot_;  // #V: the vertex's list in changed_lists_, or kUnchanged
+  std::deque<std::vector<std::uint32_t>> changed_lists_;  // of the vertices whose triangles a flip changed
   std::unordered_set<std::uint64_t> refused_;                    // patches (with surroundings) a refill was refused for
   std::vector<std::uint8_t> dead_;  // #F once an edge was collapsed: the triangles it removed
 };
