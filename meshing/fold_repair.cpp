@@ -274,6 +274,18 @@ class FoldRepair {
   [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
                                              const std::vector<std::uint32_t>& others,
                                              const std::vector<Box>& other_boxes, std::size_t stop = SIZE_MAX) const {
+    // Which of `others` are among `faces` (their boxes moved with them: taken as they are
+    // now), once per call rather than per pair.
+    std::vector<Box>& boxes = scratch_boxes_;
+    std::vector<std::uint8_t>& mine = scratch_mine_;
+    boxes.assign(other_boxes.begin(), other_boxes.end());
+    mine.assign(others.size(), 0);
+    for (std::size_t k = 0; k < others.size(); ++k) {
+      if (std::binary_search(faces.begin(), faces.end(), others[k])) {
+        mine[k] = 1;
+        boxes[k] = box(others[k]);
+      }
+    }
     std::size_t n = 0;
     for (const std::uint32_t f : faces) {
       if (n >= stop) break;
@@ -281,9 +293,8 @@ class FoldRepair {
       for (std::size_t k = 0; k < others.size(); ++k) {
         const std::uint32_t g = others[k];
         if (g == f || !alive(g)) continue;
-        const bool mine = std::binary_search(faces.begin(), faces.end(), g);
-        if (mine && g < f) continue;                                 // counted from g
-        if (!overlap(bf, mine ? box(g) : other_boxes[k])) continue;  // a fan triangle's box moved with v
+        if (mine[k] && g < f) continue;  // counted from g
+        if (!overlap(bf, boxes[k])) continue;
         if (intersect(f, g)) ++n;
       }
     }
@@ -871,6 +882,8 @@ class FoldRepair {
   std::size_t max_tests_;
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
+  mutable std::vector<Box> scratch_boxes_;         // crossings_around's
+  mutable std::vector<std::uint8_t> scratch_mine_;  // crossings_around's
   mutable std::vector<std::uint32_t> keep_by_x_;  // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
   AxisTargets axis_targets_;
