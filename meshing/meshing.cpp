@@ -843,30 +843,28 @@ void Builder::compute_uvs() {
 }
 
 void Builder::check_topology(const VertexCorners& corners) {
-  // Every directed edge a->b must appear once, and its twin b->a once. Half-edges are grouped
-  // by their start vertex (the corners around each vertex, a handful each), so this is linear:
-  // each half-edge is compared with the others leaving a and with those leaving b.
+  // Every directed edge a->b must appear once, and its twin b->a once. Both are seen from a:
+  // the corners around a give the edges leaving it (to the next corner of each triangle) and
+  // those arriving (from the previous one), so each vertex is checked on its own few corners.
   const std::size_t nv = mesh_.positions.size();
   const std::vector<std::uint32_t>& begin = corners.begin;
-  std::vector<std::uint32_t> target(corners.corner.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, target.size(), 1 << 14),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const std::uint32_t c = corners.corner[i];
-                        target[i] = mesh_.triangles[c / 3][(c % 3 + 1) % 3];
-                      }
-                    });
-  const tbb::blocked_range<std::size_t> vertices(0, nv, 8192);
   const std::size_t bad = tbb::parallel_reduce(
-      vertices, std::size_t{0},
+      tbb::blocked_range<std::size_t>(0, nv, 8192), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        std::vector<std::uint32_t> next, prev;
         for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          const auto from_a = target.begin() + begin[a], end_a = target.begin() + begin[a + 1];
-          for (auto k = from_a; k != end_a; ++k) {
-            const std::uint32_t b = *k;
-            const bool repeated = std::count(from_a, end_a, b) != 1;
-            const auto twins = std::count(target.begin() + begin[b], target.begin() + begin[b + 1], a);
-            if (repeated || twins != 1) ++count;
+          next.clear();
+          prev.clear();
+          for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
+            const std::uint32_t c = corners.corner[k];
+            const auto& t = mesh_.triangles[c / 3];
+            next.push_back(t[(c % 3 + 1) % 3]);
+            prev.push_back(t[(c % 3 + 2) % 3]);
+          }
+          for (const std::uint32_t b : next) {
+            const bool repeated = std::count(next.begin(), next.end(), b) != 1;  // a->b more than once
+            const bool twinned = std::count(prev.begin(), prev.end(), b) == 1;   // b->a exactly once
+            if (repeated || !twinned) ++count;
           }
         }
         return count;
