@@ -100,7 +100,11 @@ struct SliceGeometry {
 /// spacings inside it (all of them for small sets). A particle deep inside its cloud at both
 /// ends of an edge stays inside every section of the edge (the sections interpolate the two
 /// clouds linearly), so only these are sliced.
-void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>& out) {
+struct OuterScratch {
+  std::vector<double> smax, dist;
+  std::vector<std::size_t> sec;
+};
+void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>& out, OuterScratch& scratch) {
   out.clear();
   if (n <= 32) {
     for (std::uint32_t i = 0; i < n; ++i) out.push_back(i);
@@ -118,8 +122,12 @@ void outer_points(const dvec2* pts, std::uint32_t n, std::vector<std::uint32_t>&
     const double a = d.x >= 0 ? (d.y >= 0 ? r : 4 + r) : 2 - r;
     return std::min(sectors - 1, static_cast<std::size_t>(a * 0.25 * double(sectors)));
   };
-  std::vector<double> smax(sectors, 0.0), dist(n);
-  std::vector<std::size_t> sec(n);
+  std::vector<double>& smax = scratch.smax;
+  std::vector<double>& dist = scratch.dist;
+  std::vector<std::size_t>& sec = scratch.sec;
+  smax.assign(sectors, 0.0);
+  dist.resize(n);
+  sec.resize(n);
   for (std::uint32_t i = 0; i < n; ++i) {
     sec[i] = sector(i);
     dist[i] = glm::length(pts[i] - c);
@@ -219,11 +227,12 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
     std::vector<std::uint32_t> a, b;
     std::vector<std::uint8_t> mark;
     std::vector<dvec2> pts;
+    OuterScratch scratch;
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const NodeId node(i);
       const std::uint32_t count = f.count(node);
       const dvec2* own = f.position.data() + f.node_begin[i];
-      outer_points(own, count, a);
+      outer_points(own, count, a, scratch);
       pts.clear();
       for (auto j : a) pts.push_back(own[j]);
       const auto hull = boundary_loop(pts, 0.0, nullptr, 0.0);
@@ -237,7 +246,7 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
       for (auto j : a) mark[j] = 1;
       const NodeId parent = s.parent[i];
       if (parent.valid()) {
-        outer_points(f.position.data() + f.node_begin[parent.idx()] + parent_index(s, f, node, 0), count, b);
+        outer_points(f.position.data() + f.node_begin[parent.idx()] + parent_index(s, f, node, 0), count, b, scratch);
         for (auto j : b) mark[j] = 1;
       }
       for (std::uint32_t j = 0; j < count; ++j) {
