@@ -559,11 +559,20 @@ void Builder::plan_stacked_junctions() {
 
 void Builder::snap_to_float_grid() {
   if (mesh_.positions.empty()) return;
-  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  for (const auto& p : mesh_.positions) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
+  using Bounds = std::pair<glm::dvec3, glm::dvec3>;
+  const Bounds empty{glm::dvec3(std::numeric_limits<double>::infinity()),
+                     glm::dvec3(-std::numeric_limits<double>::infinity())};
+  auto join = [](const Bounds& a, const Bounds& b) {
+    return Bounds{glm::min(a.first, b.first), glm::max(a.second, b.second)};
+  };
+  // (Minima and maxima: the same for any split.)
+  const auto [lo, hi] = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mesh_.positions.size(), 1 << 16), empty,
+      [&](const tbb::blocked_range<std::size_t>& r, Bounds b) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v) b = join(b, {mesh_.positions[v], mesh_.positions[v]});
+        return b;
+      },
+      join);
   const glm::dvec3 half = 0.5 * (hi - lo);
   grid_ = float_grid(2.0 * std::max({half.x, half.y, half.z}));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.positions.size(), 1 << 14),
