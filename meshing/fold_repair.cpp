@@ -196,7 +196,8 @@ class FoldRepair {
     const std::size_t chunks = (nf + kChunk - 1) / kChunk;
     auto for_chunks = [&](auto&& body) {
       tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
-        for (std::size_t f = k * kChunk; f < std::min(nf, (k + 1) * kChunk); ++f) body(k, static_cast<std::uint32_t>(f));
+        for (std::size_t f = k * kChunk; f < std::min(nf, (k + 1) * kChunk); ++f)
+          body(k, static_cast<std::uint32_t>(f));
       });
     };
     // The creased triangles' vertices.
@@ -894,9 +895,9 @@ class FoldRepair {
   std::size_t max_tests_;
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
-  mutable std::vector<Box> scratch_boxes_;         // crossings_around's
+  mutable std::vector<Box> scratch_boxes_;          // crossings_around's
   mutable std::vector<std::uint8_t> scratch_mine_;  // crossings_around's
-  mutable std::vector<std::uint32_t> keep_by_x_;  // keep_side_'s indices by x (kept_within)
+  mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
   AxisTargets axis_targets_;
   double grid_;
@@ -908,7 +909,7 @@ class FoldRepair {
   std::vector<std::uint32_t> around_begin_;  // #V + 1 offsets into around_flat_
   std::vector<std::uint32_t> around_flat_;
   static constexpr std::uint32_t kUnchanged = UINT32_MAX;
-  std::vector<std::uint32_t> changed_slot_;  // #V: the vertex's list in changed_lists_, or kUnchanged
+  std::vector<std::uint32_t> changed_slot_;               // #V: the vertex's list in changed_lists_, or kUnchanged
   std::deque<std::vector<std::uint32_t>> changed_lists_;  // of the vertices whose triangles a flip changed
   std::unordered_set<std::uint64_t> refused_;                    // patches (with surroundings) a refill was refused for
   std::vector<std::uint8_t> dead_;  // #F once an edge was collapsed: the triangles it removed

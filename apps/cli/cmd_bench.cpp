@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -42,7 +42,9 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_option("--seed", o->seed, "Grower seed")->capture_default_str();
     sub.add_option("--skeleton", o->skeleton, "Benchmark this skeleton file instead of a grown tree");
     sub.add_option("--config", o->config, "Pipeline parameter file");
-    sub.add_option("--repeat", o->repeat, "Runs, each reusing the memory of the one before; the fastest is reported")->check(CLI::PositiveNumber)->capture_default_str();
+    sub.add_option("--repeat", o->repeat, "Runs, each reusing the memory of the one before; the fastest is reported")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     sub.add_flag("--check", o->check, "Also check the mesh (closed, manifold, genus, self-intersections, fidelity)");
     sub.add_option("--json", o->json_path, "Write the figures as JSON to this file");
     return [o, &global] {
@@ -81,15 +83,21 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
           cp.skeleton = &r.skeleton.skeleton;
           const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
           char q[256];
-          std::snprintf(q, sizeof q, "%s, genus %s, %zu self-intersections, fidelity p95 %.3f",
-                        rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented ? "watertight" : "NOT watertight",
-                        rep.genus ? std::to_string(*rep.genus).c_str() : "?", rep.self_intersecting_pairs, rep.fidelity_p95);
+          std::snprintf(
+              q, sizeof q, "%s, genus %s, %zu self-intersections, fidelity p95 %.3f",
+              rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented ? "watertight" : "NOT watertight",
+              rep.genus ? std::to_string(*rep.genus).c_str() : "?", rep.self_intersecting_pairs, rep.fidelity_p95);
           quality = q;
           check_json = to_json(rep);
         }
         if (best && r.timings.total() >= best->timings.total()) continue;
-        Summary sum{r.timings, {}, r.skeleton.skeleton.size(), r.particles.strand_count(),
-                    double(r.particles.position.size()), double(r.mesh.mesh.triangle_count()), stats_to_json(r)};
+        Summary sum{r.timings,
+                    {},
+                    r.skeleton.skeleton.size(),
+                    r.particles.strand_count(),
+                    double(r.particles.position.size()),
+                    double(r.mesh.mesh.triangle_count()),
+                    stats_to_json(r)};
         for (const auto& [stage, phases] : stage_phases(r))
           sum.phases.emplace_back(stage, phases ? std::optional<Timings>(*phases) : std::nullopt);
         best = std::move(sum);
@@ -98,7 +106,8 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
       const double particles = best->particles;
       const double tris = best->triangles;
       const double mesh_s = t.get("strands") + t.get("contours") + t.get("meshing");
-      const unsigned threads = global.threads > 0 ? unsigned(global.threads) : std::max(1u, std::thread::hardware_concurrency());
+      const unsigned threads =
+          global.threads > 0 ? unsigned(global.threads) : std::max(1u, std::thread::hardware_concurrency());
       std::printf("%s: %zu nodes, %zu strands, %.0f particles => %.0f triangles (%s) in %.2f s on %u threads\n",
                   name.c_str(), best->nodes, best->strands, particles, tris, quality.c_str(), t.total(), threads);
       // Per stage, and (with --verbose, on stderr) the phases of contours and meshing under them.
