@@ -927,6 +927,22 @@ MeshResult Builder::run(const ProgressFn& progress) {
   std::mutex progress_mutex;
   tbb::parallel_for(std::size_t{0}, parts.size(), [&](std::size_t pi) {
     Part& part = parts[pi];
+    // Room for the part's triangles (a strip has as many as its two loops' vertices, a tip
+    // cap three per vertex, a fusion about one per vertex of its three loops), rather than
+    // growing the arrays as they come.
+    std::size_t expected = 0;
+    for (std::size_t ti = pi * kTubesPerPart; ti < std::min(tubes, (pi + 1) * kTubesPerPart); ++ti) {
+      const Tube& t = c_.tubes[ti];
+      for (const std::uint32_t l : t.loops) expected += 2 * c_.loop_size(l);
+      if (t.end_junction != UINT32_MAX) {
+        for (const std::uint32_t l : c_.junctions[t.end_junction].upper) expected += c_.loop_size(l);
+      } else if (!t.loops.empty()) {
+        expected += 3 * c_.loop_size(t.loops.back());
+      }
+    }
+    part.triangles.reserve(expected);
+    part.branch.reserve(expected);
+    part.kind.reserve(expected);
     for (std::size_t ti = pi * kTubesPerPart; ti < std::min(tubes, (pi + 1) * kTubesPerPart); ++ti) {
       const Tube& t = c_.tubes[ti];
       const std::uint32_t branch = t.branch.value;
