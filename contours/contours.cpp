@@ -458,8 +458,9 @@ class Walker {
   /// Per vertex of `loop`: the side `mark` gives its strand (mark calls side_of(strand,
   /// side) for some strands), else `unmarked`. A fork carries many strands (every strand of
   /// the tree at the root), a loop few: the loop's strands are flagged in the thread's table
-  /// of strands, the marked ones looked up there, and the flags cleared again (a hash map of
-  /// the fork's strands per junction cost 6 % of the contours on the large grown tree).
+  /// of strands, the marked ones looked up there, and the flags cleared again (rather than a
+  /// hash map of the fork's strands per junction, which showed as 6 % of a profile of the
+  /// contours on the large grown tree).
   template <class Mark>
   std::vector<std::uint8_t> loop_sides(std::uint32_t loop, std::uint8_t unmarked, Mark&& mark) const {
     constexpr std::uint8_t kNotInLoop = 0xff;

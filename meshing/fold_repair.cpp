@@ -188,7 +188,8 @@ class FoldRepair {
 
   // The suspect triangles with a crease (an edge where the surface turns by more than
   // kCreaseDegrees) and the triangles sharing a vertex with them (within_rings(creased, 1),
-  // as flags in three parallel passes: the sorts were a serial 14 ms of the large grown tree).
+  // as vertex flags in two parallel passes: its sorts were a serial 14 ms of the large grown
+  // tree).
   [[nodiscard]] std::vector<std::uint32_t> creased() const {
     const double cos_crease = std::cos(kCreaseDegrees * std::numbers::pi / 180.0);
     const std::size_t nf = mesh_.triangles.size();
@@ -418,8 +419,9 @@ class FoldRepair {
   // solid angles the triangles span, over 4 pi; Van Oosterom and Strackee's formula).
   // Replacing a patch by another with the same boundary carries the surface across a point
   // exactly when the two numbers differ by one.
-  // (In increasing index. Found among the points sorted by x, made on the first call: a scan
-  // of every skeleton node per attempted move cost 14 ms of the large grown tree's repair.)
+  // (In increasing index. Found among the points sorted by x, made on the first call: the scan
+  // of every skeleton node per attempted move showed as about 14 ms of the large grown tree's
+  // repair in a profile.)
   [[nodiscard]] std::vector<std::size_t> kept_within(const Box& bounds) const {
     if (keep_by_x_.size() != keep_side_.size()) {
       keep_by_x_.resize(keep_side_.size());
