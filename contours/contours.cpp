@@ -619,8 +619,20 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   // another one at most `enough`, this one: callers compare with more than `enough`.
   constexpr std::size_t kPairwise = 16384;
   if (a.size() * b.size() <= kPairwise) {
-    for (const dvec3& p : a) {
-      for (const dvec3& q : b) best2 = std::min(best2, glm::dot(p - q, p - q));
+    // Only the points within cap of the other set's box can be nearer than cap to it (bundles
+    // side by side: about the facing halves).
+    thread_local std::vector<dvec3> near_a, near_b;
+    auto near = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi, std::vector<dvec3>& out) {
+      out.clear();
+      const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
+      for (const dvec3& p : pts) {
+        if (glm::all(glm::lessThanEqual(lo_c, p)) && glm::all(glm::lessThanEqual(p, hi_c))) out.push_back(p);
+      }
+      return std::span<const dvec3>(out);
+    };
+    const auto pa = near(a, lo_b, hi_b, near_a), pb = near(b, lo_a, hi_a, near_b);
+    for (const dvec3& p : pa) {
+      for (const dvec3& q : pb) best2 = std::min(best2, glm::dot(p - q, p - q));
       if (best2 <= enough2) break;
     }
     return best2 < cap * cap ? std::sqrt(best2) : std::numeric_limits<double>::infinity();
