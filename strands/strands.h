@@ -2,13 +2,14 @@
 /// Strands stage: one centripetal Catmull-Rom curve per strand, from its start node (a tip or
 /// the node where it was added) down to the root, through the 3D positions of its particles.
 ///
-/// A particle's 3D point is `position[n] + frame[n].to_world(p)`. Curves are stored per edge:
-/// the edge of node n (n != root) goes from parent(n) (t = 0) to n (t = 1), in growth
+/// A particle's 3D point is `position[n] + frame[n].to_world(p)`. Curves are evaluated per
+/// edge: the edge of node n (n != root) goes from parent(n) (t = 0) to n (t = 1), in growth
 /// direction, and for each local particle j of n the segment of its strand on that edge is a
 /// cubic Hermite piece whose end tangents come from the centripetal Catmull-Rom rule
 /// (alpha = 0.5: no cusps or self-loops) using the strand's neighbouring points (the point at
 /// the grandparent and the point in the child along the strand; at the ends of a strand the
-/// missing neighbour is mirrored).
+/// missing neighbour is mirrored). Only the points are stored; StrandSet::tangents computes a
+/// segment's tangents from them.
 
 #include <cstdint>
 #include <vector>
