@@ -617,22 +617,22 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   // (pairwise up to 1,024 / 4,096 / 16,384 / 65,536 pairs: BM_Contours 785 / 763 / 753 / 762 ms
   // on 1 thread, 812 with the grid alone). The same distance, or where the grid would stop at
   // another one at most `enough`, this one: callers compare with more than `enough`.
+  // Only the points within cap of the other set's box can be nearer than cap to it (bundles
+  // side by side: about the facing halves).
+  thread_local std::vector<dvec3> near_a, near_b;
+  auto near = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi, std::vector<dvec3>& out) {
+    out.clear();
+    const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
+    for (const dvec3& p : pts) {
+      if (glm::all(glm::lessThanEqual(lo_c, p)) && glm::all(glm::lessThanEqual(p, hi_c))) out.push_back(p);
+    }
+  };
+  near(a, lo_b, hi_b, near_a);
+  near(b, lo_a, hi_a, near_b);
   constexpr std::size_t kPairwise = 16384;
   if (a.size() * b.size() <= kPairwise) {
-    // Only the points within cap of the other set's box can be nearer than cap to it (bundles
-    // side by side: about the facing halves).
-    thread_local std::vector<dvec3> near_a, near_b;
-    auto near = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi, std::vector<dvec3>& out) {
-      out.clear();
-      const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
-      for (const dvec3& p : pts) {
-        if (glm::all(glm::lessThanEqual(lo_c, p)) && glm::all(glm::lessThanEqual(p, hi_c))) out.push_back(p);
-      }
-      return std::span<const dvec3>(out);
-    };
-    const auto pa = near(a, lo_b, hi_b, near_a), pb = near(b, lo_a, hi_a, near_b);
-    for (const dvec3& p : pa) {
-      for (const dvec3& q : pb) best2 = std::min(best2, glm::dot(p - q, p - q));
+    for (const dvec3& p : near_a) {
+      for (const dvec3& q : near_b) best2 = std::min(best2, glm::dot(p - q, p - q));
       if (best2 <= enough2) break;
     }
     return best2 < cap * cap ? std::sqrt(best2) : std::numeric_limits<double>::infinity();
@@ -646,23 +646,16 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   // Cell keys are linear in the cell coordinates (21 bits each, offset so they stay
   // positive), so shifting every cell of a by one neighbour offset shifts its keys by one
   // constant and keeps their order: each of the 27 offsets is one merge of two sorted lists.
-  // Only the points within cap of the other set's box can be nearer than cap to it (bundles
-  // side by side: about the facing halves).
   thread_local std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_a, cells_b;
-  auto sorted_cells = [&](const std::vector<dvec3>& pts, const dvec3& lo, const dvec3& hi,
+  auto sorted_cells = [&](const std::vector<dvec3>& pts,
                           std::vector<std::pair<std::uint64_t, std::uint32_t>>& cells) -> const auto& {
     cells.clear();
-    const dvec3 lo_c = lo - dvec3(cap), hi_c = hi + dvec3(cap);
-    for (std::uint32_t k = 0; k < pts.size(); ++k) {
-      const dvec3& p = pts[k];
-      if (p.x < lo_c.x || p.y < lo_c.y || p.z < lo_c.z || p.x > hi_c.x || p.y > hi_c.y || p.z > hi_c.z) continue;
-      cells.emplace_back(key(cell(p)), k);
-    }
+    for (std::uint32_t k = 0; k < pts.size(); ++k) cells.emplace_back(key(cell(pts[k])), k);
     std::sort(cells.begin(), cells.end());
     return cells;
   };
-  const auto& cb = sorted_cells(b, lo_a, hi_a, cells_b);
-  const auto& ca = sorted_cells(a, lo_b, hi_b, cells_a);
+  const auto& cb = sorted_cells(near_b, cells_b);
+  const auto& ca = sorted_cells(near_a, cells_a);
   for (int dx = -1; dx <= 1 && best2 > enough2; ++dx)
     for (int dy = -1; dy <= 1 && best2 > enough2; ++dy)
       for (int dz = -1; dz <= 1 && best2 > enough2; ++dz) {
@@ -680,9 +673,9 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
           std::size_t je = jb;
           while (je < cb.size() && cb[je].first == k) ++je;
           for (; ia < ca.size() && ca[ia].first + shift == k; ++ia) {
-            const dvec3& p = a[ca[ia].second];
+            const dvec3& p = near_a[ca[ia].second];
             for (std::size_t t = jb; t < je; ++t)
-              best2 = std::min(best2, glm::dot(p - b[cb[t].second], p - b[cb[t].second]));
+              best2 = std::min(best2, glm::dot(p - near_b[cb[t].second], p - near_b[cb[t].second]));
           }
         }
       }
