@@ -288,16 +288,17 @@ class FoldRepair {
   [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
                                              const std::vector<std::uint32_t>& others,
                                              const std::vector<Box>& other_boxes, std::size_t stop = SIZE_MAX) const {
-    // Which of `others` are among `faces` (their boxes moved with them: taken as they are
-    // now), once per call rather than per pair.
-    std::vector<Box>& boxes = scratch_boxes_;
-    std::vector<std::uint8_t>& mine = scratch_mine_;
-    boxes.assign(other_boxes.begin(), other_boxes.end());
+    // Which of `others` are among `faces`, with their boxes as they are now (they moved with
+    // the fan or patch), once per call rather than per pair: mine[k] is 1 + the index of
+    // others[k]'s box in moved, or 0.
+    std::vector<Box>& moved = scratch_boxes_;
+    std::vector<std::uint32_t>& mine = scratch_mine_;
+    moved.clear();
     mine.assign(others.size(), 0);
     for (std::size_t k = 0; k < others.size(); ++k) {
       if (std::binary_search(faces.begin(), faces.end(), others[k])) {
-        mine[k] = 1;
-        boxes[k] = box(others[k]);
+        moved.push_back(box(others[k]));
+        mine[k] = static_cast<std::uint32_t>(moved.size());
       }
     }
     std::size_t n = 0;
@@ -308,7 +309,7 @@ class FoldRepair {
         const std::uint32_t g = others[k];
         if (g == f || !alive(g)) continue;
         if (mine[k] && g < f) continue;  // counted from g
-        if (!overlap(bf, boxes[k])) continue;
+        if (!overlap(bf, mine[k] ? moved[mine[k] - 1] : other_boxes[k])) continue;
         if (intersect(f, g)) ++n;
       }
     }
@@ -898,7 +899,7 @@ class FoldRepair {
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
   mutable std::vector<Box> scratch_boxes_;          // crossings_around's
-  mutable std::vector<std::uint8_t> scratch_mine_;  // crossings_around's
+  mutable std::vector<std::uint32_t> scratch_mine_;  // crossings_around's
   mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
   AxisTargets axis_targets_;
