@@ -59,41 +59,48 @@ SegmentTangents segment_tangents(dvec3 p0, const dvec3& p1, const dvec3& p2, dve
 
 }  // namespace
 
-SegmentTangents StrandSet::tangents(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j) const {
+namespace {
+
+/// The segment of local particle j of node n on n's edge: its end points (P1 at the parent,
+/// P2 at n) and their tangents.
+struct Segment {
+  dvec3 p1, p2;
+  SegmentTangents m;
+};
+
+Segment segment_of(const StrandSet& st, const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j) {
   const std::size_t i = n.idx();
   const NodeId parent = s.parent[i];
   const NodeId grand = s.parent[parent.idx()];
   const std::uint32_t pj = parent_index(s, f, n, j);
-  const dvec3& p2 = point[f.global(n, j)];
-  const dvec3& p1 = point[f.global(parent, pj)];
+  const dvec3& p2 = st.point[f.global(n, j)];
+  const dvec3& p1 = st.point[f.global(parent, pj)];
   // The strand's neighbouring points: at the grandparent, and in the child it comes from
   // (mirrored where the strand ends: the root's edge, its start node).
-  const dvec3 p0 = grand.valid() ? point[f.global(grand, parent_index(s, f, parent, pj))] : 2.0 * p1 - p2;
+  const dvec3 p0 = grand.valid() ? st.point[f.global(grand, parent_index(s, f, parent, pj))] : 2.0 * p1 - p2;
   dvec3 p3 = 2.0 * p2 - p1;
   if (j < f.new_begin[i]) {
     const NodeId c0 = s.children[i][0], c1 = s.children[i][1];
     const std::uint32_t n0 = c0.valid() ? f.count(c0) : 0;
-    p3 = j < n0 ? point[f.global(c0, j)] : point[f.global(c1, j - n0)];
+    p3 = j < n0 ? st.point[f.global(c0, j)] : st.point[f.global(c1, j - n0)];
   }
-  return segment_tangents(p0, p1, p2, p3, alpha);
+  return {p1, p2, segment_tangents(p0, p1, p2, p3, st.alpha)};
+}
+
+}  // namespace
+
+SegmentTangents StrandSet::tangents(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j) const {
+  return segment_of(*this, s, f, n, j).m;
 }
 
 dvec3 StrandSet::evaluate(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const {
-  const NodeId p = s.parent[n.idx()];
-  const std::uint32_t g = f.global(n, j);
-  const dvec3& p1 = point[f.global(p, parent_index(s, f, n, j))];
-  const dvec3& p2 = point[g];
-  const SegmentTangents m = tangents(s, f, n, j);
+  const auto [p1, p2, m] = segment_of(*this, s, f, n, j);
   const double t2 = t * t, t3 = t2 * t;
   return (2 * t3 - 3 * t2 + 1) * p1 + (t3 - 2 * t2 + t) * m.at_parent + (-2 * t3 + 3 * t2) * p2 + (t3 - t2) * m.at_node;
 }
 
 dvec3 StrandSet::derivative(const Skeleton& s, const ParticleField& f, NodeId n, std::uint32_t j, double t) const {
-  const NodeId p = s.parent[n.idx()];
-  const std::uint32_t g = f.global(n, j);
-  const dvec3& p1 = point[f.global(p, parent_index(s, f, n, j))];
-  const dvec3& p2 = point[g];
-  const SegmentTangents m = tangents(s, f, n, j);
+  const auto [p1, p2, m] = segment_of(*this, s, f, n, j);
   const double t2 = t * t;
   return (6 * t2 - 6 * t) * p1 + (3 * t2 - 4 * t + 1) * m.at_parent + (-6 * t2 + 6 * t) * p2 +
          (3 * t2 - 2 * t) * m.at_node;
