@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <numbers>
 #include <ranges>
 #include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include "core/math.h"
@@ -44,6 +46,45 @@ VertexCorners vertex_corners(const Mesh& mesh) {
     in_range(r, [&](std::uint32_t v, std::uint32_t corner) { out.corner[fill[v]++] = corner; });
   });
   return out;
+}
+
+std::size_t unpaired_half_edges(const Mesh& mesh, const VertexCorners& corners) {
+  const std::vector<std::uint32_t>& begin = corners.begin;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mesh.positions.size(), 8192), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        // (On the stack for the usual few corners: a vector's bookkeeping per vertex was a
+        // third of the check.)
+        constexpr std::uint32_t kOnStack = 32;
+        std::uint32_t next_stack[kOnStack], prev_stack[kOnStack];
+        std::vector<std::uint32_t> next_heap, prev_heap;
+        for (std::size_t a = r.begin(); a != r.end(); ++a) {
+          const std::uint32_t d = begin[a + 1] - begin[a];
+          if (d > kOnStack) {
+            next_heap.resize(d);
+            prev_heap.resize(d);
+          }
+          std::uint32_t* next = d > kOnStack ? next_heap.data() : next_stack;
+          std::uint32_t* prev = d > kOnStack ? prev_heap.data() : prev_stack;
+          for (std::uint32_t k = 0; k < d; ++k) {
+            const std::uint32_t c = corners.corner[begin[a] + k];
+            const auto& t = mesh.triangles[c / 3];
+            next[k] = t[(c % 3 + 1) % 3];
+            prev[k] = t[(c % 3 + 2) % 3];
+          }
+          for (std::uint32_t k = 0; k < d; ++k) {
+            const std::uint32_t b = next[k];
+            std::uint32_t out = 0, in = 0;
+            for (std::uint32_t x = 0; x < d; ++x) {
+              out += next[x] == b;
+              in += prev[x] == b;
+            }
+            if (out != 1 || in != 1) ++count;  // a->b more than once, or b->a not exactly once
+          }
+        }
+        return count;
+      },
+      std::plus<>());
 }
 
 namespace {

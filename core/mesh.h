@@ -43,6 +43,12 @@ struct VertexCorners {
 /// Precondition: every triangle index is a vertex of the mesh.
 VertexCorners vertex_corners(const Mesh& mesh);
 
+/// The half-edges a->b that do not have exactly one twin b->a, or that occur more than once
+/// (a welded, closed, consistently oriented 2-manifold has none). Each vertex is checked on its
+/// own corners: the edges leaving it (to the next corner of each of its triangles) against
+/// those arriving (from the previous one). `corners` is the mesh's vertex_corners.
+std::size_t unpaired_half_edges(const Mesh& mesh, const VertexCorners& corners);
+
 /// Angle-weighted vertex normals of the welded mesh (unit length; a vertex
 /// with no non-degenerate incident triangle gets (0,0,1)).
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);

@@ -852,33 +852,7 @@ void Builder::compute_uvs() {
 }
 
 void Builder::check_topology(const VertexCorners& corners) {
-  // Every directed edge a->b must appear once, and its twin b->a once. Both are seen from a:
-  // the corners around a give the edges leaving it (to the next corner of each triangle) and
-  // those arriving (from the previous one), so each vertex is checked on its own few corners.
-  const std::size_t nv = mesh_.positions.size();
-  const std::vector<std::uint32_t>& begin = corners.begin;
-  const std::size_t bad = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, 8192), std::size_t{0},
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
-        std::vector<std::uint32_t> next, prev;
-        for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          next.clear();
-          prev.clear();
-          for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
-            const std::uint32_t c = corners.corner[k];
-            const auto& t = mesh_.triangles[c / 3];
-            next.push_back(t[(c % 3 + 1) % 3]);
-            prev.push_back(t[(c % 3 + 2) % 3]);
-          }
-          for (const std::uint32_t b : next) {
-            const bool repeated = std::count(next.begin(), next.end(), b) != 1;  // a->b more than once
-            const bool twinned = std::count(prev.begin(), prev.end(), b) == 1;   // b->a exactly once
-            if (repeated || !twinned) ++count;
-          }
-        }
-        return count;
-      },
-      std::plus<>());
+  const std::size_t bad = unpaired_half_edges(mesh_, corners);
   stats_.bad_edges = bad;
   if (bad > 0) {
     stats_.warnings.add_count("bad_edges",

@@ -528,5 +528,35 @@ TEST(CheckCli, JsonAndSkeleton) {
   EXPECT_FALSE(nlohmann::json::parse(quick.out)["self_intersections_checked"].get<bool>());
 }
 
+TEST(Checks, UnpairedHalfEdgesCountWhatMeshingWarnsOf) {
+  // The meshing stage's own topology check (MeshStats::bad_edges): every half-edge needs
+  // exactly one twin and may occur only once.
+  auto unpaired = [](const Mesh& m) { return unpaired_half_edges(m, vertex_corners(m)); };
+  EXPECT_EQ(unpaired(test::box()), 0u);
+  EXPECT_EQ(unpaired(test::icosphere(3)), 0u);
+  EXPECT_EQ(unpaired(test::torus()), 0u);  // closed and oriented, whatever the genus
+  // The hole's three edges, each seen once, from the side still there.
+  EXPECT_EQ(unpaired(test::box_with_missing_triangle()), 3u);
+  // Each of the flipped triangle's edges runs the same way as its neighbour's: both copies count.
+  EXPECT_EQ(unpaired(test::box_with_flipped_triangle()), 6u);
+  // The fin: its free edges and the shared edge, seen three times, are all unpaired.
+  EXPECT_GT(unpaired(test::box_with_fin()), 0u);
+  // A vertex of high degree (the apex of a 100-sided cone: more corners than fit on the stack).
+  Mesh cone;
+  const int n = 100;
+  cone.positions.push_back({0, 0, 1});
+  cone.positions.push_back({0, 0, 0});
+  for (int k = 0; k < n; ++k)
+    cone.positions.push_back({std::cos(2 * M_PI * k / n), std::sin(2 * M_PI * k / n), 0});
+  for (std::uint32_t k = 0; k < std::uint32_t(n); ++k) {
+    const std::uint32_t a = 2 + k, b = 2 + (k + 1) % n;
+    cone.triangles.push_back({0, a, b});
+    cone.triangles.push_back({1, b, a});
+  }
+  EXPECT_EQ(unpaired(cone), 0u);
+  cone.triangles.pop_back();
+  EXPECT_EQ(unpaired(cone), 3u);
+}
+
 }  // namespace
 }  // namespace sm
