@@ -546,8 +546,7 @@ TEST(Checks, UnpairedHalfEdgesCountWhatMeshingWarnsOf) {
   const int n = 100;
   cone.positions.push_back({0, 0, 1});
   cone.positions.push_back({0, 0, 0});
-  for (int k = 0; k < n; ++k)
-    cone.positions.push_back({std::cos(2 * M_PI * k / n), std::sin(2 * M_PI * k / n), 0});
+  for (int k = 0; k < n; ++k) cone.positions.push_back({std::cos(2 * M_PI * k / n), std::sin(2 * M_PI * k / n), 0});
   for (std::uint32_t k = 0; k < std::uint32_t(n); ++k) {
     const std::uint32_t a = 2 + k, b = 2 + (k + 1) % n;
     cone.triangles.push_back({0, a, b});
