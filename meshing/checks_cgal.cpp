@@ -132,12 +132,16 @@ class SoupIntersector {
         if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
       }
       // Equal shares of the boxes' lower ends (order statistics at increasing ranks: ascending).
+      // Each is searched for only above the one before (nth_element leaves the larger values
+      // there): one pass over the values in all rather than one per cut.
       std::vector<double> mins(boxes.size());
       for (std::size_t k = 0; k < boxes.size(); ++k) mins[k] = boxes[k].min_coord(axis);
+      auto from = mins.begin();
       for (std::size_t s = 1; s < slabs; ++s) {
         const auto at = mins.begin() + std::ptrdiff_t(s * mins.size() / slabs);
-        std::nth_element(mins.begin(), at, mins.end());
+        std::nth_element(from, at, mins.end());
         cut.push_back(*at);
+        from = at + 1;
       }
     }
     std::vector<std::vector<Pair>> found(slabs);
