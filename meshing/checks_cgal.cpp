@@ -91,7 +91,22 @@ class SoupIntersector {
   /// by place and gained 12 % on two threads (the fold repair's first round on the large
   /// grown tree: 240 k triangles, 1.8 M overlapping boxes).
   std::vector<Pair> run(const std::vector<std::uint32_t>& triangles) const {
-    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::uint32_t>;
+    // Single-precision boxes, rounded outwards (a box never shrinks: the same pairs reach the
+    // exact test), identified by their address: 32 bytes a box rather than 64, and the search
+    // is bound by their memory.
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<float, 3, std::uint32_t,
+                                                          CGAL::Box_intersection_d::ID_FROM_BOX_ADDRESS>;
+    auto float_box = [](const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& r, std::uint32_t info) {
+      float lo[3], hi[3];
+      for (int d = 0; d < 3; ++d) {
+        const double a = std::min({p[d], q[d], r[d]}), b = std::max({p[d], q[d], r[d]});
+        lo[d] = static_cast<float>(a);
+        hi[d] = static_cast<float>(b);
+        if (double(lo[d]) > a) lo[d] = std::nextafter(lo[d], -HUGE_VALF);
+        if (double(hi[d]) < b) hi[d] = std::nextafter(hi[d], HUGE_VALF);
+      }
+      return Box(lo, hi, info);
+    };
     std::vector<Box> all(triangles.size());
     std::vector<std::uint8_t> valid(triangles.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096),
@@ -102,7 +117,7 @@ class SoupIntersector {
                           const Point p = point(tri[0]), q = point(tri[1]), r = point(tri[2]);
                           if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r))
                             continue;  // degenerate
-                          all[k] = Box(p.bbox() + q.bbox() + r.bbox(), t);
+                          all[k] = float_box(mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]], t);
                           valid[k] = 1;
                         }
                       });
@@ -124,8 +139,8 @@ class SoupIntersector {
       double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
       for (const Box& b : boxes) {
         for (int d = 0; d < 3; ++d) {
-          lo[d] = std::min(lo[d], b.min_coord(d));
-          hi[d] = std::max(hi[d], b.max_coord(d));
+          lo[d] = std::min(lo[d], double(b.min_coord(d)));
+          hi[d] = std::max(hi[d], double(b.max_coord(d)));
         }
       }
       for (int d = 1; d < 3; ++d) {
@@ -149,11 +164,11 @@ class SoupIntersector {
       const double from = s == 0 ? -HUGE_VAL : cut[s - 1], to = s + 1 == slabs ? HUGE_VAL : cut[s];
       std::vector<const Box*> ptrs;
       for (const Box& b : boxes) {
-        if (slabs == 1 || (b.min_coord(axis) < to && b.max_coord(axis) >= from)) ptrs.push_back(&b);
+        if (slabs == 1 || (double(b.min_coord(axis)) < to && double(b.max_coord(axis)) >= from)) ptrs.push_back(&b);
       }
       auto callback = [&](const Box* a, const Box* b) {
         if (slabs > 1) {
-          const double start = std::max(a->min_coord(axis), b->min_coord(axis));
+          const double start = double(std::max(a->min_coord(axis), b->min_coord(axis)));
           if (start < from || start >= to) return;  // another slab's pair
         }
         const std::uint32_t i = a->info(), j = b->info();
