@@ -117,7 +117,8 @@ class SoupIntersector {
                           const Point p = point(tri[0]), q = point(tri[1]), r = point(tri[2]);
                           if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r))
                             continue;  // degenerate
-                          all[k] = float_box(mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]], t);
+                          all[k] =
+                              float_box(mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]], t);
                           valid[k] = 1;
                         }
                       });
