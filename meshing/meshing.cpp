@@ -940,19 +940,23 @@ MeshResult Builder::run(const ProgressFn& progress) {
   });
   Part root;
   if (has_root) root_cap(c_.tubes[0].loops.front(), c_.tubes[0].branch.value, cap_first[tubes], root);
-  std::size_t nt = root.triangles.size();
-  for (const Part& part : parts) nt += part.triangles.size();
-  mesh_.triangles.reserve(nt);
-  mesh_.triangle_branch.reserve(nt);
-  kind_.reserve(nt);
-  auto append = [&](Part& from) {
-    mesh_.triangles.insert(mesh_.triangles.end(), from.triangles.begin(), from.triangles.end());
-    mesh_.triangle_branch.insert(mesh_.triangle_branch.end(), from.branch.begin(), from.branch.end());
-    kind_.insert(kind_.end(), from.kind.begin(), from.kind.end());
+  // The parts in order, then the root's cap: each copied to its place by its own task (and
+  // released by it), rather than appended one after another (large grown tree: a serial 11 ms).
+  parts.push_back(std::move(root));
+  std::vector<std::size_t> offset(parts.size() + 1, 0);
+  for (std::size_t pi = 0; pi < parts.size(); ++pi) offset[pi + 1] = offset[pi] + parts[pi].triangles.size();
+  const std::size_t nt = offset.back();
+  mesh_.triangles.resize(nt);
+  mesh_.triangle_branch.resize(nt);
+  kind_.resize(nt);
+  tbb::parallel_for(std::size_t{0}, parts.size(), [&](std::size_t pi) {
+    Part& from = parts[pi];
+    const auto at = static_cast<std::ptrdiff_t>(offset[pi]);
+    std::copy(from.triangles.begin(), from.triangles.end(), mesh_.triangles.begin() + at);
+    std::copy(from.branch.begin(), from.branch.end(), mesh_.triangle_branch.begin() + at);
+    std::copy(from.kind.begin(), from.kind.end(), kind_.begin() + at);
     from = Part{};
-  };
-  for (Part& part : parts) append(part);
-  append(root);
+  });
   snap_to_float_grid();
   stats_.timings.add("stitching", clock.lap());
   repair_folds();
