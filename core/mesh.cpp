@@ -56,16 +56,13 @@ std::size_t unpaired_half_edges(const Mesh& mesh, const VertexCorners& corners) 
         // (On the stack for the usual few corners: a vector's bookkeeping per vertex was a
         // third of the check.)
         constexpr std::uint32_t kOnStack = 32;
-        std::uint32_t next_stack[kOnStack], prev_stack[kOnStack];
-        std::vector<std::uint32_t> next_heap, prev_heap;
+        std::uint32_t on_stack[2 * kOnStack];
+        std::vector<std::uint32_t> on_heap;  // for a vertex of more corners
         for (std::size_t a = r.begin(); a != r.end(); ++a) {
           const std::uint32_t d = begin[a + 1] - begin[a];
-          if (d > kOnStack) {
-            next_heap.resize(d);
-            prev_heap.resize(d);
-          }
-          std::uint32_t* next = d > kOnStack ? next_heap.data() : next_stack;
-          std::uint32_t* prev = d > kOnStack ? prev_heap.data() : prev_stack;
+          if (d > kOnStack) on_heap.resize(2 * d);
+          std::uint32_t* const next = d > kOnStack ? on_heap.data() : on_stack;
+          std::uint32_t* const prev = next + (d > kOnStack ? d : kOnStack);
           for (std::uint32_t k = 0; k < d; ++k) {
             const std::uint32_t c = corners.corner[begin[a] + k];
             const auto& t = mesh.triangles[c / 3];

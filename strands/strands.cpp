@@ -57,10 +57,6 @@ SegmentTangents segment_tangents(dvec3 p0, const dvec3& p1, const dvec3& p2, dve
   return out;
 }
 
-}  // namespace
-
-namespace {
-
 /// The segment of local particle j of node n on n's edge: its end points (P1 at the parent,
 /// P2 at n) and their tangents.
 struct Segment {
