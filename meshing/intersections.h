@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -56,9 +57,21 @@ struct OuterSurface {
   std::vector<glm::dvec3> positions;      ///< the input's vertices (same indices), then the new ones
   std::vector<Mesh::Triangle> triangles;  ///< oriented like the input
   std::vector<std::uint32_t> origin;      ///< #triangles: the input triangle each one is part of
+  std::string problem;                    ///< why there is none, where known (else CGAL failed)
 };
 /// Empty (no triangles) when `mesh` is not a manifold triangle mesh or CGAL throws.
 OuterSurface outer_surface(const Mesh& mesh);
+
+/// The same surface chosen by winding numbers, where CGAL's choice of patches goes wrong:
+/// CGAL's autorefinement alone (PMP::experimental::autorefine) cuts the intersecting
+/// triangles along their intersections; the cut lines divide the surface into patches, and a
+/// patch is kept where it bounds the union of the solids the surface wraps (the region of
+/// winding number 1 or more): winding number 0 in front of it (and so 1 behind), judged at
+/// points on either side of one of its triangles. Where a fold's cut line ends at a vertex of the mesh, the patches kept meet at
+/// that vertex alone: it is split, one copy per fan, each drawn a hundredth of the way into
+/// its fan. `fixed` when every patch was judged; empty with `problem` set when a patch's
+/// sides gave no clear winding numbers or there are more than 512 patches.
+OuterSurface outer_surface_by_winding(const Mesh& mesh);
 
 /// The union of the solids bounded by `a` and `b` (closed, manifold, outward; each free of
 /// self-intersections where it meets the other): CGAL's corefinement

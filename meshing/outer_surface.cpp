@@ -277,7 +277,7 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   std::vector<std::string> refused;
   auto attempt = [&](const MeshResult& base, const OuterSurface& outer, std::size_t kept, const std::string& what) {
     if (outer.triangles.empty() || !outer.fixed) {
-      refused.push_back(what + ": CGAL failed");
+      refused.push_back(what + ": " + (outer.problem.empty() ? "CGAL failed" : outer.problem));
       return false;
     }
     Candidate cand = candidate_mesh(base, outer, kept);
@@ -303,7 +303,10 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   };
   // Parts inside parts.
   if (now.self_intersecting_pairs > 0) {
-    attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface");
+    // CGAL's choice of patches first; where that is refused (it goes wrong at folds), the
+    // patches chosen by winding numbers.
+    if (!attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface"))
+      attempt(result, outer_surface_by_winding(result.mesh), result.mesh.positions.size(), "outer surface by winding");
   }
   // Thick nodes outside: all at once, then one by one; the spheres reaching a quarter of the
   // node's radius beyond the mesh, else a tenth (a larger one may bridge a crotch: genus 1),

@@ -4,11 +4,19 @@
 // removed (experimental::autorefine_and_remove_self_intersections). Kept in its own
 // translation unit: the corefinement headers are the slowest of CGAL's to compile.
 
+#include <algorithm>
+#include <cmath>
 #include <exception>
+#include <functional>
+#include <string>
+#include <numeric>
+#include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
+#include <tbb/parallel_for.h>
 
 #include "meshing/intersections.h"
 
@@ -82,6 +90,106 @@ bool read_back(const SurfaceMesh& sm, const OriginMap& origin, OuterSurface& out
   return true;
 }
 
+// outer_surface_by_winding: at most this many patches are classified (each costs a pass over
+// the mesh per sample point; a mesh of 110,000 triangles makes 10 on the samples).
+constexpr std::size_t kMaxPatches = 512;
+// A patch's side could not be told from its sample points (sides_of_patches).
+constexpr int kUnclear = 2;
+
+/// Per patch of `soup` (`patch[f]` numbers them 0..patches-1): 1 where it bounds the union of
+/// the solids (winding number 0 in front of it, so 1 behind: crossing an outward-oriented
+/// surface backwards adds one), 0 where it does not (1 or more in front: inside another part;
+/// -1 or less: between a pocket turned inside out and the outside), kUnclear where no sample
+/// point gave integers one apart. The sample
+/// points lie a hundredth of the inradius in front of and behind the centroid of the patch's
+/// roundest triangles (the largest inradius; up to four tried): far from other sheets, and
+/// well inside the triangle, whose own solid angle there is +-2 pi.
+std::vector<int> sides_of_patches(const Mesh& soup, const std::vector<std::uint32_t>& patch, std::size_t patches) {
+  const auto& p = soup.positions;
+  std::vector<std::vector<std::pair<double, std::uint32_t>>> roundest(patches);
+  for (std::uint32_t f = 0; f < soup.triangles.size(); ++f) {
+    const auto& t = soup.triangles[f];
+    const double area = 0.5 * glm::length(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
+    const double perimeter = glm::distance(p[t[0]], p[t[1]]) + glm::distance(p[t[1]], p[t[2]]) +
+                             glm::distance(p[t[2]], p[t[0]]);
+    if (perimeter > 0) roundest[patch[f]].emplace_back(2 * area / perimeter, f);
+  }
+  constexpr std::size_t kTries = 4;
+  for (auto& r : roundest) {
+    const auto n = std::min(r.size(), kTries);
+    std::partial_sort(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(n), r.end(), std::greater<>());
+    r.resize(n);
+  }
+  std::vector<int> side(patches, kUnclear);
+  tbb::parallel_for(std::size_t{0}, patches, [&](std::size_t k) {
+    for (const auto& [inradius, f] : roundest[k]) {
+      const auto& t = soup.triangles[f];
+      const glm::dvec3 n = glm::normalize(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
+      const glm::dvec3 c = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0, d = 0.01 * inradius * n;
+      const double front = winding_number(soup, c + d), back = winding_number(soup, c - d);
+      const double wf = std::round(front), wb = std::round(back);
+      if (std::abs(front - wf) > 0.1 || std::abs(back - wb) > 0.1 || wb - wf != 1) continue;
+      side[k] = wf == 0 ? 1 : 0;
+      break;
+    }
+  });
+  return side;
+}
+
+/// Gives each vertex of `soup` whose triangles form several fans (where kept patches meet at
+/// a point only: the end of a fold's cut line, which does not separate patches) a copy per
+/// fan, moved a hundredth of the way to the centroid of the fan's other vertices: the tips of
+/// the cones meeting there draw back into their cones, apart. The copies are appended; the
+/// vertex itself is then unused.
+void split_pinches(OuterSurface& soup) {
+  std::vector<std::vector<std::pair<std::uint32_t, int>>> around(soup.positions.size());
+  for (std::uint32_t f = 0; f < soup.triangles.size(); ++f) {
+    for (int i = 0; i < 3; ++i) around[soup.triangles[f][i]].emplace_back(f, i);
+  }
+  for (std::uint32_t v = 0; v < around.size(); ++v) {
+    const auto& tris = around[v];
+    if (tris.size() < 2) continue;
+    // Fans: triangles joined where one's next vertex after v is another's previous one.
+    std::vector<std::size_t> fan(tris.size());
+    std::iota(fan.begin(), fan.end(), std::size_t{0});
+    auto find = [&](std::size_t i) {
+      while (fan[i] != i) i = fan[i] = fan[fan[i]];
+      return i;
+    };
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      const auto& ti = soup.triangles[tris[i].first];
+      const std::uint32_t next = ti[(tris[i].second + 1) % 3];
+      for (std::size_t j = 0; j < tris.size(); ++j) {
+        const auto& tj = soup.triangles[tris[j].first];
+        if (tj[(tris[j].second + 2) % 3] == next) fan[find(i)] = find(j);
+      }
+    }
+    std::vector<std::size_t> roots;
+    for (std::size_t i = 0; i < tris.size(); ++i) roots.push_back(find(i));
+    std::vector<std::size_t> distinct = roots;
+    std::sort(distinct.begin(), distinct.end());
+    distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+    if (distinct.size() < 2) continue;
+    // Every fan gets its own copy of v.
+    for (const std::size_t root : distinct) {
+      glm::dvec3 sum(0.0);
+      double count = 0;
+      for (std::size_t i = 0; i < tris.size(); ++i) {
+        if (roots[i] != root) continue;
+        const auto& t = soup.triangles[tris[i].first];
+        sum += soup.positions[t[(tris[i].second + 1) % 3]] + soup.positions[t[(tris[i].second + 2) % 3]];
+        count += 2;
+      }
+      const auto copy = static_cast<std::uint32_t>(soup.positions.size());
+      const glm::dvec3 p = soup.positions[v];
+      soup.positions.push_back(p + 0.01 * (sum / count - p));
+      for (std::size_t i = 0; i < tris.size(); ++i) {
+        if (roots[i] == root) soup.triangles[tris[i].first][tris[i].second] = copy;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 OuterSurface outer_surface(const Mesh& mesh) {
@@ -96,6 +204,62 @@ OuterSurface outer_surface(const Mesh& mesh) {
     return OuterSurface{};
   }
   if (!read_back(sm, origin, out)) return OuterSurface{};
+  return out;
+}
+
+OuterSurface outer_surface_by_winding(const Mesh& mesh) {
+  SurfaceMesh sm;
+  OriginMap origin;
+  if (!to_surface_mesh(mesh, sm, origin)) return {};
+  auto cut = sm.add_property_map<SurfaceMesh::Edge_index, bool>("e:cut", false).first;
+  try {
+    PMP::experimental::autorefine(sm, CGAL::parameters::visitor(OriginVisitor(origin)).edge_is_constrained_map(cut));
+  } catch (const std::exception&) {  // a CGAL precondition or an unexpected configuration
+    return {};
+  }
+  auto patch_map = sm.add_property_map<Face, std::size_t>("f:patch", 0).first;
+  const std::size_t patches = PMP::connected_components(sm, patch_map, CGAL::parameters::edge_is_constrained_map(cut));
+  OuterSurface all;
+  if (!read_back(sm, origin, all)) return {};
+  if (patches > kMaxPatches) {
+    all = {};
+    all.problem = std::to_string(patches) + " patches (more than " + std::to_string(kMaxPatches) + ")";
+    return all;
+  }
+  std::vector<std::uint32_t> patch;
+  patch.reserve(all.triangles.size());
+  for (const Face f : sm.faces()) patch.push_back(static_cast<std::uint32_t>(patch_map[f]));
+  Mesh soup;
+  soup.positions = std::move(all.positions);
+  soup.triangles = std::move(all.triangles);
+  const std::vector<int> side = sides_of_patches(soup, patch, patches);
+  OuterSurface out;
+  if (std::find(side.begin(), side.end(), kUnclear) != side.end()) {
+    out.problem = "a patch's winding numbers unclear";
+    return out;
+  }
+  // The refinement gives each side of a cut line its own copies of the line's vertices: the
+  // patches kept are joined there by welding equal positions (to the lowest index).
+  std::vector<std::uint32_t> order(soup.positions.size()), weld(soup.positions.size());
+  std::iota(order.begin(), order.end(), 0u);
+  auto key = [&](std::uint32_t v) {
+    const glm::dvec3& q = soup.positions[v];
+    return std::tuple(q.x, q.y, q.z, v);
+  };
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const bool same = i > 0 && soup.positions[order[i]] == soup.positions[order[i - 1]];
+    weld[order[i]] = same ? weld[order[i - 1]] : order[i];
+  }
+  out.positions = std::move(soup.positions);
+  for (std::size_t f = 0; f < soup.triangles.size(); ++f) {
+    if (side[patch[f]] == 0) continue;
+    const auto& t = soup.triangles[f];
+    out.triangles.push_back({weld[t[0]], weld[t[1]], weld[t[2]]});
+    out.origin.push_back(all.origin[f]);
+  }
+  split_pinches(out);
+  out.fixed = true;
   return out;
 }
 
