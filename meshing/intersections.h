@@ -67,10 +67,11 @@ OuterSurface outer_surface(const Mesh& mesh);
 /// triangles along their intersections; the cut lines divide the surface into patches, and a
 /// patch is kept where it bounds the union of the solids the surface wraps (the region of
 /// winding number 1 or more): winding number 0 in front of it (and so 1 behind), judged at
-/// points on either side of one of its triangles. Where a fold's cut line ends at a vertex of the mesh, the patches kept meet at
-/// that vertex alone: it is split, one copy per fan, each drawn a hundredth of the way into
-/// its fan. `fixed` when every patch was judged; empty with `problem` set when a patch's
-/// sides gave no clear winding numbers or there are more than 512 patches.
+/// points on either side of one of its triangles. Where a fold's cut line ends at a vertex
+/// of the mesh, the patches kept meet at that vertex alone: it is split, one copy per fan,
+/// each drawn a hundredth of the way into its fan. `fixed` when every patch was judged; empty
+/// with `problem` set when a patch's sides gave no clear winding numbers or there are more
+/// than 512 patches.
 OuterSurface outer_surface_by_winding(const Mesh& mesh);
 
 /// The union of the solids bounded by `a` and `b` (closed, manifold, outward; each free of

@@ -8,8 +8,8 @@
 #include <cmath>
 #include <exception>
 #include <functional>
-#include <string>
 #include <numeric>
+#include <string>
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -110,8 +110,8 @@ std::vector<int> sides_of_patches(const Mesh& soup, const std::vector<std::uint3
   for (std::uint32_t f = 0; f < soup.triangles.size(); ++f) {
     const auto& t = soup.triangles[f];
     const double area = 0.5 * glm::length(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
-    const double perimeter = glm::distance(p[t[0]], p[t[1]]) + glm::distance(p[t[1]], p[t[2]]) +
-                             glm::distance(p[t[2]], p[t[0]]);
+    const double perimeter =
+        glm::distance(p[t[0]], p[t[1]]) + glm::distance(p[t[1]], p[t[2]]) + glm::distance(p[t[2]], p[t[0]]);
     if (perimeter > 0) roundest[patch[f]].emplace_back(2 * area / perimeter, f);
   }
   constexpr std::size_t kTries = 4;

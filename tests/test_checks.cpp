@@ -3,10 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <cmath>
 #include <random>
 
 #include <nlohmann/json.hpp>
