@@ -142,6 +142,7 @@ class FoldRepair {
             if (crossing() && refill(within_rings(seeds, rings))) ++stats.refills;
           }
         }
+        if (crossing()) stats.left.emplace_back(std::min(a, b), std::max(a, b));
       }
       stats.flips += flipped_.size() / 2;  // before the moved triangles join the list
       flipped_.insert(flipped_.end(), moved_.begin(), moved_.end());
@@ -149,6 +150,10 @@ class FoldRepair {
       std::erase_if(flipped_, [&](std::uint32_t f) { return !alive(f); });
       examine = within_two_rings(flipped_);
     }
+    // (Later changes around a pair may have untangled it.)
+    std::sort(stats.left.begin(), stats.left.end());
+    stats.left.erase(std::unique(stats.left.begin(), stats.left.end()), stats.left.end());
+    std::erase_if(stats.left, [&](const auto& ab) { return !alive(ab.first) || !alive(ab.second) || !intersect(ab.first, ab.second); });
     return stats;
   }
 

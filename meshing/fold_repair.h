@@ -37,6 +37,10 @@ struct FoldRepairStats {
   std::size_t rounds = 0;     ///< detection rounds run
   bool gave_up = false;       ///< more pairs than FoldRepairOptions::max_pairs: not repaired (or stopped)
   bool out_of_tests = false;  ///< stopped when its triangle tests ran over the budget
+  /// The pairs it handled that still intersect at the end (sorted; triangle indices): the
+  /// pairs left among the triangles it examined. Pairs elsewhere, and pairs its last round's
+  /// changes made, are not in it.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> left;
 };
 
 /// Where a vertex move also tries towards its branch's axis (FoldRepairOptions::axis_point).

@@ -128,11 +128,14 @@ struct MeshResult {
   Mesh mesh;
   std::vector<TriangleKind> triangle_kind;  ///< #F
   MeshStats stats;
-  /// The self-intersecting triangle pairs left, if the fold repair counted them over the whole
-  /// mesh (`crossings_counted`: meshes of at most 300,000 triangles with
-  /// MeshParams::fold_repair_variants or fork_retry, the repair not stopped).
+  /// The self-intersecting triangle pairs left, if the fold repair counted them
+  /// (`crossings_counted`: with MeshParams::fold_repair_variants, fork_retry or
+  /// outer_surface, the repair not stopped): over the whole mesh on meshes of at most 300,000
+  /// triangles (`crossings_everywhere`), else those it left among the triangles it examined
+  /// (near forks; FoldRepairStats::left).
   std::vector<Crossing> crossings;
   bool crossings_counted = false;
+  bool crossings_everywhere = true;
   /// Every position is a multiple of this power of two (core/mesh.h float_grid), so that the
   /// exported float32 mesh is the mesh checked (0: not snapped).
   double grid = 0;

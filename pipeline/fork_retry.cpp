@@ -275,6 +275,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   // (A mesh with edges not shared by two triangles is a bug, reported as one; the retry
   // counts nodes inside by ray crossings, which needs a closed mesh.)
   if (!p.meshing.fork_retry || !r.mesh.crossings_counted || r.mesh.stats.bad_edges > 0) return stats;
+  if (!r.mesh.crossings_everywhere && r.mesh.crossings.empty()) return stats;  // (see the header)
   const Skeleton& s = r.skeleton.skeleton;
   // The thick nodes outside the first mesh (as `strandmesh check` finds them). This and the
   // first mesh's windings count as meshing time.
