@@ -130,6 +130,7 @@ TEST(FoldRepair, StopsAtItsBudgetOfTests) {
   EXPECT_EQ(full.positions, repaired.positions);
   EXPECT_EQ(full.triangles, repaired.triangles);
   EXPECT_GT(done.found, 0u);
+  EXPECT_TRUE(done.left.empty());  // all untangled
   EXPECT_FALSE(done.out_of_tests);
   EXPECT_GT(done.flips + done.moves + done.collapses + done.refills, 0u);
   EXPECT_TRUE(closed(full));
@@ -143,6 +144,24 @@ TEST(FoldRepair, StopsAtItsBudgetOfTests) {
   EXPECT_LT(stopped.flips + stopped.moves + stopped.collapses + stopped.refills,
             done.flips + done.moves + done.collapses + done.refills);
   EXPECT_TRUE(closed(held));
+}
+
+TEST(FoldRepair, ReportsThePairsItLeaves) {
+  // Two boxes through each other: parts inside parts, which no flip, move, collapse or refill
+  // of either untangles. The pairs it reports left are the pairs the mesh has afterwards.
+  Mesh boxes = test::interpenetrating_boxes();
+  const std::vector<std::uint8_t> suspect(boxes.triangles.size(), 1);
+  const std::vector<double> max_move(boxes.positions.size(), 0.05);
+  FoldRepairOptions options;
+  options.collapse = false;
+  options.refill = false;
+  const FoldRepairStats r = repair_folds(boxes, suspect, max_move, options);
+  EXPECT_GT(r.found, 0u);
+  const MeshCheckReport after = check_mesh(boxes, {.max_examples = 1000});
+  ASSERT_GT(after.self_intersecting_pairs, 0u);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> expected;
+  for (const auto& [f, g] : after.self_intersection_examples) expected.emplace_back(f, g);
+  EXPECT_EQ(r.left, expected);
 }
 
 /// The sanitized skeleton of a chain of nodes (position, radius), root first.
