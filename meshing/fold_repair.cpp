@@ -153,7 +153,9 @@ class FoldRepair {
     // (Later changes around a pair may have untangled it.)
     std::sort(stats.left.begin(), stats.left.end());
     stats.left.erase(std::unique(stats.left.begin(), stats.left.end()), stats.left.end());
-    std::erase_if(stats.left, [&](const auto& ab) { return !alive(ab.first) || !alive(ab.second) || !intersect(ab.first, ab.second); });
+    std::erase_if(stats.left, [&](const auto& ab) {
+      return !alive(ab.first) || !alive(ab.second) || !intersect(ab.first, ab.second);
+    });
     return stats;
   }
 

@@ -1011,8 +1011,13 @@ MeshResult Builder::run(const ProgressFn& progress) {
   stats_.timings.add("check", clock.lap());
   stats_.vertices = mesh_.positions.size();
   stats_.triangles = mesh_.triangles.size();
-  return MeshResult{std::move(mesh_),      std::move(kind_),   std::move(stats_),
-                    std::move(crossings_), crossings_counted_, crossings_everywhere_, grid_};
+  return MeshResult{std::move(mesh_),
+                    std::move(kind_),
+                    std::move(stats_),
+                    std::move(crossings_),
+                    crossings_counted_,
+                    crossings_everywhere_,
+                    grid_};
 }
 
 }  // namespace
