@@ -1,15 +1,20 @@
 // The outer surface of a closed mesh whose parts run into each other (see intersections.h):
 // CGAL Polygon Mesh Processing's autorefinement, which cuts every pair of intersecting
 // triangles along their intersection, with the patches that end up inside another part
-// removed (experimental::autorefine_and_remove_self_intersections). Kept in its own
-// translation unit: the corefinement headers are the slowest of CGAL's to compile.
+// removed (experimental::autorefine_and_remove_self_intersections), or the patches chosen by
+// winding numbers (autorefine alone; outer_surface_by_winding); and the union of two meshes.
+// Kept in its own translation unit: the corefinement headers are the slowest of CGAL's to
+// compile.
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <functional>
 #include <numeric>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -100,10 +105,10 @@ constexpr int kUnclear = 2;
 /// the solids (winding number 0 in front of it, so 1 behind: crossing an outward-oriented
 /// surface backwards adds one), 0 where it does not (1 or more in front: inside another part;
 /// -1 or less: between a pocket turned inside out and the outside), kUnclear where no sample
-/// point gave integers one apart. The sample
-/// points lie a hundredth of the inradius in front of and behind the centroid of the patch's
-/// roundest triangles (the largest inradius; up to four tried): far from other sheets, and
-/// well inside the triangle, whose own solid angle there is +-2 pi.
+/// point gave integers one apart. The sample points lie a hundredth of the inradius in front
+/// of and behind the centroid of the patch's roundest triangles (the largest inradius; up to
+/// four tried): far from other sheets, and well inside the triangle, whose own solid angle
+/// there is +-2 pi.
 std::vector<int> sides_of_patches(const Mesh& soup, const std::vector<std::uint32_t>& patch, std::size_t patches) {
   const auto& p = soup.positions;
   std::vector<std::vector<std::pair<double, std::uint32_t>>> roundest(patches);
