@@ -74,6 +74,28 @@ OuterSurface outer_surface(const Mesh& mesh);
 /// than 512 patches.
 OuterSurface outer_surface_by_winding(const Mesh& mesh);
 
+/// The patches of outer_surface_by_winding, from which outer surfaces are made cluster by
+/// cluster: a cluster is a set of crossings (the input triangles the refinement cut, joined
+/// where they share a vertex, and the patches dropped between them). Where the whole choice
+/// fails (a branch cut off through a pinched neck; a handle where two parts run through each
+/// other), the crossings elsewhere may still be mended: `surface(apply)` applies the choice
+/// at the clusters marked in `apply` (#clusters()) and keeps the input triangles at the others.
+class WindingPatches {
+ public:
+  explicit WindingPatches(const Mesh& mesh);
+  ~WindingPatches();
+  WindingPatches(const WindingPatches&) = delete;
+  WindingPatches& operator=(const WindingPatches&) = delete;
+  [[nodiscard]] std::size_t clusters() const;
+  /// Why no surface can be made (empty if it can).
+  [[nodiscard]] const std::string& problem() const;
+  [[nodiscard]] OuterSurface surface(const std::vector<std::uint8_t>& apply) const;
+
+ private:
+  struct Data;
+  std::unique_ptr<Data> d_;
+};
+
 /// The union of the solids bounded by `a` and `b` (closed, manifold, outward; each free of
 /// self-intersections where it meets the other): CGAL's corefinement
 /// (PMP::corefine_and_compute_union). Positions: `a`'s vertices (same indices), then new ones

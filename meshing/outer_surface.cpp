@@ -176,6 +176,10 @@ Mesh unit_sphere(double turn) {
   return m;
 }
 
+/// The outer surface by winding numbers is tried cluster by cluster at up to this many clusters
+/// (each a check of the whole mesh).
+constexpr std::size_t kMaxClusters = 16;
+
 /// Thick nodes outside get a sphere only when at most this far from the mesh, relative to their
 /// radius, and at most kMaxSpheres of them.
 constexpr double kMaxMiss = 0.5;
@@ -287,7 +291,7 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
         after.thick_nodes_inside <= now.thick_nodes_inside)
       why = "no fewer pairs and no more thick nodes inside";
     if (!why.empty()) {
-      refused.push_back(what + ": " + why);
+      if (!what.empty()) refused.push_back(what + ": " + why);
       return false;
     }
     if (!result.mesh.normals.empty()) cand.mesh.normals = angle_weighted_normals(cand.mesh);
@@ -304,9 +308,30 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
   // Parts inside parts.
   if (now.self_intersecting_pairs > 0) {
     // CGAL's choice of patches first; where that is refused (it goes wrong at folds), the
-    // patches chosen by winding numbers.
-    if (!attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface"))
-      attempt(result, outer_surface_by_winding(result.mesh), result.mesh.positions.size(), "outer surface by winding");
+    // patches chosen by winding numbers; where that is refused too, the same cluster by
+    // cluster (a crossing where two parts make a handle, or cut off a branch, is left as it
+    // is; the others are mended), each kept if it does better.
+    if (!attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface")) {
+      const MeshResult base = result;
+      const std::size_t kept = base.mesh.positions.size();
+      const WindingPatches patches(base.mesh);
+      const std::size_t n = patches.clusters();
+      std::vector<std::uint8_t> apply(n, 1);
+      if (!attempt(base, patches.surface(apply), kept, "outer surface by winding") && n > 1 &&
+          patches.problem().empty()) {
+        std::size_t mended = 0;
+        apply.assign(n, 0);
+        for (std::size_t k = 0; k < std::min(n, kMaxClusters); ++k) {
+          apply[k] = 1;
+          if (attempt(base, patches.surface(apply), kept, ""))
+            ++mended;
+          else
+            apply[k] = 0;
+        }
+        refused.push_back("by winding, cluster by cluster: " + std::to_string(mended) + " of " + std::to_string(n) +
+                          " clusters kept");
+      }
+    }
   }
   // Thick nodes outside: all at once, then one by one; the spheres reaching a quarter of the
   // node's radius beyond the mesh, else a tenth (a larger one may bridge a crotch: genus 1),

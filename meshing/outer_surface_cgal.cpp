@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <tuple>
@@ -212,60 +213,161 @@ OuterSurface outer_surface(const Mesh& mesh) {
   return out;
 }
 
-OuterSurface outer_surface_by_winding(const Mesh& mesh) {
+struct WindingPatches::Data {
+  std::string problem;
+  std::vector<Mesh::Triangle> input;                              // the mesh's triangles (restored where not applied)
+  Mesh soup;                                                      // the refined mesh
+  std::vector<std::uint32_t> origin, patch;                       // per refined triangle
+  std::vector<int> side;                                          // per patch (sides_of_patches)
+  std::vector<std::uint32_t> weld;                                // per refined vertex: the lowest at its position
+  std::vector<std::uint32_t> cluster_of_input, cluster_of_patch;  // UINT32_MAX: none
+  std::size_t clusters = 0;
+};
+
+WindingPatches::~WindingPatches() = default;
+
+WindingPatches::WindingPatches(const Mesh& mesh) : d_(std::make_unique<Data>()) {
+  Data& d = *d_;
+  d.input = mesh.triangles;
   SurfaceMesh sm;
   OriginMap origin;
-  if (!to_surface_mesh(mesh, sm, origin)) return {};
+  d.problem = "CGAL failed";
+  if (!to_surface_mesh(mesh, sm, origin)) return;
   auto cut = sm.add_property_map<SurfaceMesh::Edge_index, bool>("e:cut", false).first;
   try {
     PMP::experimental::autorefine(sm, CGAL::parameters::visitor(OriginVisitor(origin)).edge_is_constrained_map(cut));
   } catch (const std::exception&) {  // a CGAL precondition or an unexpected configuration
-    return {};
+    return;
   }
   auto patch_map = sm.add_property_map<Face, std::size_t>("f:patch", 0).first;
   const std::size_t patches = PMP::connected_components(sm, patch_map, CGAL::parameters::edge_is_constrained_map(cut));
   OuterSurface all;
-  if (!read_back(sm, origin, all)) return {};
+  if (!read_back(sm, origin, all)) return;
   if (patches > kMaxPatches) {
-    all = {};
-    all.problem = std::to_string(patches) + " patches (more than " + std::to_string(kMaxPatches) + ")";
-    return all;
+    d.problem = std::to_string(patches) + " patches (more than " + std::to_string(kMaxPatches) + ")";
+    return;
   }
-  std::vector<std::uint32_t> patch;
-  patch.reserve(all.triangles.size());
-  for (const Face f : sm.faces()) patch.push_back(static_cast<std::uint32_t>(patch_map[f]));
-  Mesh soup;
-  soup.positions = std::move(all.positions);
-  soup.triangles = std::move(all.triangles);
-  const std::vector<int> side = sides_of_patches(soup, patch, patches);
-  OuterSurface out;
-  if (std::find(side.begin(), side.end(), kUnclear) != side.end()) {
-    out.problem = "a patch's winding numbers unclear";
-    return out;
+  d.origin = std::move(all.origin);
+  d.patch.reserve(all.triangles.size());
+  for (const Face f : sm.faces()) d.patch.push_back(static_cast<std::uint32_t>(patch_map[f]));
+  d.soup.positions = std::move(all.positions);
+  d.soup.triangles = std::move(all.triangles);
+  d.side = sides_of_patches(d.soup, d.patch, patches);
+  if (std::find(d.side.begin(), d.side.end(), kUnclear) != d.side.end()) {
+    d.problem = "a patch's winding numbers unclear";
+    return;
   }
   // The refinement gives each side of a cut line its own copies of the line's vertices: the
   // patches kept are joined there by welding equal positions (to the lowest index).
-  std::vector<std::uint32_t> order(soup.positions.size()), weld(soup.positions.size());
+  const auto nv = static_cast<std::uint32_t>(d.soup.positions.size());
+  std::vector<std::uint32_t> order(nv);
+  d.weld.resize(nv);
   std::iota(order.begin(), order.end(), 0u);
   auto key = [&](std::uint32_t v) {
-    const glm::dvec3& q = soup.positions[v];
+    const glm::dvec3& q = d.soup.positions[v];
     return std::tuple(q.x, q.y, q.z, v);
   };
   std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
   for (std::size_t i = 0; i < order.size(); ++i) {
-    const bool same = i > 0 && soup.positions[order[i]] == soup.positions[order[i - 1]];
-    weld[order[i]] = same ? weld[order[i - 1]] : order[i];
+    const bool same = i > 0 && d.soup.positions[order[i]] == d.soup.positions[order[i - 1]];
+    d.weld[order[i]] = same ? d.weld[order[i - 1]] : order[i];
   }
-  out.positions = std::move(soup.positions);
-  for (std::size_t f = 0; f < soup.triangles.size(); ++f) {
-    if (side[patch[f]] == 0) continue;
-    const auto& t = soup.triangles[f];
-    out.triangles.push_back({weld[t[0]], weld[t[1]], weld[t[2]]});
-    out.origin.push_back(all.origin[f]);
+  // Clusters: the input triangles the refinement cut (a triangle with a new vertex), joined
+  // where they share a vertex (a cut line's, welded, or one of the input's), and where a
+  // dropped patch holds parts of several (its fate is theirs).
+  const auto ni = static_cast<std::uint32_t>(d.input.size());
+  const std::uint32_t nv_in = static_cast<std::uint32_t>(mesh.positions.size());
+  std::vector<std::uint8_t> refined(ni, 0);
+  for (std::size_t f = 0; f < d.soup.triangles.size(); ++f) {
+    for (const std::uint32_t v : d.soup.triangles[f]) {
+      if (v >= nv_in) refined[d.origin[f]] = 1;
+    }
+  }
+  std::vector<std::uint32_t> parent(ni);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  auto join = [&](std::uint32_t a, std::uint32_t b) { parent[find(a)] = find(b); };
+  std::vector<std::uint32_t> first_at(nv, UINT32_MAX);  // per welded vertex: a refined input triangle at it
+  for (std::size_t f = 0; f < d.soup.triangles.size(); ++f) {
+    const std::uint32_t t = d.origin[f];
+    if (!refined[t]) continue;
+    for (const std::uint32_t v : d.soup.triangles[f]) {
+      std::uint32_t& at = first_at[d.weld[v]];
+      if (at == UINT32_MAX)
+        at = t;
+      else
+        join(t, at);
+    }
+  }
+  std::vector<std::uint32_t> patch_input(patches, UINT32_MAX);  // dropped patch: a refined input triangle in it
+  for (std::size_t f = 0; f < d.soup.triangles.size(); ++f) {
+    const std::uint32_t t = d.origin[f], p = d.patch[f];
+    if (!refined[t] || d.side[p] != 0) continue;
+    if (patch_input[p] == UINT32_MAX)
+      patch_input[p] = t;
+    else
+      join(t, patch_input[p]);
+  }
+  std::vector<std::uint32_t> number(ni, UINT32_MAX);
+  d.cluster_of_input.assign(ni, UINT32_MAX);
+  for (std::uint32_t t = 0; t < ni; ++t) {
+    if (!refined[t]) continue;
+    std::uint32_t& n = number[find(t)];
+    if (n == UINT32_MAX) n = static_cast<std::uint32_t>(d.clusters++);
+    d.cluster_of_input[t] = n;
+  }
+  d.cluster_of_patch.assign(patches, UINT32_MAX);
+  for (std::size_t p = 0; p < patches; ++p) {
+    if (d.side[p] != 0) continue;
+    // (A dropped patch that no cut line bounds, a part wholly inside another, is a cluster
+    // of its own.)
+    d.cluster_of_patch[p] =
+        patch_input[p] != UINT32_MAX ? d.cluster_of_input[patch_input[p]] : static_cast<std::uint32_t>(d.clusters++);
+  }
+  d.problem.clear();
+}
+
+std::size_t WindingPatches::clusters() const {
+  return d_->clusters;
+}
+
+const std::string& WindingPatches::problem() const {
+  return d_->problem;
+}
+
+OuterSurface WindingPatches::surface(const std::vector<std::uint8_t>& apply) const {
+  const Data& d = *d_;
+  OuterSurface out;
+  if (!d.problem.empty()) {
+    out.problem = d.problem;
+    return out;
+  }
+  auto applied = [&](std::uint32_t c) { return c == UINT32_MAX || (c < apply.size() && apply[c]); };
+  out.positions = d.soup.positions;
+  for (std::size_t f = 0; f < d.soup.triangles.size(); ++f) {
+    const std::uint32_t t = d.origin[f], p = d.patch[f];
+    if (!applied(d.cluster_of_input[t])) continue;  // its input triangle, below
+    if (d.side[p] == 0 && applied(d.cluster_of_patch[p])) continue;
+    const auto& tri = d.soup.triangles[f];
+    out.triangles.push_back({d.weld[tri[0]], d.weld[tri[1]], d.weld[tri[2]]});
+    out.origin.push_back(t);
+  }
+  for (std::uint32_t t = 0; t < d.input.size(); ++t) {
+    if (applied(d.cluster_of_input[t])) continue;
+    out.triangles.push_back(d.input[t]);
+    out.origin.push_back(t);
   }
   split_pinches(out);
   out.fixed = true;
   return out;
+}
+
+OuterSurface outer_surface_by_winding(const Mesh& mesh) {
+  const WindingPatches patches(mesh);
+  return patches.surface(std::vector<std::uint8_t>(patches.clusters(), 1));
 }
 
 OuterSurface union_of(const Mesh& a, const Mesh& b) {

@@ -353,6 +353,38 @@ TEST(OuterSurface, UnfoldsByWindingNumbersWhereCgalsChoiceIsRefused) {
   EXPECT_NEAR(after.signed_volume, before.signed_volume, 0.05 * before.signed_volume);
 }
 
+TEST(OuterSurface, MendsClusterByClusterWhereTheWholeIsRefused) {
+  // The sphere folded as above, and pierced a quarter turn away as below: the outer surface
+  // of the whole is refused (the piercing has none), but cluster by cluster the fold is
+  // mended and the piercing left as it was.
+  Mesh both = test::icosphere(2, 0.5);
+  const std::uint32_t w = both.triangles[0][1], v = both.triangles[0][0];
+  const glm::dvec3 fold_at = both.positions[v];
+  both.positions[v] = 2.0 * both.positions[w] - both.positions[v];
+  std::uint32_t far = 0;  // a vertex a quarter turn from the fold: pushed through, still away from it
+  for (std::uint32_t u = 0; u < both.positions.size(); ++u) {
+    if (std::abs(glm::dot(both.positions[u], fold_at)) < std::abs(glm::dot(both.positions[far], fold_at))) far = u;
+  }
+  both.positions[far] *= -1.4;
+  const Skeleton skeleton = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
+  MeshCheckParams cp;
+  cp.skeleton = &skeleton;
+  const MeshCheckReport before = check_mesh(both, cp);
+  MeshResult r = with_pairs_left(both);
+  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{});
+  EXPECT_TRUE(s.applied) << s.refused;
+  EXPECT_NE(s.refused.find("outer surface by winding: "), std::string::npos) << s.refused;
+  EXPECT_NE(s.refused.find("cluster by cluster: 1 of 2 clusters kept"), std::string::npos) << s.refused;
+  EXPECT_EQ(s.pairs_before, before.self_intersecting_pairs);
+  EXPECT_GT(s.pairs_after, 0u);
+  EXPECT_LT(s.pairs_after, s.pairs_before);
+  const MeshCheckReport after = check_mesh(r.mesh, cp);
+  EXPECT_TRUE(after.closed && after.edge_manifold && after.vertex_manifold && after.oriented);
+  EXPECT_EQ(after.genus, std::optional<std::int64_t>(0));
+  EXPECT_EQ(after.components, 1u);
+  EXPECT_EQ(after.self_intersecting_pairs, s.pairs_after);
+}
+
 TEST(OuterSurface, RefusesWhatChecksWorse) {
   // A sphere with one vertex pushed through it and out of the far side: its fan is a cone
   // through both walls. Any outer surface of that has a tunnel where the cone was (genus 1),
