@@ -7,8 +7,10 @@
 #include <numbers>
 #include <ranges>
 #include <span>
+#include <vector>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
@@ -224,6 +226,88 @@ bool inside_by_crossings(const Mesh& mesh, const Ids& ids, const glm::dvec3& p) 
 bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
   return inside_by_crossings(mesh,
                              std::views::iota(std::uint32_t{0}, static_cast<std::uint32_t>(mesh.triangles.size())), p);
+}
+
+std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points) {
+  const std::size_t n = points.size(), nf = mesh.triangles.size();
+  std::vector<std::uint8_t> inside(n, 0);
+  if (n == 0 || nf == 0) return inside;
+  const glm::dvec3& d = kRayDirection;
+  const glm::dvec3 au = glm::normalize(glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+  const glm::dvec3 av = glm::cross(d, au);
+  auto shadow = [&](const glm::dvec3& p) { return glm::dvec2(glm::dot(p, au), glm::dot(p, av)); };
+  // The points' shadows in a grid of about one per cell (CSR).
+  std::vector<glm::dvec2> q(n);
+  glm::dvec2 lo(HUGE_VAL), hi(-HUGE_VAL);
+  for (std::size_t i = 0; i < n; ++i) {
+    q[i] = shadow(points[i]);
+    lo = glm::min(lo, q[i]);
+    hi = glm::max(hi, q[i]);
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, 1e-300});
+  const double margin_abs = 1e-9 * extent;
+  const std::size_t side = std::clamp<std::size_t>(static_cast<std::size_t>(std::sqrt(double(n))), 1, 1024);
+  const double cell = extent / double(side) * (1 + 1e-9);
+  auto cell_of = [&](double t, double from) {
+    return static_cast<std::size_t>(std::clamp(std::floor((t - from) / cell), 0.0, double(side - 1)));
+  };
+  std::vector<std::uint32_t> begin(side * side + 1, 0), point(n);
+  for (std::size_t i = 0; i < n; ++i) ++begin[cell_of(q[i].y, lo.y) * side + cell_of(q[i].x, lo.x) + 1];
+  for (std::size_t c = 0; c + 1 < begin.size(); ++c) begin[c + 1] += begin[c];
+  {
+    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      point[fill[cell_of(q[i].y, lo.y) * side + cell_of(q[i].x, lo.x)]++] = static_cast<std::uint32_t>(i);
+  }
+  // Each triangle's crossings with the rays of the points whose shadow lies in its shadow's
+  // box, summed per point (integers: the same for any split of the work).
+  struct Counts {
+    std::vector<int> crossings;
+    std::vector<std::uint8_t> ambiguous;
+  };
+  tbb::enumerable_thread_specific<Counts> local([n] {
+    return Counts{std::vector<int>(n, 0), std::vector<std::uint8_t>(n, 0)};
+  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
+    Counts& counts = local.local();
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+      const glm::dvec2 sa = shadow(a), sb = shadow(b), sc = shadow(c);
+      glm::dvec2 bl = glm::min(sa, glm::min(sb, sc)), bh = glm::max(sa, glm::max(sb, sc));
+      const double m = 1e-6 * ((bh.x - bl.x) + (bh.y - bl.y)) + margin_abs;
+      bl -= glm::dvec2(m);
+      bh += glm::dvec2(m);
+      if (bh.x < lo.x || bh.y < lo.y || bl.x > hi.x || bl.y > hi.y) continue;
+      const std::size_t x0 = cell_of(bl.x, lo.x), x1 = cell_of(bh.x, lo.x);
+      const std::size_t y0 = cell_of(bl.y, lo.y), y1 = cell_of(bh.y, lo.y);
+      for (std::size_t y = y0; y <= y1; ++y) {
+        for (std::size_t x = x0; x <= x1; ++x) {
+          for (std::uint32_t k = begin[y * side + x]; k < begin[y * side + x + 1]; ++k) {
+            const std::uint32_t i = point[k];
+            if (q[i].x < bl.x || q[i].x > bh.x || q[i].y < bl.y || q[i].y > bh.y) continue;
+            const int crossing = ray_crossing(a, b, c, points[i]);
+            if (crossing == kRayAmbiguous)
+              counts.ambiguous[i] = 1;
+            else
+              counts.crossings[i] += crossing;
+          }
+        }
+      }
+    }
+  });
+  std::vector<int> crossings(n, 0);
+  std::vector<std::uint8_t> ambiguous(n, 0);
+  for (const Counts& c : local) {
+    for (std::size_t i = 0; i < n; ++i) {
+      crossings[i] += c.crossings[i];
+      ambiguous[i] |= c.ambiguous[i];
+    }
+  }
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    inside[i] = ambiguous[i] ? (winding_number(mesh, points[i]) >= 0.5 ? 1 : 0) : (crossings[i] >= 1 ? 1 : 0);
+  });
+  return inside;
 }
 
 ClosedMeshInside::ClosedMeshInside(const Mesh& mesh) : mesh_(mesh) {
