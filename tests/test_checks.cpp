@@ -188,10 +188,10 @@ TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
 }
 
 TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
-  // inside_closed_mesh (one point, and many) and ClosedMeshInside. Two overlapping jittered spheres (winding
-  // number 2 where they overlap) and a box: random points, the mesh's own vertices, edge
-  // midpoints and face centres (on the surface: the ray test falls back to the winding number
-  // there) and points along the ray's axes.
+  // inside_closed_mesh (one point, and many) and ClosedMeshInside. Two overlapping jittered
+  // spheres (winding number 2 where they overlap) and a box: random points, the mesh's own
+  // vertices, edge midpoints and face centres (on the surface: the ray test falls back to the
+  // winding number there) and points along the ray's axes.
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> jitter(-0.02, 0.02), coord(-1.6, 2.2);
   Mesh a = test::icosphere(3);
