@@ -5,7 +5,6 @@
 #include <cstdint>
 #include <functional>
 #include <numbers>
-#include <ranges>
 #include <span>
 #include <vector>
 
@@ -206,26 +205,14 @@ int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
   return det < 0 ? 1 : -1;
 }
 
-namespace {
-
-/// inside_closed_mesh over the triangles `ids` (those the ray from p can cross).
-template <class Ids>
-bool inside_by_crossings(const Mesh& mesh, const Ids& ids, const glm::dvec3& p) {
+bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
   int crossings = 0;
-  for (const std::uint32_t f : ids) {
-    const auto& t = mesh.triangles[f];
+  for (const auto& t : mesh.triangles) {
     const int c = ray_crossing(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], p);
     if (c == kRayAmbiguous) return winding_number(mesh, p) >= 0.5;  // on the surface, or through an edge
     crossings += c;
   }
   return crossings >= 1;
-}
-
-}  // namespace
-
-bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
-  return inside_by_crossings(mesh,
-                             std::views::iota(std::uint32_t{0}, static_cast<std::uint32_t>(mesh.triangles.size())), p);
 }
 
 std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points) {
@@ -308,80 +295,6 @@ std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const g
     inside[i] = ambiguous[i] ? (winding_number(mesh, points[i]) >= 0.5 ? 1 : 0) : (crossings[i] >= 1 ? 1 : 0);
   });
   return inside;
-}
-
-ClosedMeshInside::ClosedMeshInside(const Mesh& mesh) : mesh_(mesh) {
-  const std::size_t nf = mesh.triangles.size();
-  if (nf == 0) return;
-  const glm::dvec3& d = kRayDirection;
-  axis_u_ = glm::normalize(glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
-  axis_v_ = glm::cross(d, axis_u_);
-  // Each triangle's shadow box, widened by far more than ray_crossing's margins and the
-  // rounding of the projection.
-  std::vector<glm::dvec4> box(nf);  // lo x, lo y, hi x, hi y
-  glm::dvec2 lo(HUGE_VAL), hi(-HUGE_VAL);
-  double size_sum = 0;
-  for (std::size_t f = 0; f < nf; ++f) {
-    const auto& t = mesh.triangles[f];
-    glm::dvec2 a(HUGE_VAL), b(-HUGE_VAL);
-    for (const std::uint32_t v : t) {
-      const glm::dvec2 q = shadow(mesh.positions[v]);
-      a = glm::min(a, q);
-      b = glm::max(b, q);
-    }
-    box[f] = {a, b};
-    lo = glm::min(lo, a);
-    hi = glm::max(hi, b);
-    size_sum += (b.x - a.x) + (b.y - a.y);
-  }
-  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, 1e-300});
-  const double margin_abs = 1e-9 * extent;
-  for (auto& b : box) {
-    const double m = 1e-6 * ((b.z - b.x) + (b.w - b.y)) + margin_abs;
-    b += glm::dvec4(-m, -m, m, m);
-  }
-  lo_ = lo - glm::dvec2(2 * margin_abs + 1e-6 * extent);
-  const glm::dvec2 span = hi - lo_ + glm::dvec2(2 * margin_abs + 1e-6 * extent);
-  // Cells about the size of a triangle's shadow, at most about four per triangle.
-  const double mean = size_sum / (2.0 * double(nf));
-  cell_size_ = std::max({mean, std::sqrt(span.x * span.y / (4.0 * double(nf))), 1e-12 * extent});
-  cells_x_ = std::clamp<std::size_t>(static_cast<std::size_t>(span.x / cell_size_) + 1, 1, 4096);
-  cells_y_ = std::clamp<std::size_t>(static_cast<std::size_t>(span.y / cell_size_) + 1, 1, 4096);
-  cell_size_ = std::max(span.x / double(cells_x_), span.y / double(cells_y_));
-  begin_.assign(cells_x_ * cells_y_ + 1, 0);
-  auto range = [&](const glm::dvec4& b, auto&& visit) {
-    const std::size_t x0 = cell(b.x, b.y) % cells_x_, y0 = cell(b.x, b.y) / cells_x_;
-    const std::size_t x1 = cell(b.z, b.w) % cells_x_, y1 = cell(b.z, b.w) / cells_x_;
-    for (std::size_t y = y0; y <= y1; ++y) {
-      for (std::size_t x = x0; x <= x1; ++x) visit(y * cells_x_ + x);
-    }
-  };
-  for (std::size_t f = 0; f < nf; ++f) range(box[f], [&](std::size_t c) { ++begin_[c + 1]; });
-  for (std::size_t c = 0; c + 1 < begin_.size(); ++c) begin_[c + 1] += begin_[c];
-  triangle_.resize(begin_.back());
-  std::vector<std::uint32_t> fill(begin_.begin(), begin_.end() - 1);
-  for (std::size_t f = 0; f < nf; ++f)
-    range(box[f], [&](std::size_t c) { triangle_[fill[c]++] = static_cast<std::uint32_t>(f); });
-}
-
-glm::dvec2 ClosedMeshInside::shadow(const glm::dvec3& p) const {
-  return {glm::dot(p, axis_u_), glm::dot(p, axis_v_)};
-}
-
-std::size_t ClosedMeshInside::cell(double x, double y) const {
-  const auto clamp_to = [&](double t, std::size_t n) {
-    return static_cast<std::size_t>(std::clamp(std::floor(t / cell_size_), 0.0, double(n - 1)));
-  };
-  return clamp_to(y - lo_.y, cells_y_) * cells_x_ + clamp_to(x - lo_.x, cells_x_);
-}
-
-bool ClosedMeshInside::operator()(const glm::dvec3& p) const {
-  if (begin_.empty()) return false;
-  const glm::dvec2 q = shadow(p);
-  const std::size_t c = cell(q.x, q.y);
-  // Triangles whose shadow misses p's cannot meet its ray (but may, lying along it, make the
-  // brute-force test fall back to the winding number: both give the winding number's answer).
-  return inside_by_crossings(mesh_, std::span(triangle_.data() + begin_[c], begin_[c + 1] - begin_[c]), p);
 }
 
 double float_grid(double reach) {

@@ -77,31 +77,12 @@ int ray_crossing(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
 /// by exactly two triangles, in opposite directions.
 bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p);
 
-/// inside_closed_mesh for many points of one mesh (the same answers): the triangles are
-/// binned by their shadow on a plane across the ray direction, so a point's ray is tested
-/// only against the triangles whose shadow's box holds its own shadow. Keeps a reference to
-/// the mesh, which must not change while it is used.
-/// inside_closed_mesh for many points at once, in one pass over the triangles (each tested
-/// against the points whose shadow across the ray direction lies in its shadow's box): for
-/// points few next to the triangles, where binning the triangles (ClosedMeshInside) costs more
-/// than the queries. 1 inside, 0 outside, per point; the same answers.
+/// inside_closed_mesh for many points at once (the same answers), in one pass over the
+/// triangles: the points are binned by their shadow on a plane across the ray direction, and
+/// each triangle is tested against the points whose shadow lies in its shadow's box. 1 inside,
+/// 0 outside, per point. (On the 3.4 M-triangle bench tree, 32,817 points in 85 ms on 2
+/// threads; binning the triangles instead took 0.7 s to build.)
 std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points);
-
-class ClosedMeshInside {
- public:
-  explicit ClosedMeshInside(const Mesh& mesh);
-  [[nodiscard]] bool operator()(const glm::dvec3& p) const;
-
- private:
-  [[nodiscard]] glm::dvec2 shadow(const glm::dvec3& p) const;
-  [[nodiscard]] std::size_t cell(double x, double y) const;
-  const Mesh& mesh_;
-  glm::dvec3 axis_u_{0}, axis_v_{0};  // across the ray direction
-  glm::dvec2 lo_{0};
-  double cell_size_ = 1;
-  std::size_t cells_x_ = 0, cells_y_ = 0;
-  std::vector<std::uint32_t> begin_, triangle_;  // triangles per cell (CSR)
-};
 
 /// Float grid: the .glb and .gltf store positions as float32 offsets from an origin kept in
 /// double precision, so a mesh free of self-intersections in double precision may intersect

@@ -230,15 +230,16 @@ struct Watched {
     }
   }
 
-  // Per group: the watched nodes outside the closed mesh (winding number below 1/2, each
-  // node's in triangle order, so the same for any thread count).
+  // Per group: the watched nodes outside the closed mesh (winding number below 1/2: counted
+  // ray crossings, the same for any thread count).
   [[nodiscard]] std::vector<std::size_t> outside(const Skeleton& s, const Mesh& mesh, std::size_t groups) const {
     if (node.empty()) return std::vector<std::size_t>(groups, 0);
-    std::vector<std::uint8_t> out(node.size(), 0);
-    const ClosedMeshInside inside(mesh);
-    tbb::parallel_for(std::size_t{0}, node.size(), [&](std::size_t k) { out[k] = !inside(s.position[node[k].idx()]); });
+    std::vector<glm::dvec3> at;
+    at.reserve(node.size());
+    for (const NodeId n : node) at.push_back(s.position[n.idx()]);
+    const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh, at);
     std::vector<std::size_t> count(groups, 0);
-    for (std::size_t k = 0; k < node.size(); ++k) count[group[k]] += out[k];
+    for (std::size_t k = 0; k < node.size(); ++k) count[group[k]] += inside[k] ? 0 : 1;
     return count;
   }
 };

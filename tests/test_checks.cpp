@@ -188,7 +188,7 @@ TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
 }
 
 TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
-  // inside_closed_mesh (one point, and many) and ClosedMeshInside. Two overlapping jittered
+  // inside_closed_mesh, for one point and for many at once. Two overlapping jittered
   // spheres (winding number 2 where they overlap) and a box: random points, the mesh's own
   // vertices, edge midpoints and face centres (on the surface: the ray test falls back to the
   // winding number there) and points along the ray's axes.
@@ -209,14 +209,12 @@ TEST(Checks, RayCrossingsAgreeWithTheWindingNumber) {
     }
     for (const double x : {0.0, 0.25, 0.5, 1.0}) points.emplace_back(x, x, x);
     std::size_t inside = 0;
-    const ClosedMeshInside binned(m);  // the same test with the triangles binned by shadow
     const std::vector<std::uint8_t> batch = inside_closed_mesh(m, points);  // and with the points binned
     ASSERT_EQ(batch.size(), points.size());
     for (std::size_t k = 0; k < points.size(); ++k) {
       const glm::dvec3& p = points[k];
       const bool expected = winding_number(m, p) >= 0.5;
       EXPECT_EQ(inside_closed_mesh(m, p), expected) << p.x << " " << p.y << " " << p.z;
-      EXPECT_EQ(binned(p), expected) << p.x << " " << p.y << " " << p.z;
       EXPECT_EQ(batch[k] == 1, expected) << p.x << " " << p.y << " " << p.z;
       inside += expected;
     }
