@@ -327,58 +327,79 @@ TEST(OuterSurface, NoSpheresForATangle) {
   EXPECT_EQ(r.mesh.triangles, tube.triangles);
 }
 
-TEST(OuterSurface, UnfoldsByWindingNumbersWhereCgalsChoiceIsRefused) {
-  // A sphere with one vertex dragged across its neighbour: a fold, not a part inside a part.
-  // CGAL keeps the wrong patches of such a fold (here, as at rtwig's and small_pine's hubs, the
-  // small pocket, with negative volume): refused. The patches chosen by winding numbers make
-  // the sphere without the fold.
-  Mesh folded = test::icosphere(2, 0.5);
-  const std::uint32_t w = folded.triangles[0][1], v = folded.triangles[0][0];
-  folded.positions[v] = 2.0 * folded.positions[w] - folded.positions[v];
-  const Skeleton skeleton = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
+// The outer surface of a sphere of radius 0.5 around a two-node skeleton, changed by the
+// tests below: `before` the step, the mesh `r` it leaves and its figures `s`.
+struct SphereOutcome {
+  MeshCheckReport before;
+  MeshResult r;
+  OuterSurfaceStats s;
+};
+const Skeleton& sphere_skeleton() {
+  static const Skeleton s = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
+  return s;
+}
+MeshCheckParams sphere_check() {
   MeshCheckParams cp;
-  cp.skeleton = &skeleton;
-  const MeshCheckReport before = check_mesh(folded, cp);
+  cp.skeleton = &sphere_skeleton();
+  return cp;
+}
+SphereOutcome outer_surface_of_sphere(const Mesh& sphere) {
+  SphereOutcome o{check_mesh(sphere, sphere_check()), with_pairs_left(sphere), {}};
+  o.s = keep_outer_surface(o.r, sphere_skeleton(), MeshParams{});
+  return o;
+}
+// Drags the first vertex of the first triangle across its neighbour, as far beyond it as it
+// was before: its fan folds over the triangles around the neighbour. Returns where it was.
+glm::dvec3 fold(Mesh& sphere) {
+  const std::uint32_t w = sphere.triangles[0][1], v = sphere.triangles[0][0];
+  const glm::dvec3 was = sphere.positions[v];
+  sphere.positions[v] = 2.0 * sphere.positions[w] - was;
+  return was;
+}
+// Pushes vertex v through the sphere and out of the far side: its fan is a cone through both
+// walls.
+void pierce(Mesh& sphere, std::uint32_t v) {
+  sphere.positions[v] *= -1.4;
+}
+
+TEST(OuterSurface, UnfoldsByWindingNumbersWhereCgalsChoiceIsRefused) {
+  // A fold, not a part inside a part. CGAL keeps the wrong patches of such a fold (here, as
+  // at rtwig's and small_pine's hubs, the small pocket, with negative volume): refused. The
+  // patches chosen by winding numbers make the sphere without the fold.
+  Mesh folded = test::icosphere(2, 0.5);
+  fold(folded);
+  const auto [before, r, s] = outer_surface_of_sphere(folded);
   ASSERT_GT(before.self_intersecting_pairs, 0u);
-  MeshResult r = with_pairs_left(folded);
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{});
   EXPECT_TRUE(s.tried);
   EXPECT_TRUE(s.applied);
   EXPECT_EQ(s.refused, "outer surface: negative volume");
   EXPECT_EQ(s.pairs_before, before.self_intersecting_pairs);
   EXPECT_EQ(s.pairs_after, 0u);
   EXPECT_TRUE(r.crossings.empty());
-  const MeshCheckReport after = check_mesh(r.mesh, cp);
+  const MeshCheckReport after = check_mesh(r.mesh, sphere_check());
   expect_clean(after);
   EXPECT_NEAR(after.signed_volume, before.signed_volume, 0.05 * before.signed_volume);
 }
 
 TEST(OuterSurface, MendsClusterByClusterWhereTheWholeIsRefused) {
-  // The sphere folded as above, and pierced a quarter turn away as below: the outer surface
-  // of the whole is refused (the piercing has none), but cluster by cluster the fold is
-  // mended and the piercing left as it was.
+  // Folded as above, and pierced a quarter turn away as below: the outer surface of the whole
+  // is refused (the piercing has none), but cluster by cluster the fold is mended and the
+  // piercing left as it was.
   Mesh both = test::icosphere(2, 0.5);
-  const std::uint32_t w = both.triangles[0][1], v = both.triangles[0][0];
-  const glm::dvec3 fold_at = both.positions[v];
-  both.positions[v] = 2.0 * both.positions[w] - both.positions[v];
+  const glm::dvec3 fold_at = fold(both);
   std::uint32_t far = 0;  // a vertex a quarter turn from the fold: pushed through, still away from it
   for (std::uint32_t u = 0; u < both.positions.size(); ++u) {
     if (std::abs(glm::dot(both.positions[u], fold_at)) < std::abs(glm::dot(both.positions[far], fold_at))) far = u;
   }
-  both.positions[far] *= -1.4;
-  const Skeleton skeleton = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
-  MeshCheckParams cp;
-  cp.skeleton = &skeleton;
-  const MeshCheckReport before = check_mesh(both, cp);
-  MeshResult r = with_pairs_left(both);
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{});
+  pierce(both, far);
+  const auto [before, r, s] = outer_surface_of_sphere(both);
   EXPECT_TRUE(s.applied) << s.refused;
   EXPECT_NE(s.refused.find("outer surface by winding: "), std::string::npos) << s.refused;
   EXPECT_NE(s.refused.find("cluster by cluster: 1 of 2 clusters kept"), std::string::npos) << s.refused;
   EXPECT_EQ(s.pairs_before, before.self_intersecting_pairs);
   EXPECT_GT(s.pairs_after, 0u);
   EXPECT_LT(s.pairs_after, s.pairs_before);
-  const MeshCheckReport after = check_mesh(r.mesh, cp);
+  const MeshCheckReport after = check_mesh(r.mesh, sphere_check());
   EXPECT_TRUE(after.closed && after.edge_manifold && after.vertex_manifold && after.oriented);
   EXPECT_EQ(after.genus, std::optional<std::int64_t>(0));
   EXPECT_EQ(after.components, 1u);
@@ -386,19 +407,12 @@ TEST(OuterSurface, MendsClusterByClusterWhereTheWholeIsRefused) {
 }
 
 TEST(OuterSurface, RefusesWhatChecksWorse) {
-  // A sphere with one vertex pushed through it and out of the far side: its fan is a cone
-  // through both walls. Any outer surface of that has a tunnel where the cone was (genus 1),
-  // which the checks count worse than the pairs: the mesh is left as it was.
+  // Pierced: any outer surface has a tunnel where the cone was (genus 1), which the checks
+  // count worse than the pairs: the mesh is left as it was.
   Mesh pierced = test::icosphere(2, 0.5);
-  const std::uint32_t v = pierced.triangles[0][0];
-  pierced.positions[v] *= -1.4;
-  const Skeleton skeleton = chain({{{0, 0, -0.3}, 0.25}, {{0, 0, 0.3}, 0.25}});
-  MeshCheckParams cp;
-  cp.skeleton = &skeleton;
-  const MeshCheckReport before = check_mesh(pierced, cp);
+  pierce(pierced, pierced.triangles[0][0]);
+  const auto [before, r, s] = outer_surface_of_sphere(pierced);
   ASSERT_GT(before.self_intersecting_pairs, 0u);
-  MeshResult r = with_pairs_left(pierced);
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{});
   EXPECT_TRUE(s.tried);
   EXPECT_FALSE(s.applied);
   EXPECT_EQ(s.refused, "outer surface: negative volume; outer surface by winding: genus 1");
