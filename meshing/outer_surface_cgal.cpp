@@ -22,8 +22,8 @@
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
-#include <tbb/parallel_for.h>
 
+#include "core/mesh.h"
 #include "meshing/intersections.h"
 
 namespace sm {
@@ -96,49 +96,47 @@ bool read_back(const SurfaceMesh& sm, const OriginMap& origin, OuterSurface& out
   return true;
 }
 
-// outer_surface_by_winding: at most this many patches are classified (each costs a pass over
-// the mesh per sample point; a mesh of 110,000 triangles makes 10 on the samples).
+// outer_surface_by_winding: at most this many patches are classified (a mesh of 110,000
+// triangles makes 10 on the samples; more are a tangle, which the choice does not mend).
 constexpr std::size_t kMaxPatches = 512;
-// A patch's side could not be told from its sample points (sides_of_patches).
+// A patch's side could not be told: none of its triangles has an area (sides_of_patches).
 constexpr int kUnclear = 2;
 
 /// Per patch of `soup` (`patch[f]` numbers them 0..patches-1): 1 where it bounds the union of
 /// the solids (winding number 0 in front of it, so 1 behind: crossing an outward-oriented
 /// surface backwards adds one), 0 where it does not (1 or more in front: inside another part;
-/// -1 or less: between a pocket turned inside out and the outside), kUnclear where no sample
-/// point gave integers one apart. The sample points lie a hundredth of the inradius in front
-/// of and behind the centroid of the patch's roundest triangles (the largest inradius; up to
-/// four tried): far from other sheets, and well inside the triangle, whose own solid angle
-/// there is +-2 pi.
+/// -1 or less: between a pocket turned inside out and the outside). Judged at points a
+/// hundredth of the inradius in front of and behind the centroid of the patch's roundest
+/// triangle (the largest inradius): far from other sheets, and well inside the triangle. The
+/// points are tested all at once by ray crossings (core/mesh.h inside_closed_mesh: the soup is
+/// closed as a surface, its cut lines' vertices doubled): kept where the point in front is
+/// outside and the one behind inside.
 std::vector<int> sides_of_patches(const Mesh& soup, const std::vector<std::uint32_t>& patch, std::size_t patches) {
   const auto& p = soup.positions;
-  std::vector<std::vector<std::pair<double, std::uint32_t>>> roundest(patches);
+  std::vector<std::pair<double, std::uint32_t>> roundest(patches, {-1.0, 0});
   for (std::uint32_t f = 0; f < soup.triangles.size(); ++f) {
     const auto& t = soup.triangles[f];
     const double area = 0.5 * glm::length(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
     const double perimeter =
         glm::distance(p[t[0]], p[t[1]]) + glm::distance(p[t[1]], p[t[2]]) + glm::distance(p[t[2]], p[t[0]]);
-    if (perimeter > 0) roundest[patch[f]].emplace_back(2 * area / perimeter, f);
+    if (perimeter > 0 && 2 * area / perimeter > roundest[patch[f]].first)
+      roundest[patch[f]] = {2 * area / perimeter, f};
   }
-  constexpr std::size_t kTries = 4;
-  for (auto& r : roundest) {
-    const auto n = std::min(r.size(), kTries);
-    std::partial_sort(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(n), r.end(), std::greater<>());
-    r.resize(n);
+  std::vector<glm::dvec3> at(2 * patches, glm::dvec3(0.0));  // in front, behind, per patch
+  for (std::size_t k = 0; k < patches; ++k) {
+    const auto& [inradius, f] = roundest[k];
+    if (!(inradius > 0)) continue;  // no triangle of any area: kUnclear below
+    const auto& t = soup.triangles[f];
+    const glm::dvec3 n = glm::normalize(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
+    const glm::dvec3 c = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0, d = 0.01 * inradius * n;
+    at[2 * k] = c + d;
+    at[2 * k + 1] = c - d;
   }
+  const std::vector<std::uint8_t> inside = inside_closed_mesh(soup, at);
   std::vector<int> side(patches, kUnclear);
-  tbb::parallel_for(std::size_t{0}, patches, [&](std::size_t k) {
-    for (const auto& [inradius, f] : roundest[k]) {
-      const auto& t = soup.triangles[f];
-      const glm::dvec3 n = glm::normalize(glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]));
-      const glm::dvec3 c = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0, d = 0.01 * inradius * n;
-      const double front = winding_number(soup, c + d), back = winding_number(soup, c - d);
-      const double wf = std::round(front), wb = std::round(back);
-      if (std::abs(front - wf) > 0.1 || std::abs(back - wb) > 0.1 || wb - wf != 1) continue;
-      side[k] = wf == 0 ? 1 : 0;
-      break;
-    }
-  });
+  for (std::size_t k = 0; k < patches; ++k) {
+    if (roundest[k].first > 0) side[k] = !inside[2 * k] && inside[2 * k + 1] ? 1 : 0;
+  }
   return side;
 }
 
@@ -254,7 +252,7 @@ WindingPatches::WindingPatches(const Mesh& mesh) : d_(std::make_unique<Data>()) 
   d.soup.triangles = std::move(all.triangles);
   d.side = sides_of_patches(d.soup, d.patch, patches);
   if (std::find(d.side.begin(), d.side.end(), kUnclear) != d.side.end()) {
-    d.problem = "a patch's winding numbers unclear";
+    d.problem = "a patch without area";
     return;
   }
   // The refinement gives each side of a cut line its own copies of the line's vertices: the
