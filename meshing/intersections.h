@@ -70,8 +70,8 @@ OuterSurface outer_surface(const Mesh& mesh);
 /// points on either side of one of its triangles. Where a fold's cut line ends at a vertex
 /// of the mesh, the patches kept meet at that vertex alone: it is split, one copy per fan,
 /// each drawn a hundredth of the way into its fan. `fixed` when every patch was judged; empty
-/// with `problem` set when a patch's sides gave no clear winding numbers or there are more
-/// than 512 patches.
+/// with `problem` set when a patch has no triangle of any area or there are more than 512
+/// patches.
 OuterSurface outer_surface_by_winding(const Mesh& mesh);
 
 /// The patches of outer_surface_by_winding, from which outer surfaces are made cluster by
