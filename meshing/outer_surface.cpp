@@ -319,17 +319,18 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
       std::vector<std::uint8_t> apply(n, 1);
       if (!attempt(base, patches.surface(apply), kept, "outer surface by winding") && n > 1 &&
           patches.problem().empty()) {
-        std::size_t mended = 0;
         apply.assign(n, 0);
-        for (std::size_t k = 0; k < std::min(n, kMaxClusters); ++k) {
+        stats.clusters = std::min(n, kMaxClusters);
+        for (std::size_t k = 0; k < stats.clusters; ++k) {
           apply[k] = 1;
           if (attempt(base, patches.surface(apply), kept, ""))
-            ++mended;
+            ++stats.clusters_kept;
           else
             apply[k] = 0;
         }
-        refused.push_back("by winding, cluster by cluster: " + std::to_string(mended) + " of " + std::to_string(n) +
-                          " clusters kept");
+        if (stats.clusters_kept < n)
+          refused.push_back("outer surface by winding at " + std::to_string(n - stats.clusters_kept) + " of " +
+                            std::to_string(n) + " clusters of crossings: no better");
       }
     }
   }
@@ -382,7 +383,11 @@ std::string to_text(const OuterSurfaceStats& os) {
                 "triangles, in %.3f s",
                 os.pairs_before, os.pairs_after, os.nodes_inside_before, os.nodes_inside_after, os.blobs,
                 os.triangles_before, os.triangles_after, os.seconds);
-  return line;
+  std::string text = line;
+  if (os.clusters > 0)
+    text += "; by winding numbers at " + std::to_string(os.clusters_kept) + " of " + std::to_string(os.clusters) +
+            " clusters of crossings";
+  return text;
 }
 
 }  // namespace sm

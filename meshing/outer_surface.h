@@ -50,6 +50,8 @@ struct OuterSurfaceStats {
   std::size_t triangles_before = 0;
   std::size_t triangles_after = 0;
   std::size_t blobs = 0;   ///< thick nodes outside given a sphere that was kept
+  std::size_t clusters = 0;       ///< clusters of crossings tried one by one (WindingPatches; 0: not tried)
+  std::size_t clusters_kept = 0;  ///< of those, the ones whose outer surface was kept
   std::string refused;     ///< each attempt refused and why ("; "-separated; empty if none was)
   double seconds = 0;
 };

@@ -174,6 +174,8 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"triangles_before", r.outer_surface.triangles_before},
                  {"triangles_after", r.outer_surface.triangles_after},
                  {"node_spheres", r.outer_surface.blobs},
+                 {"clusters", r.outer_surface.clusters},
+                 {"clusters_kept", r.outer_surface.clusters_kept},
                  {"refused", r.outer_surface.refused}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};

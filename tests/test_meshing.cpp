@@ -395,7 +395,11 @@ TEST(OuterSurface, MendsClusterByClusterWhereTheWholeIsRefused) {
   const auto [before, r, s] = outer_surface_of_sphere(both);
   EXPECT_TRUE(s.applied) << s.refused;
   EXPECT_NE(s.refused.find("outer surface by winding: "), std::string::npos) << s.refused;
-  EXPECT_NE(s.refused.find("cluster by cluster: 1 of 2 clusters kept"), std::string::npos) << s.refused;
+  EXPECT_EQ(s.clusters, 2u);
+  EXPECT_EQ(s.clusters_kept, 1u);
+  EXPECT_NE(s.refused.find("outer surface by winding at 1 of 2 clusters of crossings: no better"), std::string::npos)
+      << s.refused;
+  EXPECT_NE(to_text(s).find("by winding numbers at 1 of 2 clusters of crossings"), std::string::npos) << to_text(s);
   EXPECT_EQ(s.pairs_before, before.self_intersecting_pairs);
   EXPECT_GT(s.pairs_after, 0u);
   EXPECT_LT(s.pairs_after, s.pairs_before);
