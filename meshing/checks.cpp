@@ -26,6 +26,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/errors.h"
+#include "core/union_find.h"
 #include "meshing/checks_cgal.h"
 
 namespace sm {
@@ -33,28 +34,6 @@ namespace sm {
 namespace {
 
 using glm::dvec3;
-
-// ---------------------------------------------------------------- union-find
-
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
 
 // ---------------------------------------------------------------- round cones
 

@@ -312,13 +312,15 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     // cluster (a crossing where two parts make a handle, or cut off a branch, is left as it
     // is; the others are mended), each kept if it does better.
     if (!attempt(result, outer_surface(result.mesh), result.mesh.positions.size(), "outer surface")) {
-      const MeshResult base = result;
-      const std::size_t kept = base.mesh.positions.size();
-      const WindingPatches patches(base.mesh);
+      const std::size_t kept = result.mesh.positions.size();
+      const WindingPatches patches(result.mesh);
       const std::size_t n = patches.clusters();
       std::vector<std::uint8_t> apply(n, 1);
-      if (!attempt(base, patches.surface(apply), kept, "outer surface by winding") && n > 1 &&
+      if (!attempt(result, patches.surface(apply), kept, "outer surface by winding") && n > 1 &&
           patches.problem().empty()) {
+        // (A refused attempt leaves the mesh as it was; the clusters kept replace it, so each
+        // later candidate is cut from a copy of the mesh the patches were made from.)
+        const MeshResult base = result;
         apply.assign(n, 0);
         stats.clusters = std::min(n, kMaxClusters);
         for (std::size_t k = 0; k < stats.clusters; ++k) {

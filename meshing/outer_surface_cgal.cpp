@@ -24,6 +24,7 @@
 #include <CGAL/Surface_mesh.h>
 
 #include "core/mesh.h"
+#include "core/union_find.h"
 #include "meshing/intersections.h"
 
 namespace sm {
@@ -154,31 +155,25 @@ void split_pinches(OuterSurface& soup) {
     const auto& tris = around[v];
     if (tris.size() < 2) continue;
     // Fans: triangles joined where one's next vertex after v is another's previous one.
-    std::vector<std::size_t> fan(tris.size());
-    std::iota(fan.begin(), fan.end(), std::size_t{0});
-    auto find = [&](std::size_t i) {
-      while (fan[i] != i) i = fan[i] = fan[fan[i]];
-      return i;
-    };
-    for (std::size_t i = 0; i < tris.size(); ++i) {
-      const auto& ti = soup.triangles[tris[i].first];
-      const std::uint32_t next = ti[(tris[i].second + 1) % 3];
-      for (std::size_t j = 0; j < tris.size(); ++j) {
-        const auto& tj = soup.triangles[tris[j].first];
-        if (tj[(tris[j].second + 2) % 3] == next) fan[find(i)] = find(j);
+    const auto n = static_cast<std::uint32_t>(tris.size());
+    UnionFind fans(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const std::uint32_t next = soup.triangles[tris[i].first][(tris[i].second + 1) % 3];
+      for (std::uint32_t j = 0; j < n; ++j) {
+        if (soup.triangles[tris[j].first][(tris[j].second + 2) % 3] == next) fans.unite(i, j);
       }
     }
-    std::vector<std::size_t> roots;
-    for (std::size_t i = 0; i < tris.size(); ++i) roots.push_back(find(i));
-    std::vector<std::size_t> distinct = roots;
-    std::sort(distinct.begin(), distinct.end());
-    distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+    std::vector<std::uint32_t> roots(n), distinct;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      roots[i] = fans.find(i);
+      if (roots[i] == i) distinct.push_back(i);
+    }
     if (distinct.size() < 2) continue;
     // Every fan gets its own copy of v.
-    for (const std::size_t root : distinct) {
+    for (const std::uint32_t root : distinct) {
       glm::dvec3 sum(0.0);
       double count = 0;
-      for (std::size_t i = 0; i < tris.size(); ++i) {
+      for (std::uint32_t i = 0; i < n; ++i) {
         if (roots[i] != root) continue;
         const auto& t = soup.triangles[tris[i].first];
         sum += soup.positions[t[(tris[i].second + 1) % 3]] + soup.positions[t[(tris[i].second + 2) % 3]];
@@ -187,7 +182,7 @@ void split_pinches(OuterSurface& soup) {
       const auto copy = static_cast<std::uint32_t>(soup.positions.size());
       const glm::dvec3 p = soup.positions[v];
       soup.positions.push_back(p + 0.01 * (sum / count - p));
-      for (std::size_t i = 0; i < tris.size(); ++i) {
+      for (std::uint32_t i = 0; i < n; ++i) {
         if (roots[i] == root) soup.triangles[tris[i].first][tris[i].second] = copy;
       }
     }
@@ -281,13 +276,7 @@ WindingPatches::WindingPatches(const Mesh& mesh) : d_(std::make_unique<Data>()) 
       if (v >= nv_in) refined[d.origin[f]] = 1;
     }
   }
-  std::vector<std::uint32_t> parent(ni);
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  auto join = [&](std::uint32_t a, std::uint32_t b) { parent[find(a)] = find(b); };
+  UnionFind joined(ni);
   std::vector<std::uint32_t> first_at(nv, UINT32_MAX);  // per welded vertex: a refined input triangle at it
   for (std::size_t f = 0; f < d.soup.triangles.size(); ++f) {
     const std::uint32_t t = d.origin[f];
@@ -297,7 +286,7 @@ WindingPatches::WindingPatches(const Mesh& mesh) : d_(std::make_unique<Data>()) 
       if (at == UINT32_MAX)
         at = t;
       else
-        join(t, at);
+        joined.unite(t, at);
     }
   }
   std::vector<std::uint32_t> patch_input(patches, UINT32_MAX);  // dropped patch: a refined input triangle in it
@@ -307,13 +296,13 @@ WindingPatches::WindingPatches(const Mesh& mesh) : d_(std::make_unique<Data>()) 
     if (patch_input[p] == UINT32_MAX)
       patch_input[p] = t;
     else
-      join(t, patch_input[p]);
+      joined.unite(t, patch_input[p]);
   }
   std::vector<std::uint32_t> number(ni, UINT32_MAX);
   d.cluster_of_input.assign(ni, UINT32_MAX);
   for (std::uint32_t t = 0; t < ni; ++t) {
     if (!refined[t]) continue;
-    std::uint32_t& n = number[find(t)];
+    std::uint32_t& n = number[joined.find(t)];
     if (n == UINT32_MAX) n = static_cast<std::uint32_t>(d.clusters++);
     d.cluster_of_input[t] = n;
   }
