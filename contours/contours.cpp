@@ -15,7 +15,8 @@
 // Junction and two child tubes start (anchored at F). Forks deeper in a child's subtree that
 // were passed while fused are handled by the child tube, which tests them first. A bundle
 // whose strands all end (tips) before separating is absorbed into its sibling's tube (counted
-// warning); bundles still touching where the shorter child edge ends are split there if they
+// warning), unless its tip is a stub (thick, or a thick node outside the sibling's cones: it
+// then splits below its tip); bundles still touching where the shorter child edge ends are split there if they
 // are at least loosely apart and clear of each other's cones (counted warning), otherwise
 // they stay fused.
 //
@@ -48,9 +49,12 @@ namespace {
 
 // Tips at least this fraction of their fork's radius thick are stubs: when their bundle has
 // not separated by the last slice below the tip, it splits there (see Walker). Thinner tips
-// are absorbed. Every tip a stub: 293 self-intersecting pairs on the samples x seeds 1-3
-// (agraf 116); from 0.3 of the fork's radius: 277 (agraf 100), boutdenoylum2 thick nodes
-// inside 138 / 136 / 138 of 144 rather than 138 / 136 / 139.
+// are absorbed, unless they are thick nodes (the skeleton's median radius) lying outside the
+// other child's round cones: absorbed, they would lie outside the mesh (grown broadleaf at
+// grow seeds 3 and 6: one pruned twig each, 2 and 9 mm outside the trunk; the samples at
+// particle seeds 1-10 are unchanged, their absorbed tips being thin). Every tip a stub: 293 self-intersecting pairs on
+// the samples x seeds 1-3 (agraf 116); from 0.3 of the fork's radius: 277 (agraf 100), boutdenoylum2 thick nodes inside
+// 138 / 136 / 138 of 144 rather than 138 / 136 / 139.
 constexpr double kStubRadius = 0.3;
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
@@ -175,6 +179,7 @@ struct Tables {
   const StrandSet& st;
   const ContourParams& p;
   double spacing;                               // distance between neighbouring particles (metres)
+  double median_radius;                         // the skeleton's median radius: thick nodes reach it
   std::vector<double> root_distance;            // #N distance from the root along the tree (for UV distances)
   std::vector<std::uint32_t> branch;            // #N first node of each node's branch
   std::vector<double> node_offset;              // #N surface offset of each node's cloud (metres)
@@ -191,7 +196,8 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
       f(f_),
       st(st_),
       p(p_),
-      spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)) {
+      spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)),
+      median_radius(s_.median_radius()) {
   const std::size_t n = s.size();
   root_distance.assign(n, 0.0);
   for (std::size_t i = 1; i < n; ++i) root_distance[i] = root_distance[s.parent[i].idx()] + s.edge_length(NodeId(i));
@@ -575,7 +581,7 @@ class Walker {
   // tubes are a few slices long: buffers of their own were allocated anew for each).
   struct Scratch {
     std::vector<std::pair<NodeId, double>> stack, cone_stack;
-    SlicePoints pts, pts_a, pts_b, pts_l, pts_rest;
+    SlicePoints pts, pts_a, pts_b, pts_l, pts_rest, tip;
     std::vector<CutEdge> cut_a, cut_b, cut_n;
     std::vector<dvec2> flat, moved;
     std::vector<dvec3> lift;
@@ -1052,18 +1058,29 @@ void Walker::walk(const Task& task, Fragment& fragment) {
     };
     const double shorter_end =
         fork_base + std::max(std::min(segment(a), segment(b)), p_.min_fused_length * s_.radius[fork.idx()]);
-    // Where a child whose segment ends in a tip at least kStubRadius x the fork's radius
-    // thick (a stub) ends; infinity if neither does.
-    auto tip_end = [&](NodeId c) {
+    // Where a child whose segment ends in a tip that is a stub ends; infinity if neither
+    // does. A stub is at least kStubRadius x the fork's radius thick, or thick (the median
+    // radius: the mesh must contain it) with its tip outside the other child's round cones,
+    // where an absorbed tip would lie outside the mesh.
+    auto tip_end = [&](NodeId c, NodeId other) {
       double l = len(c);
       while (s_.child_count(c) == 1) {
         c = s_.children[c.idx()][0];
         l += len(c);
       }
-      const bool stub = s_.child_count(c) == 0 && s_.radius[c.idx()] >= kStubRadius * s_.radius[fork.idx()];
+      if (s_.child_count(c) != 0) return std::numeric_limits<double>::infinity();
+      const double r = s_.radius[c.idx()];
+      bool stub = r >= kStubRadius * s_.radius[fork.idx()];
+      if (!stub && r >= tables_.median_radius) {
+        SlicePoints& tip = scratch_.tip;
+        tip.clear();
+        tip.point.push_back(s_.position[c.idx()]);
+        tip.offset.push_back(0.0);
+        stub = cone_clearance(tip, other, fork_base, l + 2.0 * s_.radius[fork.idx()], 0.0) > 0.0;
+      }
       return stub ? fork_base + l : std::numeric_limits<double>::infinity();
     };
-    const double stub_end = std::min(tip_end(a), tip_end(b));
+    const double stub_end = std::min(tip_end(a, b), tip_end(b, a));
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);

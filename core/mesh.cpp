@@ -168,6 +168,36 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
   return sum;
 }
 
+void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::span<const std::uint32_t> triangles) {
+  // Each vertex's corners summed in triangle order, as angle_weighted_normals does.
+  std::vector<std::uint32_t> list(vertices.begin(), vertices.end());
+  std::sort(list.begin(), list.end());
+  list.erase(std::unique(list.begin(), list.end()), list.end());
+  std::vector<std::uint8_t> mark(mesh.positions.size(), 0);
+  for (const std::uint32_t v : list) mark[v] = 1;
+  std::vector<glm::dvec3> sum(list.size(), glm::dvec3(0));
+  auto slot = [&](std::uint32_t v) { return std::lower_bound(list.begin(), list.end(), v) - list.begin(); };
+  const std::size_t n = triangles.empty() ? mesh.triangles.size() : triangles.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& t = mesh.triangles[triangles.empty() ? k : triangles[k]];
+    if (!(mark[t[0]] | mark[t[1]] | mark[t[2]])) continue;
+    const glm::dvec3 &p0 = mesh.positions[t[0]], &p1 = mesh.positions[t[1]], &p2 = mesh.positions[t[2]];
+    const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
+    const double len = glm::length(fn);
+    if (!(len > 0)) continue;
+    const double w[3] = {fast_angle(len, glm::dot(p1 - p0, p2 - p0)) / len,
+                         fast_angle(len, glm::dot(p2 - p1, p0 - p1)) / len,
+                         fast_angle(len, glm::dot(p0 - p2, p1 - p2)) / len};
+    for (std::size_t c = 0; c < 3; ++c) {
+      if (mark[t[c]] && w[c] != 0) sum[slot(t[c])] += fn * w[c];
+    }
+  }
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const double l = glm::length(sum[k]);
+    mesh.normals[list[k]] = l > 0 ? sum[k] / l : glm::dvec3(0, 0, 1);
+  }
+}
+
 double winding_number(const Mesh& mesh, const glm::dvec3& p) {
   double w = 0;
   for (const auto& t : mesh.triangles)

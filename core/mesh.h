@@ -56,6 +56,12 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
 /// The same, with the mesh's vertex_corners already at hand.
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCorners& corners);
 
+/// angle_weighted_normals recomputed at `vertices` only (any order, repeats allowed), after
+/// they or their neighbours moved: the same values as the whole, in one pass over the triangles.
+/// `triangles`, when given, holds (in increasing order) every triangle at those vertices,
+/// and only those are visited.
+void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::span<const std::uint32_t> triangles = {});
+
 /// Generalized winding number of the mesh's triangles about p: the solid angles they span
 /// there (core/math.h solid_angle), summed in triangle order, over 4 pi. For a closed,
 /// outward-oriented mesh 1 inside, 0 outside, 2 inside two overlapping parts.

@@ -238,7 +238,7 @@ std::string fmt(double x, int digits) {
 }  // namespace
 
 std::vector<std::uint32_t> thick_node_ids(const Skeleton& skeleton) {
-  const double median = percentile(skeleton.radius, 0.5);
+  const double median = skeleton.median_radius();
   std::vector<std::uint32_t> out;
   for (std::size_t i = 0; i < skeleton.size(); ++i) {
     if (skeleton.radius[i] >= median) out.push_back(static_cast<std::uint32_t>(i));

@@ -92,6 +92,11 @@ struct MeshParams {
   /// node outside (CGAL's union; meshing/outer_surface.h), where the result passes the mesh
   /// checks at least as well in every respect and has fewer pairs or more nodes inside.
   bool outer_surface = true;
+  /// Thick skeleton nodes a little outside the finished mesh (within their radius of it: a
+  /// twig's base at a crotch) get the surface nearest them pushed over them, where no new
+  /// crossing, turned triangle or lost node results (meshing/near_misses.h). Runs after the
+  /// fork retry, before the outer surface, on meshes of any size.
+  bool cover_near_misses = true;
 };
 
 struct MeshStats {

@@ -88,6 +88,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_variants", p.fold_repair_variants);
   v("fork_retry", p.fork_retry);
   v("outer_surface", p.outer_surface);
+  v("cover_near_misses", p.cover_near_misses);
 }
 
 const std::map<std::string, ThickChildPolicy> kPolicies{

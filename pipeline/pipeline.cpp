@@ -71,9 +71,13 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
   // (Its runs add their own times to the contours and meshing stages.)
   r.fork_retry = retry_forks(r, p, progress);
-  // (Its time counts as meshing.)
+  // (Their times count as meshing.)
+  r.near_misses = cover_near_misses(r.mesh, r.skeleton.skeleton, p.meshing);
+  r.timings.add(stage_name(Stage::meshing), r.near_misses.seconds);
+  const bool nodes_outside =
+      r.fork_retry.outside_after > 0 && (!r.near_misses.tried || r.near_misses.outside_after > 0);
   report("outer surface", 0);
-  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, r.fork_retry.outside_after > 0);
+  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, nodes_outside);
   r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
   warn_self_intersections_left(r);
 }
@@ -164,6 +168,13 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"fork_groups", r.fork_retry.groups},
                  {"runs", r.fork_retry.runs},
                  {"webs_refused", r.fork_retry.webs_refused}}},
+               {"near_misses",
+                {{"tried", r.near_misses.tried},
+                 {"thick_nodes_outside_before", r.near_misses.outside_before},
+                 {"thick_nodes_outside_after", r.near_misses.outside_after},
+                 {"pushes_kept", r.near_misses.covered},
+                 {"pushes_undone", r.near_misses.refused},
+                 {"moved_vertices", r.near_misses.moved_vertices}}},
                {"outer_surface",
                 {{"tried", r.outer_surface.tried},
                  {"applied", r.outer_surface.applied},

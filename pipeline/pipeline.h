@@ -10,6 +10,7 @@
 #include "core/progress.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
+#include "meshing/near_misses.h"
 #include "meshing/outer_surface.h"
 #include "particles/particles.h"
 #include "pipeline/fork_retry.h"
@@ -48,7 +49,9 @@ struct PipelineResult {
   MeshResult mesh;
   /// The fork retry's figures (MeshParams::fork_retry).
   ForkRetryStats fork_retry;
-  /// The outer surface's figures (MeshParams::outer_surface), after the fork retry.
+  /// The near misses' figures (MeshParams::cover_near_misses), after the fork retry.
+  NearMissStats near_misses;
+  /// The outer surface's figures (MeshParams::outer_surface), after the near misses.
   OuterSurfaceStats outer_surface;
   /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing".
   Timings timings;

@@ -1,5 +1,7 @@
 #include "skeleton/skeleton.h"
 
+#include <algorithm>
+
 #include "core/errors.h"
 
 namespace sm {
@@ -36,6 +38,14 @@ std::vector<std::uint32_t> Skeleton::branch_ids() const {
     b[i] = children[p.idx()][0] == NodeId(i) ? b[p.idx()] : static_cast<std::uint32_t>(i);
   }
   return b;
+}
+
+double Skeleton::median_radius() const {
+  if (radius.empty()) return 0;
+  std::vector<double> r = radius;
+  const auto k = static_cast<std::ptrdiff_t>((r.size() + 1) / 2 - 1);
+  std::nth_element(r.begin(), r.begin() + k, r.end());
+  return r[static_cast<std::size_t>(k)];
 }
 
 std::string Skeleton::describe(NodeId n) const {

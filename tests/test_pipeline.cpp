@@ -396,6 +396,70 @@ TEST(Pipeline, ShortStubsReachTheirTips) {
   EXPECT_GE(forced, 4u);
 }
 
+TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
+  // Thin pruned twigs (tip r 0.002, most of the tree's nodes are as thin, so the tips are
+  // thick nodes) whose tips end a few millimetres outside a trunk of radius 0.075, as on the
+  // grown broadleaf at grow seeds 3 and 6. Their bundles never part from the trunk's, and
+  // absorbed into its section the tips were left outside (the stub 2-9 mm out, measured: 2 of
+  // 3 outside with the fork retry and the outer surface off). A thin tip outside the other
+  // child's cones splits off below its tip like a thick stub (2 of the 3 here; the third
+  // parts from the trunk by itself).
+  RawSkeleton raw;
+  raw.source = "thin_stubs_beside_trunk";
+  for (int i = 0; i < 5; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.5 * i), 0.075);
+  const double outside[] = {0.002, 0.005, 0.009};
+  for (int k = 0; k < 3; ++k) {
+    const double a = 2.0 * k;  // radians around the trunk
+    const double h = 0.075 + outside[k];
+    raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
+  }
+  for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), 0.002);
+  PipelineParams params;
+  params.meshing.fork_retry = false;
+  params.meshing.outer_surface = false;
+  PipelineResult r;
+  const MeshCheckReport rep = run_and_check(raw, &r, params);
+  expect_sound(rep);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_GE(rep.thick_nodes, 15u);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+  EXPECT_GE(r.contours.stats.forced_splits, 2u);
+}
+
+TEST(Pipeline, NearMissesArePushedInside) {
+  // A thick node of a plain branch moved sideways to 1.3 radii from its axis lies a little
+  // outside the finished mesh: the surface nearest it is pushed over it, a few vertices moved,
+  // and the mesh stays sound, with every thick node inside and no crossing.
+  PipelineResult r = run_pipeline(test::y_fork(75), {});
+  Skeleton s = r.skeleton.skeleton;
+  NodeId pick;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    const NodeId n(static_cast<std::uint32_t>(i));
+    if (s.child_count(n) == 1 && s.parent[i].valid() && s.parent[s.parent[i].idx()].valid() &&
+        (!pick.valid() || s.radius[i] > s.radius[pick.idx()]))
+      pick = n;
+  }
+  ASSERT_TRUE(pick.valid());
+  s.position[pick.idx()] += 1.3 * s.radius[pick.idx()] * s.frame[pick.idx()].normal;
+  MeshCheckParams cp;
+  cp.skeleton = &s;
+  const MeshCheckReport before = check_mesh(r.mesh.mesh, cp);
+  ASSERT_EQ(before.thick_nodes_inside + 1, before.thick_nodes);
+  const std::vector<glm::dvec3> normals = r.mesh.mesh.normals;
+  const NearMissStats st = cover_near_misses(r.mesh, s, {});
+  EXPECT_EQ(st.outside_before, 1u);
+  EXPECT_EQ(st.covered, 1u);
+  EXPECT_EQ(st.outside_after, 0u);
+  EXPECT_GE(st.moved_vertices, 3u);
+  EXPECT_LE(st.moved_vertices, 20u);
+  const MeshCheckReport after = check_mesh(r.mesh.mesh, cp);
+  expect_sound(after);
+  EXPECT_EQ(after.self_intersecting_pairs, 0u);
+  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+  EXPECT_NE(r.mesh.mesh.normals, normals);  // recomputed where the surface moved
+  EXPECT_EQ(r.mesh.mesh.normals, angle_weighted_normals(r.mesh.mesh));
+}
+
 TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
   // 300 twigs from one node on one chain of binary forks (no clusters) run through each other
   // (the separation cannot clear them): the mesh has far more self-intersecting pairs near
@@ -499,7 +563,8 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   // boutdenoylum2 at particle seed 1: stitched and repaired, 2 self-intersecting pairs are
   // left at one crotch and 4 thick nodes outside; sliced again around them with other split
   // gaps, transitions and slice steps, no pair and three nodes fewer outside (measured); the
-  // last node outside gets a sphere joined to the mesh (the outer surface), so all are inside.
+  // last node outside gets the surface pushed over it (near misses; before those, a sphere
+  // joined to the mesh by the outer surface), so all are inside.
   // The retry's and the outer surface's figures match the checks of both meshes and the
   // surface stays sound and as faithful.
   const auto file = sample_named("mtg_boutdenoylum2.json");
@@ -507,6 +572,7 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams off, on;
   off.meshing.fork_retry = false;
+  off.meshing.cover_near_misses = false;
   PipelineResult a, b;
   const MeshCheckReport before = run_and_check(raw, &a, off);
   const MeshCheckReport after = run_and_check(raw, &b, on);
@@ -520,11 +586,10 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   EXPECT_GE(b.fork_retry.runs, 1u);
   EXPECT_LE(after.fidelity_p95, before.fidelity_p95 + 0.005);
   EXPECT_GT(after.thick_nodes_inside, before.thick_nodes_inside);
-  EXPECT_TRUE(b.outer_surface.applied) << b.outer_surface.refused;
-  EXPECT_GE(b.outer_surface.blobs, 1u);
+  EXPECT_GE(b.near_misses.covered + b.outer_surface.blobs, 1u);
   EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
-  EXPECT_EQ(b.outer_surface.nodes_inside_after, after.thick_nodes_inside);
-  EXPECT_EQ(b.fork_retry.outside_before - b.fork_retry.outside_after +
+  if (b.outer_surface.tried) EXPECT_EQ(b.outer_surface.nodes_inside_after, after.thick_nodes_inside);
+  EXPECT_EQ(b.fork_retry.outside_before - b.fork_retry.outside_after + b.near_misses.covered +
                 (b.outer_surface.nodes_inside_after - b.outer_surface.nodes_inside_before),
             after.thick_nodes_inside - before.thick_nodes_inside);
   expect_sound(after);

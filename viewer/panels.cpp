@@ -182,8 +182,11 @@ void stage_stats(const RunData& run, Stage s) {
                     r.mesh.mesh.vertex_count(), r.mesh.mesh.triangle_count(), st.merged_junctions, st.fold_pairs,
                     st.fold_flips, st.fold_moves);
       ImGui::TextWrapped("%s", line);
-      // What the fork retry and the outer surface did (see `strandmesh -v mesh`), when they ran.
+      // What the fork retry, the near misses and the outer surface did (see `strandmesh -v mesh`), when they ran.
       if (const auto& fr = r.fork_retry; fr.runs > 0) ImGui::TextWrapped("fork retry: %s", to_text(fr).c_str());
+      if (const auto& nm = r.near_misses; nm.outside_before > 0) {
+        ImGui::TextWrapped("near misses: %s", to_text(nm).c_str());
+      }
       if (const auto& os = r.outer_surface; os.tried) {
         ImGui::TextWrapped("outer surface: %s%s", to_text(os).c_str(),
                            os.refused.empty() ? "" : "; some attempts refused (hover)");

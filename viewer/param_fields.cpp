@@ -316,6 +316,12 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.outer_surface,
        .min = 0,
        .max = 1},
+      {.key = "cover_near_misses",
+       .help = "push the surface over thick nodes just outside it (within their radius), where no crossing, turned "
+               "triangle or lost node results",
+       .value = &p.cover_near_misses,
+       .min = 0,
+       .max = 1},
   };
 }
 

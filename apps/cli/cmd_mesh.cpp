@@ -110,6 +110,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         log::verbose("  fork retry: " + to_text(fr) +
                      " (the runs' times are in the stages above; the phases are the kept run's)");
       }
+      if (const NearMissStats& nm = r.near_misses; nm.outside_before > 0) log::verbose("  near misses: " + to_text(nm));
       if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
         log::verbose("  outer surface: " + to_text(os) + (os.refused.empty() ? "" : "; not kept: " + os.refused));
       }

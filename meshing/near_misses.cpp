@@ -1,0 +1,382 @@
+// Near misses: a local push of the surface over thick nodes just outside it (near_misses.h).
+
+#include "meshing/near_misses.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include "core/mesh.h"
+#include "core/report.h"
+#include "meshing/checks.h"
+#include "meshing/intersections.h"
+
+namespace sm {
+namespace {
+
+using glm::dvec3;
+
+/// Farthest a node may lie outside the surface to be pushed over, relative to its radius.
+constexpr double kMaxMiss = 1.0;
+/// How far past the node the pushed surface goes, relative to its radius.
+constexpr double kMargin = 0.25;
+/// More thick nodes outside than this are a tangle of branches, not near misses.
+constexpr std::size_t kMaxNodes = 64;
+
+/// The point of triangle abc nearest p (Ericson, Real-Time Collision Detection, 5.1.5).
+dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c) {
+  const dvec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const dvec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const dvec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+struct Nearest {
+  double distance = std::numeric_limits<double>::infinity();
+  std::uint32_t triangle = std::numeric_limits<std::uint32_t>::max();
+  dvec3 point{0.0};
+  /// Smaller distance first, then the lower triangle index: the same for any split of the work.
+  [[nodiscard]] bool better_than(const Nearest& o) const {
+    return distance < o.distance || (distance == o.distance && triangle < o.triangle);
+  }
+};
+
+/// One node's push.
+struct Push {
+  std::uint32_t node = 0;
+  dvec3 at{0.0};                        // the node
+  dvec3 q{0.0};                         // the nearest surface point
+  std::uint32_t triangle = 0;           // the triangle it lies on
+  dvec3 direction{0.0};                 // from q towards the node (unit)
+  double depth = 0;                     // the move of the nearest triangle's corners
+  double reach = 0;                     // other vertices move less with their distance from q, none this far
+  double extent = 0;                    // the farthest a moved vertex lies from q (a corner may lie beyond reach)
+  std::vector<std::uint32_t> vertices;  // moved, with their old positions
+  std::vector<dvec3> old;
+  std::vector<std::uint32_t> triangles;   // with a moved corner
+  std::vector<std::uint32_t> around;      // the triangles near the push (see below)
+  dvec3 lo{0.0}, hi{0.0};                 // the box of the moved triangles, grown by the move
+  std::vector<std::uint32_t> near_nodes;  // thick nodes inside before, near enough to be affected
+  std::size_t pairs_before = 0;
+  bool ok = true;
+};
+
+/// The share of the move of a vertex `distance` from q (not a corner of the nearest triangle).
+double weight(const Push& p, double distance) {
+  if (distance >= p.reach) return 0.0;
+  const double x = 1.0 - distance / p.reach;
+  return x * x * (3.0 - 2.0 * x);
+}
+
+dvec3 face_normal(const Mesh& m, std::uint32_t f) {
+  const auto& t = m.triangles[f];
+  return glm::cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
+}
+
+void undo(Mesh& mesh, const Push& p) {
+  for (std::size_t k = 0; k < p.vertices.size(); ++k) mesh.positions[p.vertices[k]] = p.old[k];
+}
+
+/// For each push, the triangles for which `meets(push, lo, hi)` holds (lo, hi: the triangle's
+/// box), in increasing order: one pass over the triangles, in fixed chunks in parallel.
+template <class Meets>
+void triangles_near(const Mesh& mesh, std::vector<Push>& pushes, Meets&& meets) {
+  const std::size_t nf = mesh.triangles.size();
+  constexpr std::size_t kChunk = 1 << 15;
+  const std::size_t chunks = (nf + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found(chunks);  // (push, triangle)
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+    for (std::size_t f = k * kChunk, end = std::min(nf, f + kChunk); f < end; ++f) {
+      const auto& t = mesh.triangles[f];
+      const dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+      const dvec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+      for (std::size_t i = 0; i < pushes.size(); ++i) {
+        if (meets(pushes[i], lo, hi))
+          found[k].emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(f));
+      }
+    }
+  });
+  for (Push& p : pushes) p.around.clear();
+  for (const auto& list : found) {
+    for (const auto& [i, f] : list) pushes[i].around.push_back(f);
+  }
+}
+
+/// The signed crossings of the ray from p (core/mesh.h ray_crossing) with `triangles`; nullopt
+/// where one is ambiguous.
+std::optional<int> crossings(const Mesh& mesh, const std::vector<std::uint32_t>& triangles, const dvec3& p) {
+  int sum = 0;
+  for (const std::uint32_t f : triangles) {
+    const auto& t = mesh.triangles[f];
+    const int c = ray_crossing(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], p);
+    if (c == kRayAmbiguous) return std::nullopt;
+    sum += c;
+  }
+  return sum;
+}
+
+}  // namespace
+
+std::string to_text(const NearMissStats& s) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "%zu -> %zu thick nodes outside; %zu push(es) of the surface kept (%zu vertices moved), %zu undone, "
+                "in %.3f s",
+                s.outside_before, s.outside_after, s.covered, s.moved_vertices, s.refused, s.seconds);
+  return buf;
+}
+
+NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, const MeshParams& params) {
+  NearMissStats stats;
+  if (!params.cover_near_misses) return stats;
+  stats.tried = true;
+  Stopwatch clock;
+  Mesh& mesh = result.mesh;
+  const std::size_t nf = mesh.triangles.size();
+  if (nf == 0 || skeleton.empty()) return stats;
+
+  const std::vector<std::uint32_t> thick = thick_node_ids(skeleton);
+  std::vector<dvec3> at;
+  at.reserve(thick.size());
+  for (const std::uint32_t n : thick) at.push_back(skeleton.position[n]);
+  const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh, at);
+  std::vector<std::uint32_t> outside;  // indices into `thick`
+  for (std::size_t k = 0; k < thick.size(); ++k) {
+    if (!inside[k]) outside.push_back(static_cast<std::uint32_t>(k));
+  }
+  stats.outside_before = stats.outside_after = outside.size();
+  if (outside.empty() || outside.size() > kMaxNodes) {
+    stats.seconds = clock.lap();
+    return stats;
+  }
+
+  // The nearest surface point of each node outside, within kMaxMiss x its radius.
+  const std::size_t no = outside.size();
+  std::vector<double> limit(no);
+  for (std::size_t i = 0; i < no; ++i) limit[i] = kMaxMiss * skeleton.radius[thick[outside[i]]];
+  const std::vector<Nearest> nearest = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, nf, 1 << 14), std::vector<Nearest>(no),
+      [&](const tbb::blocked_range<std::size_t>& r, std::vector<Nearest> best) {
+        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+          const auto& t = mesh.triangles[f];
+          const dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+          const dvec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+          for (std::size_t i = 0; i < no; ++i) {
+            const dvec3& p = at[outside[i]];
+            const double l = std::min(limit[i], best[i].distance);
+            if (p.x < lo.x - l || p.x > hi.x + l || p.y < lo.y - l || p.y > hi.y + l || p.z < lo.z - l ||
+                p.z > hi.z + l)
+              continue;
+            const dvec3 q = closest_on_triangle(p, a, b, c);
+            const Nearest cand{glm::length(p - q), static_cast<std::uint32_t>(f), q};
+            if (cand.distance <= limit[i] && cand.better_than(best[i])) best[i] = cand;
+          }
+        }
+        return best;
+      },
+      [](std::vector<Nearest> x, const std::vector<Nearest>& y) {
+        for (std::size_t i = 0; i < x.size(); ++i) {
+          if (y[i].better_than(x[i])) x[i] = y[i];
+        }
+        return x;
+      });
+
+  // The pushes, their reaches apart.
+  std::vector<Push> pushes;
+  for (std::size_t i = 0; i < no; ++i) {
+    const Nearest& n = nearest[i];
+    if (n.triangle == std::numeric_limits<std::uint32_t>::max()) continue;  // not a near miss
+    Push p;
+    p.node = thick[outside[i]];
+    p.at = at[outside[i]];
+    p.q = n.point;
+    p.triangle = n.triangle;
+    const dvec3 fn = face_normal(mesh, n.triangle);
+    const double fl = glm::length(fn);
+    p.direction = n.distance > 0 ? (p.at - p.q) / n.distance : (fl > 0 ? fn / fl : dvec3(0));
+    if (p.direction == dvec3(0)) continue;
+    const double r = skeleton.radius[p.node];
+    p.depth = n.distance + kMargin * r;
+    p.reach = r + 2.0 * p.depth;
+    p.extent = p.reach;
+    for (const std::uint32_t v : mesh.triangles[n.triangle])
+      p.extent = std::max(p.extent, glm::length(mesh.positions[v] - p.q));
+    bool apart = true;
+    for (const Push& o : pushes) apart = apart && glm::length(o.q - p.q) > o.extent + p.extent + o.depth + p.depth;
+    if (!apart) continue;  // left for the outer surface
+    pushes.push_back(std::move(p));
+  }
+  if (pushes.empty()) {
+    stats.seconds = clock.lap();
+    return stats;
+  }
+
+  // Per push, the triangles whose box meets its extent around q.
+  triangles_near(mesh, pushes, [](const Push& p, const dvec3& lo, const dvec3& hi) {
+    const dvec3 d = glm::max(glm::max(lo - p.q, p.q - hi), dvec3(0));
+    return glm::dot(d, d) <= p.extent * p.extent;
+  });
+
+  // The vertices each push moves: over the triangles around it, from the nearest triangle's
+  // corners, every vertex within its reach (a breadth-first walk, so the far side of a thin
+  // branch or a neighbouring branch within the reach, not joined to q within it, stays).
+  const TriangleIntersections intersections(mesh);
+  for (Push& p : pushes) {
+    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> incident;
+    for (const std::uint32_t f : p.around) {
+      for (const std::uint32_t v : mesh.triangles[f]) incident[v].push_back(f);
+    }
+    std::unordered_map<std::uint32_t, bool> seen;
+    std::vector<std::uint32_t> queue;
+    for (const std::uint32_t v : mesh.triangles[p.triangle]) {
+      if (seen.emplace(v, true).second) queue.push_back(v);
+    }
+    for (std::size_t k = 0; k < queue.size(); ++k) {
+      const std::uint32_t v = queue[k];
+      const bool corner = std::find(mesh.triangles[p.triangle].begin(), mesh.triangles[p.triangle].end(), v) !=
+                          mesh.triangles[p.triangle].end();
+      if (!corner && glm::length(mesh.positions[v] - p.q) >= p.reach) continue;
+      p.vertices.push_back(v);
+      for (const std::uint32_t f : incident[v]) {
+        for (const std::uint32_t w : mesh.triangles[f]) {
+          if (seen.emplace(w, true).second) queue.push_back(w);
+        }
+      }
+    }
+    std::sort(p.vertices.begin(), p.vertices.end());
+    for (const std::uint32_t f : p.around) {
+      const auto& t = mesh.triangles[f];
+      if (std::any_of(t.begin(), t.end(),
+                      [&](std::uint32_t v) { return std::binary_search(p.vertices.begin(), p.vertices.end(), v); }))
+        p.triangles.push_back(f);
+    }
+  }
+
+  // The triangles a moved one may come to meet: those whose box meets the moved triangles'
+  // boxes, grown by the move (a long triangle with one corner moved reaches far beyond q).
+  for (Push& p : pushes) {
+    p.lo = dvec3(std::numeric_limits<double>::infinity());
+    p.hi = -p.lo;
+    for (const std::uint32_t f : p.triangles) {
+      for (const std::uint32_t v : mesh.triangles[f]) {
+        p.lo = glm::min(p.lo, mesh.positions[v]);
+        p.hi = glm::max(p.hi, mesh.positions[v]);
+      }
+    }
+    p.lo -= dvec3(p.depth);
+    p.hi += dvec3(p.depth);
+    // The thick nodes inside now that the push might carry out of the surface.
+    for (std::size_t k = 0; k < thick.size(); ++k) {
+      if (inside[k] && glm::all(glm::lessThanEqual(p.lo, at[k])) && glm::all(glm::lessThanEqual(at[k], p.hi)))
+        p.near_nodes.push_back(static_cast<std::uint32_t>(k));
+    }
+  }
+  triangles_near(mesh, pushes, [](const Push& p, const dvec3& lo, const dvec3& hi) {
+    return glm::all(glm::lessThanEqual(lo, p.hi)) && glm::all(glm::lessThanEqual(p.lo, hi));
+  });
+  for (Push& p : pushes) p.pairs_before = intersections.pairs(p.around).size();
+
+  // Move, and check push by push: no moved triangle turned over or degenerate, no more
+  // crossing pairs around, the node inside and no thick node near it lost. Only the moved
+  // triangles change the crossings of a ray (core/mesh.h ray_crossing): a point's count
+  // changes by theirs after minus before, so the node (outside: 0) is inside where that is
+  // positive, and a node inside stays so where it is not negative; the whole mesh is tested
+  // only where a crossing is ambiguous or a node inside may have left.
+  std::vector<dvec3> unsure_at;
+  std::vector<std::uint32_t> unsure_push;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    Push& p = pushes[i];
+    std::vector<dvec3> normal_before;
+    normal_before.reserve(p.triangles.size());
+    for (const std::uint32_t f : p.triangles) normal_before.push_back(face_normal(mesh, f));
+    std::vector<std::optional<int>> before;
+    before.push_back(crossings(mesh, p.triangles, p.at));
+    for (const std::uint32_t k : p.near_nodes) before.push_back(crossings(mesh, p.triangles, at[k]));
+    p.old.reserve(p.vertices.size());
+    for (const std::uint32_t v : p.vertices) {
+      dvec3& x = mesh.positions[v];
+      p.old.push_back(x);
+      const auto& t = mesh.triangles[p.triangle];
+      const bool corner = std::find(t.begin(), t.end(), v) != t.end();
+      const dvec3 moved = x + p.direction * (p.depth * (corner ? 1.0 : weight(p, glm::length(x - p.q))));
+      x = result.grid > 0 ? snap_to_grid(moved, result.grid) : moved;
+    }
+    for (std::size_t k = 0; k < p.triangles.size() && p.ok; ++k) {
+      const dvec3 after = face_normal(mesh, p.triangles[k]);
+      const double la = glm::length(after), lb = glm::length(normal_before[k]);
+      p.ok = la > 1e-3 * lb && glm::dot(after, normal_before[k]) > 0;
+    }
+    if (p.ok) p.ok = intersections.pairs(p.around).size() <= p.pairs_before;
+    for (std::size_t k = 0; k < before.size() && p.ok; ++k) {
+      const dvec3& x = k == 0 ? p.at : at[p.near_nodes[k - 1]];
+      const std::optional<int> after = crossings(mesh, p.triangles, x);
+      if (!before[k] || !after) {
+        unsure_at.push_back(x);
+        unsure_push.push_back(static_cast<std::uint32_t>(i));
+      } else if (k == 0) {
+        p.ok = *after - *before[k] > 0;
+      } else if (*after - *before[k] < 0) {
+        unsure_at.push_back(x);
+        unsure_push.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    if (!p.ok) undo(mesh, p);
+  }
+  if (!unsure_at.empty()) {
+    const std::vector<std::uint8_t> now = inside_closed_mesh(mesh, unsure_at);
+    for (std::size_t k = 0; k < unsure_at.size(); ++k) {
+      Push& p = pushes[unsure_push[k]];
+      if (!now[k] && p.ok) {
+        p.ok = false;
+        undo(mesh, p);
+      }
+    }
+  }
+
+  std::vector<std::uint32_t> renormal, local;
+  for (const Push& p : pushes) {
+    if (!p.ok) {
+      ++stats.refused;
+      continue;
+    }
+    ++stats.covered;
+    stats.moved_vertices += p.vertices.size();
+    for (const std::uint32_t f : p.triangles)
+      renormal.insert(renormal.end(), mesh.triangles[f].begin(), mesh.triangles[f].end());
+    local.insert(local.end(), p.around.begin(), p.around.end());
+  }
+  stats.outside_after = stats.outside_before - stats.covered;
+  // Every triangle at a corner of a moved triangle meets the moved triangles' box: `around`.
+  std::sort(local.begin(), local.end());
+  local.erase(std::unique(local.begin(), local.end()), local.end());
+  if (!mesh.normals.empty() && !renormal.empty()) update_normals(mesh, renormal, local);
+  stats.seconds = clock.lap();
+  return stats;
+}
+
+}  // namespace sm
