@@ -15,6 +15,7 @@
 #include "contours/contours.h"
 #include "core/huge_pages.h"
 #include "core/mesh.h"
+#include "meshing/checks.h"
 #include "meshing/meshing.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/grow/presets.h"
@@ -95,6 +96,21 @@ void BM_Normals(benchmark::State& state) {
   rate(state, double(mesh.positions.size()), "vertices_per_s");
 }
 BENCHMARK(BM_Normals)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+/// inside_closed_mesh for every thick node of the tree (the near misses' test, which every
+/// mesh pays).
+void BM_ThickNodesInside(benchmark::State& state) {
+  const PipelineResult& r = tree();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  std::vector<glm::dvec3> at;
+  for (const std::uint32_t n : thick_node_ids(r.skeleton.skeleton)) at.push_back(r.skeleton.skeleton.position[n]);
+  for (auto _ : state) {
+    std::vector<std::uint8_t> inside = inside_closed_mesh(r.mesh.mesh, at);
+    benchmark::DoNotOptimize(inside.data());
+  }
+  rate(state, double(r.mesh.mesh.triangles.size()), "triangles_per_s");
+}
+BENCHMARK(BM_ThickNodesInside)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 /// The whole pipeline on a sample skeleton where the fork retry runs (small_pine: 20 pairs
 /// before, 2 after, 0 after the outer surface; 10 more runs of contours and meshing), against
