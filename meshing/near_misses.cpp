@@ -16,7 +16,6 @@
 #include <glm/glm.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include "core/mesh.h"
 #include "core/report.h"
@@ -32,6 +31,10 @@ using glm::dvec3;
 constexpr double kMaxMiss = 1.0;
 /// How far past the node the pushed surface goes, relative to its radius.
 constexpr double kMargin = 0.25;
+/// The triangles within this many radii of a node outside are gathered in one pass; the
+/// pushes' neighbourhoods are taken from them where they fit (a push's reach is a few radii,
+/// but the nearest triangle's corners can lie 9 radii away on a thick branch's long triangles).
+constexpr double kGather = 32.0;
 /// More thick nodes outside than this are a tangle of branches, not near misses.
 constexpr std::size_t kMaxNodes = 64;
 
@@ -79,6 +82,8 @@ struct Push {
   std::vector<std::uint32_t> vertices;  // moved, with their old positions
   std::vector<dvec3> old;
   std::vector<std::uint32_t> triangles;   // with a moved corner
+  std::vector<std::uint32_t> gathered;    // the triangles within `gather` of the node
+  double gather = 0;                      // kGather x the node's radius
   std::vector<std::uint32_t> around;      // the triangles near the push (see below)
   dvec3 lo{0.0}, hi{0.0};                 // the box of the moved triangles, grown by the move
   std::vector<std::uint32_t> near_nodes;  // thick nodes inside before, near enough to be affected
@@ -102,29 +107,60 @@ void undo(Mesh& mesh, const Push& p) {
   for (std::size_t k = 0; k < p.vertices.size(); ++k) mesh.positions[p.vertices[k]] = p.old[k];
 }
 
-/// For each push, the triangles for which `meets(push, lo, hi)` holds (lo, hi: the triangle's
-/// box), in increasing order: one pass over the triangles, in fixed chunks in parallel.
+/// For each of `count` queries, the triangles for which `meets(query, lo, hi)` holds (lo, hi:
+/// the triangle's box), in increasing order: one pass over the triangles, in fixed chunks in
+/// parallel.
 template <class Meets>
-void triangles_near(const Mesh& mesh, std::vector<Push>& pushes, Meets&& meets) {
+std::vector<std::vector<std::uint32_t>> triangles_meeting(const Mesh& mesh, std::size_t count, Meets&& meets) {
   const std::size_t nf = mesh.triangles.size();
   constexpr std::size_t kChunk = 1 << 15;
   const std::size_t chunks = (nf + kChunk - 1) / kChunk;
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found(chunks);  // (push, triangle)
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found(chunks);  // (query, triangle)
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
     for (std::size_t f = k * kChunk, end = std::min(nf, f + kChunk); f < end; ++f) {
       const auto& t = mesh.triangles[f];
       const dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
       const dvec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
-      for (std::size_t i = 0; i < pushes.size(); ++i) {
-        if (meets(pushes[i], lo, hi))
-          found[k].emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(f));
+      for (std::size_t i = 0; i < count; ++i) {
+        if (meets(i, lo, hi)) found[k].emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(f));
       }
     }
   });
-  for (Push& p : pushes) p.around.clear();
+  std::vector<std::vector<std::uint32_t>> out(count);
   for (const auto& list : found) {
-    for (const auto& [i, f] : list) pushes[i].around.push_back(f);
+    for (const auto& [i, f] : list) out[i].push_back(f);
   }
+  return out;
+}
+
+/// Each push's `around`: the triangles for which `meets(push, lo, hi)` holds, taken from the
+/// triangles gathered around its node where `covered(push)` says they hold all of them, else
+/// from one pass over the mesh.
+template <class Meets, class Covered>
+void triangles_near(const Mesh& mesh, std::vector<Push>& pushes, Meets&& meets, Covered&& covered) {
+  std::vector<std::size_t> far;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    Push& p = pushes[i];
+    if (!covered(p)) {
+      far.push_back(i);
+      continue;
+    }
+    p.around.clear();
+    for (const std::uint32_t f : p.gathered) {
+      const auto& t = mesh.triangles[f];
+      const dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+      if (meets(p, glm::min(a, glm::min(b, c)), glm::max(a, glm::max(b, c)))) p.around.push_back(f);
+    }
+  }
+  if (far.empty()) return;
+  auto lists = triangles_meeting(
+      mesh, far.size(), [&](std::size_t k, const dvec3& lo, const dvec3& hi) { return meets(pushes[far[k]], lo, hi); });
+  for (std::size_t k = 0; k < far.size(); ++k) pushes[far[k]].around = std::move(lists[k]);
+}
+
+/// Distance from p to the box [lo, hi] (0 inside).
+double box_distance(const dvec3& p, const dvec3& lo, const dvec3& hi) {
+  return glm::length(glm::max(glm::max(lo - p, p - hi), dvec3(0)));
 }
 
 /// The signed crossings of the ray from p (core/mesh.h ray_crossing) with `triangles`; nullopt
@@ -175,36 +211,24 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     return stats;
   }
 
-  // The nearest surface point of each node outside, within kMaxMiss x its radius.
+  // The triangles near each node outside (one pass), and the nearest surface point among
+  // them, within kMaxMiss x its radius.
   const std::size_t no = outside.size();
-  std::vector<double> limit(no);
-  for (std::size_t i = 0; i < no; ++i) limit[i] = kMaxMiss * skeleton.radius[thick[outside[i]]];
-  const std::vector<Nearest> nearest = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nf, 1 << 14), std::vector<Nearest>(no),
-      [&](const tbb::blocked_range<std::size_t>& r, std::vector<Nearest> best) {
-        for (std::size_t f = r.begin(); f != r.end(); ++f) {
-          const auto& t = mesh.triangles[f];
-          const dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
-          const dvec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
-          for (std::size_t i = 0; i < no; ++i) {
-            const dvec3& p = at[outside[i]];
-            const double l = std::min(limit[i], best[i].distance);
-            if (p.x < lo.x - l || p.x > hi.x + l || p.y < lo.y - l || p.y > hi.y + l || p.z < lo.z - l ||
-                p.z > hi.z + l)
-              continue;
-            const dvec3 q = closest_on_triangle(p, a, b, c);
-            const Nearest cand{glm::length(p - q), static_cast<std::uint32_t>(f), q};
-            if (cand.distance <= limit[i] && cand.better_than(best[i])) best[i] = cand;
-          }
-        }
-        return best;
-      },
-      [](std::vector<Nearest> x, const std::vector<Nearest>& y) {
-        for (std::size_t i = 0; i < x.size(); ++i) {
-          if (y[i].better_than(x[i])) x[i] = y[i];
-        }
-        return x;
+  std::vector<std::vector<std::uint32_t>> gathered =
+      triangles_meeting(mesh, no, [&](std::size_t i, const dvec3& lo, const dvec3& hi) {
+        return box_distance(at[outside[i]], lo, hi) <= kGather * skeleton.radius[thick[outside[i]]];
       });
+  std::vector<Nearest> nearest(no);
+  for (std::size_t i = 0; i < no; ++i) {
+    const dvec3& p = at[outside[i]];
+    const double limit = kMaxMiss * skeleton.radius[thick[outside[i]]];
+    for (const std::uint32_t f : gathered[i]) {
+      const auto& t = mesh.triangles[f];
+      const dvec3 q = closest_on_triangle(p, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
+      const Nearest cand{glm::length(p - q), f, q};
+      if (cand.distance <= limit && cand.better_than(nearest[i])) nearest[i] = cand;
+    }
+  }
 
   // The pushes, their reaches apart.
   std::vector<Push> pushes;
@@ -216,6 +240,8 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     p.at = at[outside[i]];
     p.q = n.point;
     p.triangle = n.triangle;
+    p.gathered = std::move(gathered[i]);
+    p.gather = kGather * skeleton.radius[p.node];
     const dvec3 fn = face_normal(mesh, n.triangle);
     const double fl = glm::length(fn);
     p.direction = n.distance > 0 ? (p.at - p.q) / n.distance : (fl > 0 ? fn / fl : dvec3(0));
@@ -237,10 +263,10 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
   }
 
   // Per push, the triangles whose box meets its extent around q.
-  triangles_near(mesh, pushes, [](const Push& p, const dvec3& lo, const dvec3& hi) {
-    const dvec3 d = glm::max(glm::max(lo - p.q, p.q - hi), dvec3(0));
-    return glm::dot(d, d) <= p.extent * p.extent;
-  });
+  triangles_near(
+      mesh, pushes,
+      [](const Push& p, const dvec3& lo, const dvec3& hi) { return box_distance(p.q, lo, hi) <= p.extent; },
+      [](const Push& p) { return p.extent + glm::length(p.at - p.q) <= p.gather; });
 
   // The vertices each push moves: over the triangles around it, from the nearest triangle's
   // corners, every vertex within its reach (a breadth-first walk, so the far side of a thin
@@ -296,9 +322,15 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
         p.near_nodes.push_back(static_cast<std::uint32_t>(k));
     }
   }
-  triangles_near(mesh, pushes, [](const Push& p, const dvec3& lo, const dvec3& hi) {
-    return glm::all(glm::lessThanEqual(lo, p.hi)) && glm::all(glm::lessThanEqual(p.lo, hi));
-  });
+  triangles_near(
+      mesh, pushes,
+      [](const Push& p, const dvec3& lo, const dvec3& hi) {
+        return glm::all(glm::lessThanEqual(lo, p.hi)) && glm::all(glm::lessThanEqual(p.lo, hi));
+      },
+      [](const Push& p) {  // the box's farthest corner within the gathered distance
+        const dvec3 far = glm::max(glm::abs(p.lo - p.at), glm::abs(p.hi - p.at));
+        return glm::length(far) <= p.gather;
+      });
   for (Push& p : pushes) p.pairs_before = intersections.pairs(p.around).size();
 
   // Move, and check push by push: no moved triangle turned over or degenerate, no more
