@@ -29,12 +29,16 @@ using glm::dvec3;
 
 /// Farthest a node may lie outside the surface to be pushed over, relative to its radius.
 constexpr double kMaxMiss = 1.0;
-/// How far past the node the pushed surface goes, relative to its radius.
-constexpr double kMargin = 0.25;
+/// How far past the node the pushed surface goes, relative to its radius: the first that
+/// turns no triangle over and adds no crossing. (0.25 alone: 4 of 9 pushes kept on agraf
+/// with configs/preview.json, the others turning a triangle or adding pairs.)
+constexpr double kMargins[] = {0.25, 0.1, 0.03};
 /// The triangles within this many radii of a node outside are gathered in one pass; the
 /// pushes' neighbourhoods are taken from them where they fit (a push's reach is a few radii,
 /// but the nearest triangle's corners can lie 9 radii away on a thick branch's long triangles).
 constexpr double kGather = 32.0;
+/// Rounds of pushes (a push whose neighbourhood overlaps an earlier one's waits for the next).
+constexpr int kRounds = 4;
 /// More thick nodes outside than this are a tangle of branches, not near misses.
 constexpr std::size_t kMaxNodes = 64;
 
@@ -71,6 +75,7 @@ struct Nearest {
 
 /// One node's push.
 struct Push {
+  std::uint32_t thick_index = 0;  // in the list of thick nodes
   std::uint32_t node = 0;
   dvec3 at{0.0};                        // the node
   dvec3 q{0.0};                         // the nearest surface point
@@ -200,207 +205,225 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
   std::vector<dvec3> at;
   at.reserve(thick.size());
   for (const std::uint32_t n : thick) at.push_back(skeleton.position[n]);
-  const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh, at);
-  std::vector<std::uint32_t> outside;  // indices into `thick`
+  std::vector<std::uint8_t> inside = inside_closed_mesh(mesh, at);
+  std::vector<std::uint32_t> todo;  // indices into `thick`
   for (std::size_t k = 0; k < thick.size(); ++k) {
-    if (!inside[k]) outside.push_back(static_cast<std::uint32_t>(k));
+    if (!inside[k]) todo.push_back(static_cast<std::uint32_t>(k));
   }
-  stats.outside_before = stats.outside_after = outside.size();
-  if (outside.empty() || outside.size() > kMaxNodes) {
+  stats.outside_before = stats.outside_after = todo.size();
+  if (todo.empty() || todo.size() > kMaxNodes) {
     stats.seconds = clock.lap();
     return stats;
   }
 
-  // The triangles near each node outside (one pass), and the nearest surface point among
-  // them, within kMaxMiss x its radius.
-  const std::size_t no = outside.size();
-  std::vector<std::vector<std::uint32_t>> gathered =
-      triangles_meeting(mesh, no, [&](std::size_t i, const dvec3& lo, const dvec3& hi) {
-        return box_distance(at[outside[i]], lo, hi) <= kGather * skeleton.radius[thick[outside[i]]];
-      });
-  std::vector<Nearest> nearest(no);
-  for (std::size_t i = 0; i < no; ++i) {
-    const dvec3& p = at[outside[i]];
-    const double limit = kMaxMiss * skeleton.radius[thick[outside[i]]];
-    for (const std::uint32_t f : gathered[i]) {
-      const auto& t = mesh.triangles[f];
-      const dvec3 q = closest_on_triangle(p, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
-      const Nearest cand{glm::length(p - q), f, q};
-      if (cand.distance <= limit && cand.better_than(nearest[i])) nearest[i] = cand;
-    }
-  }
-
-  // The pushes, their reaches apart.
-  std::vector<Push> pushes;
-  for (std::size_t i = 0; i < no; ++i) {
-    const Nearest& n = nearest[i];
-    if (n.triangle == std::numeric_limits<std::uint32_t>::max()) continue;  // not a near miss
-    Push p;
-    p.node = thick[outside[i]];
-    p.at = at[outside[i]];
-    p.q = n.point;
-    p.triangle = n.triangle;
-    p.gathered = std::move(gathered[i]);
-    p.gather = kGather * skeleton.radius[p.node];
-    const dvec3 fn = face_normal(mesh, n.triangle);
-    const double fl = glm::length(fn);
-    p.direction = n.distance > 0 ? (p.at - p.q) / n.distance : (fl > 0 ? fn / fl : dvec3(0));
-    if (p.direction == dvec3(0)) continue;
-    const double r = skeleton.radius[p.node];
-    p.depth = n.distance + kMargin * r;
-    p.reach = r + 2.0 * p.depth;
-    p.extent = p.reach;
-    for (const std::uint32_t v : mesh.triangles[n.triangle])
-      p.extent = std::max(p.extent, glm::length(mesh.positions[v] - p.q));
-    bool apart = true;
-    for (const Push& o : pushes) apart = apart && glm::length(o.q - p.q) > o.extent + p.extent + o.depth + p.depth;
-    if (!apart) continue;  // left for the outer surface
-    pushes.push_back(std::move(p));
-  }
-  if (pushes.empty()) {
-    stats.seconds = clock.lap();
-    return stats;
-  }
-
-  // Per push, the triangles whose box meets its extent around q.
-  triangles_near(
-      mesh, pushes,
-      [](const Push& p, const dvec3& lo, const dvec3& hi) { return box_distance(p.q, lo, hi) <= p.extent; },
-      [](const Push& p) { return p.extent + glm::length(p.at - p.q) <= p.gather; });
-
-  // The vertices each push moves: over the triangles around it, from the nearest triangle's
-  // corners, every vertex within its reach (a breadth-first walk, so the far side of a thin
-  // branch or a neighbouring branch within the reach, not joined to q within it, stays).
   const TriangleIntersections intersections(mesh);
-  for (Push& p : pushes) {
-    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> incident;
-    for (const std::uint32_t f : p.around) {
-      for (const std::uint32_t v : mesh.triangles[f]) incident[v].push_back(f);
+  std::vector<std::uint32_t> renormal, local;  // for the normals: the kept pushes' vertices and triangles
+  // Rounds: a node whose push would overlap an earlier one's waits for the next round.
+  for (int round = 0; round < kRounds && !todo.empty(); ++round) {
+    const std::vector<std::uint32_t> outside = std::move(todo);
+    todo.clear();
+    // The triangles near each node outside (one pass), and the nearest surface point among
+    // them, within kMaxMiss x its radius.
+    const std::size_t no = outside.size();
+    std::vector<std::vector<std::uint32_t>> gathered =
+        triangles_meeting(mesh, no, [&](std::size_t i, const dvec3& lo, const dvec3& hi) {
+          return box_distance(at[outside[i]], lo, hi) <= kGather * skeleton.radius[thick[outside[i]]];
+        });
+    std::vector<Nearest> nearest(no);
+    for (std::size_t i = 0; i < no; ++i) {
+      const dvec3& p = at[outside[i]];
+      const double limit = kMaxMiss * skeleton.radius[thick[outside[i]]];
+      for (const std::uint32_t f : gathered[i]) {
+        const auto& t = mesh.triangles[f];
+        const dvec3 q = closest_on_triangle(p, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
+        const Nearest cand{glm::length(p - q), f, q};
+        if (cand.distance <= limit && cand.better_than(nearest[i])) nearest[i] = cand;
+      }
     }
-    std::unordered_map<std::uint32_t, bool> seen;
-    std::vector<std::uint32_t> queue;
-    for (const std::uint32_t v : mesh.triangles[p.triangle]) {
-      if (seen.emplace(v, true).second) queue.push_back(v);
+
+    // The pushes, their reaches apart.
+    std::vector<Push> pushes;
+    for (std::size_t i = 0; i < no; ++i) {
+      const Nearest& n = nearest[i];
+      if (n.triangle == std::numeric_limits<std::uint32_t>::max()) continue;  // not a near miss
+      Push p;
+      p.thick_index = outside[i];
+      p.node = thick[outside[i]];
+      p.at = at[outside[i]];
+      p.q = n.point;
+      p.triangle = n.triangle;
+      p.gathered = std::move(gathered[i]);
+      p.gather = kGather * skeleton.radius[p.node];
+      const dvec3 fn = face_normal(mesh, n.triangle);
+      const double fl = glm::length(fn);
+      p.direction = n.distance > 0 ? (p.at - p.q) / n.distance : (fl > 0 ? fn / fl : dvec3(0));
+      if (p.direction == dvec3(0)) continue;
+      const double r = skeleton.radius[p.node];
+      p.depth = n.distance + kMargins[0] * r;  // the largest move: the neighbourhoods below hold for all
+      p.reach = r + 2.0 * p.depth;
+      p.extent = p.reach;
+      for (const std::uint32_t v : mesh.triangles[n.triangle])
+        p.extent = std::max(p.extent, glm::length(mesh.positions[v] - p.q));
+      bool apart = true;
+      for (const Push& o : pushes) apart = apart && glm::length(o.q - p.q) > o.extent + p.extent + o.depth + p.depth;
+      if (!apart) {
+        todo.push_back(outside[i]);
+        continue;
+      }
+      pushes.push_back(std::move(p));
     }
-    for (std::size_t k = 0; k < queue.size(); ++k) {
-      const std::uint32_t v = queue[k];
-      const bool corner = std::find(mesh.triangles[p.triangle].begin(), mesh.triangles[p.triangle].end(), v) !=
-                          mesh.triangles[p.triangle].end();
-      if (!corner && glm::length(mesh.positions[v] - p.q) >= p.reach) continue;
-      p.vertices.push_back(v);
-      for (const std::uint32_t f : incident[v]) {
-        for (const std::uint32_t w : mesh.triangles[f]) {
-          if (seen.emplace(w, true).second) queue.push_back(w);
+    if (pushes.empty()) continue;
+
+    // Per push, the triangles whose box meets its extent around q.
+    triangles_near(
+        mesh, pushes,
+        [](const Push& p, const dvec3& lo, const dvec3& hi) { return box_distance(p.q, lo, hi) <= p.extent; },
+        [](const Push& p) { return p.extent + glm::length(p.at - p.q) <= p.gather; });
+
+    // The vertices each push moves: over the triangles around it, from the nearest triangle's
+    // corners, every vertex within its reach (a breadth-first walk, so the far side of a thin
+    // branch or a neighbouring branch within the reach, not joined to q within it, stays).
+    for (Push& p : pushes) {
+      std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> incident;
+      for (const std::uint32_t f : p.around) {
+        for (const std::uint32_t v : mesh.triangles[f]) incident[v].push_back(f);
+      }
+      std::unordered_map<std::uint32_t, bool> seen;
+      std::vector<std::uint32_t> queue;
+      for (const std::uint32_t v : mesh.triangles[p.triangle]) {
+        if (seen.emplace(v, true).second) queue.push_back(v);
+      }
+      for (std::size_t k = 0; k < queue.size(); ++k) {
+        const std::uint32_t v = queue[k];
+        const bool corner = std::find(mesh.triangles[p.triangle].begin(), mesh.triangles[p.triangle].end(), v) !=
+                            mesh.triangles[p.triangle].end();
+        if (!corner && glm::length(mesh.positions[v] - p.q) >= p.reach) continue;
+        p.vertices.push_back(v);
+        for (const std::uint32_t f : incident[v]) {
+          for (const std::uint32_t w : mesh.triangles[f]) {
+            if (seen.emplace(w, true).second) queue.push_back(w);
+          }
         }
       }
-    }
-    std::sort(p.vertices.begin(), p.vertices.end());
-    for (const std::uint32_t f : p.around) {
-      const auto& t = mesh.triangles[f];
-      if (std::any_of(t.begin(), t.end(),
-                      [&](std::uint32_t v) { return std::binary_search(p.vertices.begin(), p.vertices.end(), v); }))
-        p.triangles.push_back(f);
-    }
-  }
-
-  // The triangles a moved one may come to meet: those whose box meets the moved triangles'
-  // boxes, grown by the move (a long triangle with one corner moved reaches far beyond q).
-  for (Push& p : pushes) {
-    p.lo = dvec3(std::numeric_limits<double>::infinity());
-    p.hi = -p.lo;
-    for (const std::uint32_t f : p.triangles) {
-      for (const std::uint32_t v : mesh.triangles[f]) {
-        p.lo = glm::min(p.lo, mesh.positions[v]);
-        p.hi = glm::max(p.hi, mesh.positions[v]);
+      std::sort(p.vertices.begin(), p.vertices.end());
+      for (const std::uint32_t f : p.around) {
+        const auto& t = mesh.triangles[f];
+        if (std::any_of(t.begin(), t.end(),
+                        [&](std::uint32_t v) { return std::binary_search(p.vertices.begin(), p.vertices.end(), v); }))
+          p.triangles.push_back(f);
       }
     }
-    p.lo -= dvec3(p.depth);
-    p.hi += dvec3(p.depth);
-    // The thick nodes inside now that the push might carry out of the surface.
-    for (std::size_t k = 0; k < thick.size(); ++k) {
-      if (inside[k] && glm::all(glm::lessThanEqual(p.lo, at[k])) && glm::all(glm::lessThanEqual(at[k], p.hi)))
-        p.near_nodes.push_back(static_cast<std::uint32_t>(k));
-    }
-  }
-  triangles_near(
-      mesh, pushes,
-      [](const Push& p, const dvec3& lo, const dvec3& hi) {
-        return glm::all(glm::lessThanEqual(lo, p.hi)) && glm::all(glm::lessThanEqual(p.lo, hi));
-      },
-      [](const Push& p) {  // the box's farthest corner within the gathered distance
-        const dvec3 far = glm::max(glm::abs(p.lo - p.at), glm::abs(p.hi - p.at));
-        return glm::length(far) <= p.gather;
-      });
-  for (Push& p : pushes) p.pairs_before = intersections.pairs(p.around).size();
 
-  // Move, and check push by push: no moved triangle turned over or degenerate, no more
-  // crossing pairs around, the node inside and no thick node near it lost. Only the moved
-  // triangles change the crossings of a ray (core/mesh.h ray_crossing): a point's count
-  // changes by theirs after minus before, so the node (outside: 0) is inside where that is
-  // positive, and a node inside stays so where it is not negative; the whole mesh is tested
-  // only where a crossing is ambiguous or a node inside may have left.
-  std::vector<dvec3> unsure_at;
-  std::vector<std::uint32_t> unsure_push;
-  for (std::size_t i = 0; i < pushes.size(); ++i) {
-    Push& p = pushes[i];
-    std::vector<dvec3> normal_before;
-    normal_before.reserve(p.triangles.size());
-    for (const std::uint32_t f : p.triangles) normal_before.push_back(face_normal(mesh, f));
-    std::vector<std::optional<int>> before;
-    before.push_back(crossings(mesh, p.triangles, p.at));
-    for (const std::uint32_t k : p.near_nodes) before.push_back(crossings(mesh, p.triangles, at[k]));
-    p.old.reserve(p.vertices.size());
-    for (const std::uint32_t v : p.vertices) {
-      dvec3& x = mesh.positions[v];
-      p.old.push_back(x);
-      const auto& t = mesh.triangles[p.triangle];
-      const bool corner = std::find(t.begin(), t.end(), v) != t.end();
-      const dvec3 moved = x + p.direction * (p.depth * (corner ? 1.0 : weight(p, glm::length(x - p.q))));
-      x = result.grid > 0 ? snap_to_grid(moved, result.grid) : moved;
-    }
-    for (std::size_t k = 0; k < p.triangles.size() && p.ok; ++k) {
-      const dvec3 after = face_normal(mesh, p.triangles[k]);
-      const double la = glm::length(after), lb = glm::length(normal_before[k]);
-      p.ok = la > 1e-3 * lb && glm::dot(after, normal_before[k]) > 0;
-    }
-    if (p.ok) p.ok = intersections.pairs(p.around).size() <= p.pairs_before;
-    for (std::size_t k = 0; k < before.size() && p.ok; ++k) {
-      const dvec3& x = k == 0 ? p.at : at[p.near_nodes[k - 1]];
-      const std::optional<int> after = crossings(mesh, p.triangles, x);
-      if (!before[k] || !after) {
-        unsure_at.push_back(x);
-        unsure_push.push_back(static_cast<std::uint32_t>(i));
-      } else if (k == 0) {
-        p.ok = *after - *before[k] > 0;
-      } else if (*after - *before[k] < 0) {
-        unsure_at.push_back(x);
-        unsure_push.push_back(static_cast<std::uint32_t>(i));
+    // The triangles a moved one may come to meet: those whose box meets the moved triangles'
+    // boxes, grown by the move (a long triangle with one corner moved reaches far beyond q).
+    for (Push& p : pushes) {
+      p.lo = dvec3(std::numeric_limits<double>::infinity());
+      p.hi = -p.lo;
+      for (const std::uint32_t f : p.triangles) {
+        for (const std::uint32_t v : mesh.triangles[f]) {
+          p.lo = glm::min(p.lo, mesh.positions[v]);
+          p.hi = glm::max(p.hi, mesh.positions[v]);
+        }
+      }
+      p.lo -= dvec3(p.depth);
+      p.hi += dvec3(p.depth);
+      // The thick nodes inside now that the push might carry out of the surface.
+      for (std::size_t k = 0; k < thick.size(); ++k) {
+        if (inside[k] && glm::all(glm::lessThanEqual(p.lo, at[k])) && glm::all(glm::lessThanEqual(at[k], p.hi)))
+          p.near_nodes.push_back(static_cast<std::uint32_t>(k));
       }
     }
-    if (!p.ok) undo(mesh, p);
-  }
-  if (!unsure_at.empty()) {
-    const std::vector<std::uint8_t> now = inside_closed_mesh(mesh, unsure_at);
-    for (std::size_t k = 0; k < unsure_at.size(); ++k) {
-      Push& p = pushes[unsure_push[k]];
-      if (!now[k] && p.ok) {
-        p.ok = false;
+    triangles_near(
+        mesh, pushes,
+        [](const Push& p, const dvec3& lo, const dvec3& hi) {
+          return glm::all(glm::lessThanEqual(lo, p.hi)) && glm::all(glm::lessThanEqual(p.lo, hi));
+        },
+        [](const Push& p) {  // the box's farthest corner within the gathered distance
+          const dvec3 far = glm::max(glm::abs(p.lo - p.at), glm::abs(p.hi - p.at));
+          return glm::length(far) <= p.gather;
+        });
+    for (Push& p : pushes) p.pairs_before = intersections.pairs(p.around).size();
+
+    // Move, and check push by push: no moved triangle turned over or degenerate, no more
+    // crossing pairs around, the node inside and no thick node near it lost. Only the moved
+    // triangles change the crossings of a ray (core/mesh.h ray_crossing): a point's count
+    // changes by theirs after minus before, so the node (outside: 0) is inside where that is
+    // positive, and a node inside stays so where it is not negative; the whole mesh is tested
+    // only where a crossing is ambiguous or a node inside may have left.
+    std::vector<dvec3> unsure_at;
+    std::vector<std::uint32_t> unsure_push;
+    for (std::size_t i = 0; i < pushes.size(); ++i) {
+      Push& p = pushes[i];
+      std::vector<dvec3> normal_before;
+      normal_before.reserve(p.triangles.size());
+      for (const std::uint32_t f : p.triangles) normal_before.push_back(face_normal(mesh, f));
+      std::vector<std::optional<int>> before;
+      before.push_back(crossings(mesh, p.triangles, p.at));
+      for (const std::uint32_t k : p.near_nodes) before.push_back(crossings(mesh, p.triangles, at[k]));
+      p.old.reserve(p.vertices.size());
+      for (const std::uint32_t v : p.vertices) p.old.push_back(mesh.positions[v]);
+      const auto& corners = mesh.triangles[p.triangle];
+      const double miss = glm::length(p.at - p.q), r = skeleton.radius[p.node];
+      // The largest margin first; a smaller one where a triangle turns or a crossing appears.
+      for (const double margin : kMargins) {
+        p.ok = true;
+        p.depth = miss + margin * r;
+        p.reach = r + 2.0 * p.depth;
+        for (std::size_t k = 0; k < p.vertices.size(); ++k) {
+          const bool corner = std::find(corners.begin(), corners.end(), p.vertices[k]) != corners.end();
+          const dvec3& x = p.old[k];
+          const dvec3 moved = x + p.direction * (p.depth * (corner ? 1.0 : weight(p, glm::length(x - p.q))));
+          mesh.positions[p.vertices[k]] = result.grid > 0 ? snap_to_grid(moved, result.grid) : moved;
+        }
+        for (std::size_t k = 0; k < p.triangles.size() && p.ok; ++k) {
+          const dvec3 after = face_normal(mesh, p.triangles[k]);
+          const double la = glm::length(after), lb = glm::length(normal_before[k]);
+          p.ok = la > 1e-3 * lb && glm::dot(after, normal_before[k]) > 0;
+        }
+        if (p.ok) p.ok = intersections.pairs(p.around).size() <= p.pairs_before;
+        std::vector<dvec3> unsure;
+        for (std::size_t k = 0; k < before.size() && p.ok; ++k) {
+          const dvec3& x = k == 0 ? p.at : at[p.near_nodes[k - 1]];
+          const std::optional<int> after = crossings(mesh, p.triangles, x);
+          if (!before[k] || !after) {
+            unsure.push_back(x);
+          } else if (k == 0) {
+            p.ok = *after - *before[k] > 0;
+          } else if (*after - *before[k] < 0) {
+            unsure.push_back(x);
+          }
+        }
+        if (p.ok) {
+          unsure_at.insert(unsure_at.end(), unsure.begin(), unsure.end());
+          unsure_push.insert(unsure_push.end(), unsure.size(), static_cast<std::uint32_t>(i));
+          break;
+        }
         undo(mesh, p);
       }
     }
-  }
-
-  std::vector<std::uint32_t> renormal, local;
-  for (const Push& p : pushes) {
-    if (!p.ok) {
-      ++stats.refused;
-      continue;
+    if (!unsure_at.empty()) {
+      const std::vector<std::uint8_t> now = inside_closed_mesh(mesh, unsure_at);
+      for (std::size_t k = 0; k < unsure_at.size(); ++k) {
+        Push& p = pushes[unsure_push[k]];
+        if (!now[k] && p.ok) {
+          p.ok = false;
+          undo(mesh, p);
+        }
+      }
     }
-    ++stats.covered;
-    stats.moved_vertices += p.vertices.size();
-    for (const std::uint32_t f : p.triangles)
-      renormal.insert(renormal.end(), mesh.triangles[f].begin(), mesh.triangles[f].end());
-    local.insert(local.end(), p.around.begin(), p.around.end());
+
+    for (const Push& p : pushes) {
+      if (!p.ok) {
+        ++stats.refused;
+        continue;
+      }
+      ++stats.covered;
+      inside[p.thick_index] = 1;
+      stats.moved_vertices += p.vertices.size();
+      for (const std::uint32_t f : p.triangles)
+        renormal.insert(renormal.end(), mesh.triangles[f].begin(), mesh.triangles[f].end());
+      local.insert(local.end(), p.around.begin(), p.around.end());
+    }
   }
   stats.outside_after = stats.outside_before - stats.covered;
   // Every triangle at a corner of a moved triangle meets the moved triangles' box: `around`.
