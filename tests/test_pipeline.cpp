@@ -460,6 +460,33 @@ TEST(Pipeline, NearMissesArePushedInside) {
   EXPECT_EQ(r.mesh.mesh.normals, angle_weighted_normals(r.mesh.mesh));
 }
 
+TEST(Pipeline, NearMissesNextToEachOtherArePushedInRounds) {
+  // Two neighbouring nodes of a straight branch (every node as thick), 6 cm apart on a 5 cm
+  // radius, both moved 1.3 radii off its axis: their pushes share a neighbourhood, so the
+  // second waits for a round of its own; both end inside and the mesh stays sound.
+  RawSkeleton raw;
+  raw.source = "straight_branch";
+  for (int i = 0; i < 10; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.06 * i), 0.05);
+  PipelineResult r = run_pipeline(raw, {});
+  Skeleton s = r.skeleton.skeleton;
+  const NodeId a(4), b(5);
+  ASSERT_EQ(s.child_count(a), 1);
+  ASSERT_EQ(s.children[a.idx()][0], b);
+  for (const NodeId n : {a, b}) s.position[n.idx()] += 1.3 * s.radius[n.idx()] * s.frame[a.idx()].normal;
+  MeshCheckParams cp;
+  cp.skeleton = &s;
+  const MeshCheckReport before = check_mesh(r.mesh.mesh, cp);
+  ASSERT_EQ(before.thick_nodes_inside + 2, before.thick_nodes);
+  const NearMissStats st = cover_near_misses(r.mesh, s, {});
+  EXPECT_EQ(st.outside_before, 2u);
+  EXPECT_EQ(st.covered, 2u);
+  EXPECT_EQ(st.outside_after, 0u);
+  const MeshCheckReport after = check_mesh(r.mesh.mesh, cp);
+  expect_sound(after);
+  EXPECT_EQ(after.self_intersecting_pairs, 0u);
+  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+}
+
 TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
   // 300 twigs from one node on one chain of binary forks (no clusters) run through each other
   // (the separation cannot clear them): the mesh has far more self-intersecting pairs near
