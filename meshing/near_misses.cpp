@@ -112,6 +112,53 @@ void undo(Mesh& mesh, const Push& p) {
   for (std::size_t k = 0; k < p.vertices.size(); ++k) mesh.positions[p.vertices[k]] = p.old[k];
 }
 
+/// The vertices `p` moves: over the triangles around it (`around`), from the nearest
+/// triangle's corners, every vertex within its reach (a breadth-first walk, so the far side of
+/// a thin branch or a neighbouring branch within the reach, not joined to q within it, stays);
+/// and the triangles with a moved corner.
+void select_vertices(const Mesh& mesh, Push& p) {
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> incident;
+  for (const std::uint32_t f : p.around) {
+    for (const std::uint32_t v : mesh.triangles[f]) incident[v].push_back(f);
+  }
+  const auto& corners = mesh.triangles[p.triangle];
+  std::unordered_map<std::uint32_t, bool> seen;
+  std::vector<std::uint32_t> queue;
+  for (const std::uint32_t v : corners) {
+    if (seen.emplace(v, true).second) queue.push_back(v);
+  }
+  for (std::size_t k = 0; k < queue.size(); ++k) {
+    const std::uint32_t v = queue[k];
+    const bool corner = std::find(corners.begin(), corners.end(), v) != corners.end();
+    if (!corner && glm::length(mesh.positions[v] - p.q) >= p.reach) continue;
+    p.vertices.push_back(v);
+    for (const std::uint32_t f : incident[v]) {
+      for (const std::uint32_t w : mesh.triangles[f]) {
+        if (seen.emplace(w, true).second) queue.push_back(w);
+      }
+    }
+  }
+  std::sort(p.vertices.begin(), p.vertices.end());
+  for (const std::uint32_t f : p.around) {
+    const auto& t = mesh.triangles[f];
+    if (std::any_of(t.begin(), t.end(),
+                    [&](std::uint32_t v) { return std::binary_search(p.vertices.begin(), p.vertices.end(), v); }))
+      p.triangles.push_back(f);
+  }
+}
+
+/// Moves p's vertices from their old positions by its current depth and reach: the nearest
+/// triangle's corners all the way, the others by weight(), onto the float grid.
+void move(Mesh& mesh, const Push& p, double grid) {
+  const auto& corners = mesh.triangles[p.triangle];
+  for (std::size_t k = 0; k < p.vertices.size(); ++k) {
+    const bool corner = std::find(corners.begin(), corners.end(), p.vertices[k]) != corners.end();
+    const dvec3& x = p.old[k];
+    const dvec3 moved = x + p.direction * (p.depth * (corner ? 1.0 : weight(p, glm::length(x - p.q))));
+    mesh.positions[p.vertices[k]] = grid > 0 ? snap_to_grid(moved, grid) : moved;
+  }
+}
+
 /// For each of `count` queries, the triangles for which `meets(query, lo, hi)` holds (lo, hi:
 /// the triangle's box), in increasing order: one pass over the triangles, in fixed chunks in
 /// parallel.
@@ -280,39 +327,7 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
         [](const Push& p, const dvec3& lo, const dvec3& hi) { return box_distance(p.q, lo, hi) <= p.extent; },
         [](const Push& p) { return p.extent + glm::length(p.at - p.q) <= p.gather; });
 
-    // The vertices each push moves: over the triangles around it, from the nearest triangle's
-    // corners, every vertex within its reach (a breadth-first walk, so the far side of a thin
-    // branch or a neighbouring branch within the reach, not joined to q within it, stays).
-    for (Push& p : pushes) {
-      std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> incident;
-      for (const std::uint32_t f : p.around) {
-        for (const std::uint32_t v : mesh.triangles[f]) incident[v].push_back(f);
-      }
-      std::unordered_map<std::uint32_t, bool> seen;
-      std::vector<std::uint32_t> queue;
-      for (const std::uint32_t v : mesh.triangles[p.triangle]) {
-        if (seen.emplace(v, true).second) queue.push_back(v);
-      }
-      for (std::size_t k = 0; k < queue.size(); ++k) {
-        const std::uint32_t v = queue[k];
-        const bool corner = std::find(mesh.triangles[p.triangle].begin(), mesh.triangles[p.triangle].end(), v) !=
-                            mesh.triangles[p.triangle].end();
-        if (!corner && glm::length(mesh.positions[v] - p.q) >= p.reach) continue;
-        p.vertices.push_back(v);
-        for (const std::uint32_t f : incident[v]) {
-          for (const std::uint32_t w : mesh.triangles[f]) {
-            if (seen.emplace(w, true).second) queue.push_back(w);
-          }
-        }
-      }
-      std::sort(p.vertices.begin(), p.vertices.end());
-      for (const std::uint32_t f : p.around) {
-        const auto& t = mesh.triangles[f];
-        if (std::any_of(t.begin(), t.end(),
-                        [&](std::uint32_t v) { return std::binary_search(p.vertices.begin(), p.vertices.end(), v); }))
-          p.triangles.push_back(f);
-      }
-    }
+    for (Push& p : pushes) select_vertices(mesh, p);
 
     // The triangles a moved one may come to meet: those whose box meets the moved triangles'
     // boxes, grown by the move (a long triangle with one corner moved reaches far beyond q).
@@ -362,19 +377,13 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
       for (const std::uint32_t k : p.near_nodes) before.push_back(crossings(mesh, p.triangles, at[k]));
       p.old.reserve(p.vertices.size());
       for (const std::uint32_t v : p.vertices) p.old.push_back(mesh.positions[v]);
-      const auto& corners = mesh.triangles[p.triangle];
       const double miss = glm::length(p.at - p.q), r = skeleton.radius[p.node];
       // The largest margin first; a smaller one where a triangle turns or a crossing appears.
       for (const double margin : kMargins) {
         p.ok = true;
         p.depth = miss + margin * r;
         p.reach = r + 2.0 * p.depth;
-        for (std::size_t k = 0; k < p.vertices.size(); ++k) {
-          const bool corner = std::find(corners.begin(), corners.end(), p.vertices[k]) != corners.end();
-          const dvec3& x = p.old[k];
-          const dvec3 moved = x + p.direction * (p.depth * (corner ? 1.0 : weight(p, glm::length(x - p.q))));
-          mesh.positions[p.vertices[k]] = result.grid > 0 ? snap_to_grid(moved, result.grid) : moved;
-        }
+        move(mesh, p, result.grid);
         for (std::size_t k = 0; k < p.triangles.size() && p.ok; ++k) {
           const dvec3 after = face_normal(mesh, p.triangles[k]);
           const double la = glm::length(after), lb = glm::length(normal_before[k]);
