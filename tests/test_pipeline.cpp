@@ -426,12 +426,27 @@ TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
   EXPECT_GE(r.contours.stats.forced_splits, 2u);
 }
 
+/// Moves `nodes` of a copy of r's skeleton 1.3 radii sideways (along the first one's frame
+/// normal), so that they lie a little outside r's mesh, and covers them: the near misses'
+/// figures, and the mesh check against the moved skeleton after.
+std::pair<NearMissStats, MeshCheckReport> cover_moved_nodes(PipelineResult& r, const std::vector<NodeId>& nodes) {
+  Skeleton s = r.skeleton.skeleton;
+  const glm::dvec3 side = s.frame[nodes.front().idx()].normal;
+  for (const NodeId n : nodes) s.position[n.idx()] += 1.3 * s.radius[n.idx()] * side;
+  MeshCheckParams cp;
+  cp.skeleton = &s;
+  const MeshCheckReport before = check_mesh(r.mesh.mesh, cp);
+  EXPECT_EQ(before.thick_nodes_inside + nodes.size(), before.thick_nodes);
+  const NearMissStats st = cover_near_misses(r.mesh, s, {});
+  return {st, check_mesh(r.mesh.mesh, cp)};
+}
+
 TEST(Pipeline, NearMissesArePushedInside) {
   // A thick node of a plain branch moved sideways to 1.3 radii from its axis lies a little
   // outside the finished mesh: the surface nearest it is pushed over it, a few vertices moved,
   // and the mesh stays sound, with every thick node inside and no crossing.
   PipelineResult r = run_pipeline(test::y_fork(75), {});
-  Skeleton s = r.skeleton.skeleton;
+  const Skeleton& s = r.skeleton.skeleton;
   NodeId pick;
   for (std::size_t i = 1; i < s.size(); ++i) {
     const NodeId n(static_cast<std::uint32_t>(i));
@@ -440,19 +455,13 @@ TEST(Pipeline, NearMissesArePushedInside) {
       pick = n;
   }
   ASSERT_TRUE(pick.valid());
-  s.position[pick.idx()] += 1.3 * s.radius[pick.idx()] * s.frame[pick.idx()].normal;
-  MeshCheckParams cp;
-  cp.skeleton = &s;
-  const MeshCheckReport before = check_mesh(r.mesh.mesh, cp);
-  ASSERT_EQ(before.thick_nodes_inside + 1, before.thick_nodes);
   const std::vector<glm::dvec3> normals = r.mesh.mesh.normals;
-  const NearMissStats st = cover_near_misses(r.mesh, s, {});
+  const auto [st, after] = cover_moved_nodes(r, {pick});
   EXPECT_EQ(st.outside_before, 1u);
   EXPECT_EQ(st.covered, 1u);
   EXPECT_EQ(st.outside_after, 0u);
   EXPECT_GE(st.moved_vertices, 3u);
   EXPECT_LE(st.moved_vertices, 20u);
-  const MeshCheckReport after = check_mesh(r.mesh.mesh, cp);
   expect_sound(after);
   EXPECT_EQ(after.self_intersecting_pairs, 0u);
   EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
@@ -463,25 +472,18 @@ TEST(Pipeline, NearMissesArePushedInside) {
 TEST(Pipeline, NearMissesNextToEachOtherArePushedInRounds) {
   // Two neighbouring nodes of a straight branch (every node as thick), 6 cm apart on a 5 cm
   // radius, both moved 1.3 radii off its axis: their pushes share a neighbourhood, so the
-  // second waits for a round of its own; both end inside and the mesh stays sound.
+  // second waits for a round of its own; both end inside and the mesh stays sound. (With one
+  // round, one is covered.)
   RawSkeleton raw;
   raw.source = "straight_branch";
   for (int i = 0; i < 10; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.06 * i), 0.05);
   PipelineResult r = run_pipeline(raw, {});
-  Skeleton s = r.skeleton.skeleton;
   const NodeId a(4), b(5);
-  ASSERT_EQ(s.child_count(a), 1);
-  ASSERT_EQ(s.children[a.idx()][0], b);
-  for (const NodeId n : {a, b}) s.position[n.idx()] += 1.3 * s.radius[n.idx()] * s.frame[a.idx()].normal;
-  MeshCheckParams cp;
-  cp.skeleton = &s;
-  const MeshCheckReport before = check_mesh(r.mesh.mesh, cp);
-  ASSERT_EQ(before.thick_nodes_inside + 2, before.thick_nodes);
-  const NearMissStats st = cover_near_misses(r.mesh, s, {});
+  ASSERT_EQ(r.skeleton.skeleton.children[a.idx()][0], b);
+  const auto [st, after] = cover_moved_nodes(r, {a, b});
   EXPECT_EQ(st.outside_before, 2u);
   EXPECT_EQ(st.covered, 2u);
   EXPECT_EQ(st.outside_after, 0u);
-  const MeshCheckReport after = check_mesh(r.mesh.mesh, cp);
   expect_sound(after);
   EXPECT_EQ(after.self_intersecting_pairs, 0u);
   EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
