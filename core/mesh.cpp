@@ -1,6 +1,7 @@
 #include "core/mesh.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -101,6 +102,17 @@ double fast_angle(double y, double x) {
   return x < 0 ? std::numbers::pi - a : a;
 }
 
+/// The angle-weighted normal's weights at the corners of triangle (p0, p1, p2) of face normal
+/// fn: each corner's angle over |fn| (twice the area), so that fn x w is the corner's angle
+/// times the unit normal; 0 for a degenerate triangle.
+inline std::array<double, 3> corner_weights(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& p2,
+                                            const glm::dvec3& fn) {
+  const double len = glm::length(fn);
+  if (!(len > 0)) return {0, 0, 0};
+  return {fast_angle(len, glm::dot(p1 - p0, p2 - p0)) / len, fast_angle(len, glm::dot(p2 - p1, p0 - p1)) / len,
+          fast_angle(len, glm::dot(p0 - p2, p1 - p2)) / len};
+}
+
 // The direction of ray_crossing's rays: unlikely to run along a mesh's edges or faces (no
 // axis, no diagonal). Set once at load, not tested for at every triangle.
 const glm::dvec3 kRayDirection = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
@@ -137,14 +149,7 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
       const auto& t = mesh.triangles[f];
       const glm::dvec3 &p0 = mesh.positions[t[0]], &p1 = mesh.positions[t[1]], &p2 = mesh.positions[t[2]];
       const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
-      // |fn| is twice the area at every corner; a degenerate triangle contributes nothing.
-      const double len = glm::length(fn);
-      double w[3] = {0, 0, 0};
-      if (len > 0) {
-        w[0] = fast_angle(len, glm::dot(p1 - p0, p2 - p0)) / len;
-        w[1] = fast_angle(len, glm::dot(p2 - p1, p0 - p1)) / len;
-        w[2] = fast_angle(len, glm::dot(p0 - p2, p1 - p2)) / len;
-      }
+      const std::array<double, 3> w = corner_weights(p0, p1, p2, fn);
       for (std::size_t c = 0; c < 3; ++c) {
         const glm::dvec3 contribution = w[c] == 0 ? glm::dvec3(0) : fn * w[c];
         const std::uint32_t v = t[c];
@@ -183,11 +188,7 @@ void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::sp
     if (!(mark[t[0]] | mark[t[1]] | mark[t[2]])) continue;
     const glm::dvec3 &p0 = mesh.positions[t[0]], &p1 = mesh.positions[t[1]], &p2 = mesh.positions[t[2]];
     const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
-    const double len = glm::length(fn);
-    if (!(len > 0)) continue;
-    const double w[3] = {fast_angle(len, glm::dot(p1 - p0, p2 - p0)) / len,
-                         fast_angle(len, glm::dot(p2 - p1, p0 - p1)) / len,
-                         fast_angle(len, glm::dot(p0 - p2, p1 - p2)) / len};
+    const std::array<double, 3> w = corner_weights(p0, p1, p2, fn);
     for (std::size_t c = 0; c < 3; ++c) {
       if (mark[t[c]] && w[c] != 0) sum[slot(t[c])] += fn * w[c];
     }

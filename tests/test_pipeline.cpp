@@ -617,7 +617,9 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   EXPECT_GT(after.thick_nodes_inside, before.thick_nodes_inside);
   EXPECT_GE(b.near_misses.covered + b.outer_surface.blobs, 1u);
   EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
-  if (b.outer_surface.tried) EXPECT_EQ(b.outer_surface.nodes_inside_after, after.thick_nodes_inside);
+  if (b.outer_surface.tried) {
+    EXPECT_EQ(b.outer_surface.nodes_inside_after, after.thick_nodes_inside);
+  }
   EXPECT_EQ(b.fork_retry.outside_before - b.fork_retry.outside_after + b.near_misses.covered +
                 (b.outer_surface.nodes_inside_after - b.outer_surface.nodes_inside_before),
             after.thick_nodes_inside - before.thick_nodes_inside);
