@@ -114,7 +114,7 @@ bool star_loop_valid(const std::vector<dvec2>& p, const std::vector<double>& key
     const dvec2& a = p[loop[k]];
     const dvec2 e = p[loop[(k + 1) % m]] - a;
     const double len = edge_length[k];
-    return !(len > 0 && cross2(e, p[i] - a) / len < -tol);
+    return !(len > 0 && cross2(e, p[i] - a) < -tol * len);
   };
   if (sorted) {
     std::size_t k = 0;
@@ -262,7 +262,7 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
     return order;
   };
   const double max_concave = concave_turn_degrees * kPi / 180.0;
-  const double cos_max_concave = std::cos(max_concave);
+  const double cos_max_concave = std::cos(max_concave), cos2_max_concave = cos_max_concave * cos_max_concave;
   // A turn counts as concave (drop the middle point) when it turns right by more than the
   // threshold, or is straight / degenerate.
   // (Compared in squares where that saves a square root or a division: the walk runs over
@@ -278,9 +278,12 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
     if (inward <= 1e-7 * wl2) return true;   // (nearly) collinear or duplicate: drop
     if (max_concave <= 0) return true;
     // Concave (b left of the chord, a right turn at b): keep only turns gentler than the
-    // threshold, i.e. edges a->b and b->q at an angle below it.
+    // threshold, i.e. edges a->b and b->q at an angle below it: u . v >= cos |u| |v|, compared
+    // in squares (no square root: this is the walk's most frequent test).
     const dvec2 u = p[b] - p[a], v = p[q] - p[b];
-    return glm::dot(u, v) < cos_max_concave * std::sqrt(glm::dot(u, u) * glm::dot(v, v));
+    const double uv = glm::dot(u, v), uuvv = glm::dot(u, u) * glm::dot(v, v);
+    return cos_max_concave >= 0 ? !(uv > 0 && uv * uv >= cos2_max_concave * uuvv)
+                                : uv < 0 && uv * uv > cos2_max_concave * uuvv;
   };
   auto walk = [&](const std::vector<std::uint32_t>& order) -> const std::vector<std::uint32_t>& {
     std::vector<std::uint32_t>& stack = scratch.stack;
