@@ -105,8 +105,9 @@ double fast_angle(double y, double x) {
 /// The angle-weighted normal's weights at the corners of triangle (p0, p1, p2) of face normal
 /// fn: each corner's angle over |fn| (twice the area), so that fn x w is the corner's angle
 /// times the unit normal; 0 for a degenerate triangle. The third angle is what the first two
-/// leave of pi (within 4e-6 radians), and |fn| is divided once (divisions were much of the normals' cost: BM_Normals,
-/// 3.4 M triangles, 2 threads, 98 -> 76-78 ms; 11% fewer instructions under callgrind).
+/// leave of pi (within 4e-6 radians), and |fn| is divided once (divisions were much of the
+/// normals' cost: BM_Normals, 3.4 M triangles, 2 threads, 98 -> 76-78 ms; 11% fewer
+/// instructions under callgrind).
 inline std::array<double, 3> corner_weights(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& p2,
                                             const glm::dvec3& fn) {
   const double len = glm::length(fn);
