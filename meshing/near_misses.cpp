@@ -190,9 +190,10 @@ void triangles_near(const Mesh& mesh, std::vector<Push>& pushes, Meets&& meets, 
   for (std::size_t k = 0; k < far.size(); ++k) pushes[far[k]].around = std::move(lists[k]);
 }
 
-/// Distance from p to the box [lo, hi] (0 inside).
-double box_distance(const dvec3& p, const dvec3& lo, const dvec3& hi) {
-  return glm::length(glm::max(glm::max(lo - p, p - hi), dvec3(0)));
+/// Squared distance from p to the box [lo, hi] (0 inside).
+double box_distance2(const dvec3& p, const dvec3& lo, const dvec3& hi) {
+  const dvec3 d = glm::max(glm::max(lo - p, p - hi), dvec3(0));
+  return glm::dot(d, d);
 }
 
 /// The signed crossings of the ray from p (core/mesh.h ray_crossing) with `triangles`; nullopt
@@ -252,10 +253,18 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     // The triangles near each node outside (one pass), and the nearest surface point among
     // them, within kMaxMiss x its radius.
     const std::size_t no = outside.size();
-    std::vector<std::vector<std::uint32_t>> gathered =
-        triangles_meeting(mesh, no, [&](std::size_t i, const dvec3& lo, const dvec3& hi) {
-          return box_distance(at[outside[i]], lo, hi) <= kGather * skeleton.radius[thick[outside[i]]];
-        });
+    // (Squared distances, each node's position and reach looked up once: this pass visits
+    // every triangle.)
+    std::vector<dvec3> centre(no);
+    std::vector<double> reach2(no);
+    for (std::size_t i = 0; i < no; ++i) {
+      centre[i] = at[outside[i]];
+      const double reach = kGather * skeleton.radius[thick[outside[i]]];
+      reach2[i] = reach * reach;
+    }
+    std::vector<std::vector<std::uint32_t>> gathered = triangles_meeting(
+        mesh, no,
+        [&](std::size_t i, const dvec3& lo, const dvec3& hi) { return box_distance2(centre[i], lo, hi) <= reach2[i]; });
     std::vector<Nearest> nearest(no);
     for (std::size_t i = 0; i < no; ++i) {
       const dvec3& p = at[outside[i]];
@@ -304,7 +313,9 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     // Per push, the triangles whose box meets its extent around q.
     triangles_near(
         mesh, pushes,
-        [](const Push& p, const dvec3& lo, const dvec3& hi) { return box_distance(p.q, lo, hi) <= p.extent; },
+        [](const Push& p, const dvec3& lo, const dvec3& hi) {
+          return box_distance2(p.q, lo, hi) <= p.extent * p.extent;
+        },
         [](const Push& p) { return p.extent + glm::length(p.at - p.q) <= p.gather; });
 
     for (Push& p : pushes) select_vertices(mesh, p);
