@@ -278,6 +278,16 @@ dvec3 unslant(const dvec3& w, const dvec3& axis) {
   return perp > 0.5 * l ? w * (l / perp) : w * 2.0;
 }
 
+/// The same stretch for the offset q (slice coordinates) of a slice whose frame's normal and
+/// binormal have components `na` and `nb` along the axis, as a factor of the offset: one square
+/// root rather than two, no 3D vector (every point of every slice between nodes goes through it).
+double unslant_factor(const dvec2& q, double na, double nb) {
+  const double l2 = glm::dot(q, q);
+  const double s = q.x * na + q.y * nb;  // the offset's component along the axis
+  const double perp2 = l2 - s * s;
+  return perp2 > 0.25 * l2 ? std::sqrt(l2 / perp2) : 2.0;
+}
+
 class Walker {
  public:
   explicit Walker(const Tables& t) : s_(t.s), f_(t.f), st_(t.st), p_(t.p), spacing_(t.spacing), tables_(t) {}
@@ -401,11 +411,12 @@ class Walker {
     // smoothstep (slices near the fork lie in its plane, far from perpendicular to the child,
     // and stretched early they would press into the sibling).
     const double w_round = s_.is_fork(parent) ? (w * w) * (w * w) : 1.0;
+    const double na = glm::dot(g.frame.normal, axis), nb = glm::dot(g.frame.binormal, axis);
     for (std::uint32_t k = 0; k < count; ++k) {
       const std::uint32_t j = cand[k];
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
-      const dvec3 off = g.frame.to_world(q);
-      dvec3 pt = g.center + (w_round < 1.0 ? glm::mix(off, unslant(off, axis), w_round) : unslant(off, axis));
+      const double stretch = unslant_factor(q, na, nb);
+      dvec3 pt = g.center + g.frame.to_world(q) * (w_round < 1.0 ? (1.0 - w_round) + w_round * stretch : stretch);
       if (above_fork) {
         const double h = glm::dot(pt - fork_pos, fork_up);
         if (h < min_height) pt += fork_up * std::min(min_height - h, 0.5 * rf);
