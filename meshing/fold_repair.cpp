@@ -240,10 +240,15 @@ class FoldRepair {
   // number of intersections around it.
   bool flip_one_edge_of(std::uint32_t a, std::uint32_t b) {
     const std::vector<std::uint32_t> region = around_pair(a, b);
+    // The region's boxes, once for the six tries: a try changes only its own two triangles,
+    // which crossings() boxes afresh, and puts them back unless it is kept (the last try).
+    std::vector<Box>& boxes = scratch_region_boxes_;
+    boxes.resize(region.size());
+    for (std::size_t k = 0; k < region.size(); ++k) boxes[k] = box(region[k]);
     for (const std::uint32_t f : {a, b}) {
       for (int e = 0; e < 3; ++e) {
         const Mesh::Triangle t = mesh_.triangles[f];
-        if (try_flip(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)], region)) return true;
+        if (try_flip(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)], region, boxes)) return true;
       }
     }
     return false;
@@ -847,22 +852,24 @@ class FoldRepair {
   }
 
   // Counting stops at `stop` (the caller only asks whether it stays below that).
+  // `boxes` are the region's triangles' boxes (those of f1 and f2 are not used).
   [[nodiscard]] std::size_t crossings(std::uint32_t f1, std::uint32_t f2, const std::vector<std::uint32_t>& region,
-                                      std::size_t stop = SIZE_MAX) const {
+                                      const std::vector<Box>& boxes, std::size_t stop = SIZE_MAX) const {
     const auto b1 = box(f1), b2 = box(f2);
     std::size_t n = overlap(b1, b2) && intersect(f1, f2) ? 1 : 0;
-    for (const std::uint32_t g : region) {
+    for (std::size_t k = 0; k < region.size(); ++k) {
       if (n >= stop) break;
+      const std::uint32_t g = region[k];
       if (g == f1 || g == f2 || !alive(g)) continue;
-      const auto bg = box(g);
-      if (overlap(b1, bg) && intersect(f1, g)) ++n;
-      if (overlap(b2, bg) && intersect(f2, g)) ++n;
+      if (overlap(b1, boxes[k]) && intersect(f1, g)) ++n;
+      if (overlap(b2, boxes[k]) && intersect(f2, g)) ++n;
     }
     return n;
   }
 
   // Flips the edge (a, b) of triangle f1 if that lowers the crossings among `region`.
-  bool try_flip(std::uint32_t f1, std::uint32_t a, std::uint32_t b, const std::vector<std::uint32_t>& region) {
+  bool try_flip(std::uint32_t f1, std::uint32_t a, std::uint32_t b, const std::vector<std::uint32_t>& region,
+                const std::vector<Box>& boxes) {
     const std::uint32_t f2 = across(f1, a, b);
     if (f2 == UINT32_MAX) return false;
     const std::uint32_t c = third(mesh_.triangles[f1], a, b), d = third(mesh_.triangles[f2], a, b);
@@ -878,10 +885,10 @@ class FoldRepair {
     const glm::dvec3 n1 = normal(new1), n2 = normal(new2);
     if (!(glm::dot(n1, facing) > 0) || !(glm::dot(n2, facing) > 0)) return false;
 
-    const std::size_t before = crossings(f1, f2, region);
+    const std::size_t before = crossings(f1, f2, region, boxes);
     set_triangle(f1, new1);
     set_triangle(f2, new2);
-    if (crossings(f1, f2, region, before) >= before) {
+    if (crossings(f1, f2, region, boxes, before) >= before) {
       set_triangle(f1, old1);
       set_triangle(f2, old2);
       return false;
@@ -906,6 +913,7 @@ class FoldRepair {
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
   mutable std::vector<Box> scratch_boxes_;          // crossings_around's
+  std::vector<Box> scratch_region_boxes_;           // flip_one_edge_of's
   mutable std::vector<std::uint32_t> scratch_mine_;  // crossings_around's
   mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
