@@ -286,10 +286,15 @@ class FoldRepair {
   // of its neighbours lowers the crossings around the pair.
   bool move_one_vertex_of(std::uint32_t a, std::uint32_t b) {
     const std::vector<std::uint32_t> region = around_pair(a, b);
+    // The region's boxes, once for the six vertices: a try puts its vertex back unless it is
+    // kept (the last try).
+    std::vector<Box>& boxes = scratch_region_boxes_;
+    boxes.resize(region.size());
+    for (std::size_t k = 0; k < region.size(); ++k) boxes[k] = box(region[k]);
     for (const std::uint32_t f : {a, b}) {
       const Mesh::Triangle t = mesh_.triangles[f];
       for (const std::uint32_t v : t) {
-        if (try_move(v, region)) return true;
+        if (try_move(v, region, boxes)) return true;
       }
     }
     return false;
@@ -328,7 +333,7 @@ class FoldRepair {
     return n;
   }
 
-  bool try_move(std::uint32_t v, const std::vector<std::uint32_t>& region) {
+  bool try_move(std::uint32_t v, const std::vector<std::uint32_t>& region, const std::vector<Box>& region_boxes) {
     const double limit = v < max_move_.size() ? max_move_[v] : 0.0;
     if (!(limit > 0)) return false;
     const auto here = around(v);
@@ -356,11 +361,10 @@ class FoldRepair {
     // Boxes of the fan's own triangles change with v; they are recomputed in the count.
     std::vector<std::uint32_t> near;
     std::vector<Box> near_boxes;
-    for (const std::uint32_t g : region) {
-      const Box b = box(g);
-      if (overlap(reach, b)) {
-        near.push_back(g);
-        near_boxes.push_back(b);
+    for (std::size_t k = 0; k < region.size(); ++k) {
+      if (overlap(reach, region_boxes[k])) {
+        near.push_back(region[k]);
+        near_boxes.push_back(region_boxes[k]);
       }
     }
     const std::size_t before = crossings_around(faces, near, near_boxes);
@@ -913,7 +917,7 @@ class FoldRepair {
   mutable std::size_t tests_ = 0;  // exact triangle-pair tests made
   std::span<const glm::dvec3> keep_side_;
   mutable std::vector<Box> scratch_boxes_;          // crossings_around's
-  std::vector<Box> scratch_region_boxes_;           // flip_one_edge_of's
+  std::vector<Box> scratch_region_boxes_;           // flip_one_edge_of's and move_one_vertex_of's
   mutable std::vector<std::uint32_t> scratch_mine_;  // crossings_around's
   mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
