@@ -451,7 +451,8 @@ class Walker {
   }
 
   /// Smallest distance between the two point sets (3D) when it is below `cap`; otherwise
-  /// infinity. May stop early with any distance <= `enough`.
+  /// infinity. May stop early with any distance <= `enough` (below `cap`: from `cap` on it
+  /// would not start).
   static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough);
 
   // --- output -------------------------------------------------------------------------------
@@ -813,9 +814,10 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   pts_b_.clear();
   evaluate_cut(cut_a_, pts_a_);
   evaluate_cut(cut_b_, pts_b_);
-  // Exact up to the threshold; may stop early at 0.25 x the neighbour distance, below the
-  // 0.5 x a forced split needs.
-  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(fork), 0.25 * spacing_);
+  // Exact up to the threshold; may stop early at any distance that passes neither the
+  // threshold nor the 0.5 x the neighbour distance a forced split needs (the gap is only
+  // compared with those). (gap needs `enough` below `cap`.)
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(fork), std::min(0.99 * threshold(fork), 0.5 * spacing_));
   last_fork_ = fork;
   last_fork_base_ = fork_base;
   last_u_ = u;
@@ -923,7 +925,7 @@ bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double 
   }
   if (pts_rest_.point.empty()) return false;
   const double threshold_here = threshold(fork), enough = min_clearance(fork);
-  if (!(gap(pts_l_.point, pts_rest_.point, threshold_here, 0.25 * spacing_) > threshold_here)) return false;
+  if (!(gap(pts_l_.point, pts_rest_.point, threshold_here, 0.99 * threshold_here) > threshold_here)) return false;
   const NodeId y = s_.parent[lateral.idx()];
   const double reach = u + 2.0 * s_.radius[y.idx()];
   return cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach, enough) > enough &&
