@@ -3,7 +3,6 @@
 #include "meshing/meshing.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -27,40 +26,6 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr std::size_t kMinMergedLoop = 6;
 /// Largest mesh (triangles) whose fold repair may try variants (MeshParams::fold_repair_variants).
 constexpr std::size_t kVariantTriangles = 300'000;
-
-/// New indices for the entries of [0, n) that `keep` keeps, in order (UINT32_MAX for the
-/// others), and their number: counted and numbered in fixed chunks in parallel.
-template <class Keep>
-std::pair<std::vector<std::uint32_t>, std::size_t> renumber(std::size_t n, Keep&& keep) {
-  constexpr std::size_t kChunk = 1 << 16;
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<std::uint32_t> first(chunks + 1, 0);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
-    std::uint32_t count = 0;
-    for (std::size_t i = k * kChunk; i < std::min(n, (k + 1) * kChunk); ++i) count += keep(i) ? 1 : 0;
-    first[k + 1] = count;
-  });
-  for (std::size_t k = 0; k < chunks; ++k) first[k + 1] += first[k];
-  std::vector<std::uint32_t> index(n);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
-    std::uint32_t next = first[k];
-    for (std::size_t i = k * kChunk; i < std::min(n, (k + 1) * kChunk); ++i) index[i] = keep(i) ? next++ : UINT32_MAX;
-  });
-  return {std::move(index), first[chunks]};
-}
-
-/// Keeps the entries of `a` that `index` numbers (renumber), at their new places.
-template <class T>
-void compact(std::vector<T>& a, const std::vector<std::uint32_t>& index, std::size_t kept) {
-  std::vector<T> out(kept);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, a.size(), 1 << 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        if (index[i] != UINT32_MAX) out[index[i]] = a[i];
-                      }
-                    });
-  a.swap(out);
-}
 
 /// Signed angle difference wrapped into (-pi, pi].
 double wrap_pi(double a) {
@@ -759,39 +724,48 @@ void Builder::repair_folds() {
   if (r.collapses == 0 && r.refills == 0) return;
   // Collapses and refills leave the triangles they removed degenerate (u, u, u): drop them
   // (the vertices they removed go with the unused ones).
-  const auto [index, kept] = renumber(mesh_.triangles.size(), [&](std::size_t f) {
+  std::size_t kept = 0;
+  for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
     const auto& t = mesh_.triangles[f];
-    return t[0] != t[1] || t[1] != t[2];
-  });
-  compact(mesh_.triangles, index, kept);
-  compact(mesh_.triangle_branch, index, kept);
-  compact(kind_, index, kept);
+    if (t[0] == t[1] && t[1] == t[2]) continue;
+    mesh_.triangles[kept] = t;
+    mesh_.triangle_branch[kept] = mesh_.triangle_branch[f];
+    kind_[kept] = kind_[f];
+    ++kept;
+  }
+  mesh_.triangles.resize(kept);
+  mesh_.triangle_branch.resize(kept);
+  kind_.resize(kept);
 }
 
 void Builder::drop_unused_vertices() {
-  // (In parallel: serially 13 ms of the large grown tree, where 60 of 1.7 M vertices go.)
   const std::size_t nv = mesh_.positions.size();
-  std::vector<std::uint8_t> used(nv, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 1 << 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                        for (const std::uint32_t v : mesh_.triangles[f])
-                          std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
-                      }
-                    });
-  const auto [index, kept] = renumber(nv, [&](std::size_t v) { return used[v] != 0; });
-  if (kept == nv) return;
-  compact(mesh_.positions, index, kept);
-  compact(mesh_.vertex_strand, index, kept);
-  compact(mesh_.vertex_node, index, kept);
-  compact(vertex_u_, index, kept);
-  compact(vertex_v_, index, kept);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 1 << 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                        for (std::uint32_t& v : mesh_.triangles[f]) v = index[v];
-                      }
-                    });
+  std::vector<std::uint32_t> remap(nv, 0);
+  for (const auto& t : mesh_.triangles) {
+    for (const std::uint32_t v : t) remap[v] = 1;
+  }
+  std::uint32_t kept = 0;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!remap[v]) {
+      remap[v] = UINT32_MAX;
+      continue;
+    }
+    remap[v] = kept;
+    mesh_.positions[kept] = mesh_.positions[v];
+    mesh_.vertex_strand[kept] = mesh_.vertex_strand[v];
+    mesh_.vertex_node[kept] = mesh_.vertex_node[v];
+    vertex_u_[kept] = vertex_u_[v];
+    vertex_v_[kept] = vertex_v_[v];
+    ++kept;
+  }
+  mesh_.positions.resize(kept);
+  mesh_.vertex_strand.resize(kept);
+  mesh_.vertex_node.resize(kept);
+  vertex_u_.resize(kept);
+  vertex_v_.resize(kept);
+  for (auto& t : mesh_.triangles) {
+    for (std::uint32_t& v : t) v = remap[v];
+  }
 }
 
 void Builder::fuse(const Junction& j, std::uint32_t branch, Part& out) const {
