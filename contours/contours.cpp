@@ -595,7 +595,7 @@ class Walker {
     std::vector<std::pair<NodeId, double>> stack, cone_stack;
     SlicePoints pts, pts_a, pts_b, pts_l, pts_rest, tip;
     std::vector<CutEdge> cut_a, cut_b, cut_n;
-    std::vector<dvec2> flat, moved;
+    std::vector<dvec2> flat, moved, edge_normal;
     std::vector<dvec3> lift;
     std::vector<std::uint32_t> loop;
     std::vector<std::uint8_t> strand_side;  ///< per strand, for loop_sides (0xff between calls)
@@ -752,14 +752,15 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
     return l > 0 ? dvec2(e.y, -e.x) / l : dvec2(0);  // outward normal of a CCW loop's edge
   };
   std::vector<dvec2>& moved = scratch_.moved;
+  std::vector<dvec2>& edge_normal = scratch_.edge_normal;  // of edge k -> k + 1, once for its two ends
   std::vector<dvec3>& lift = scratch_.lift;  // each point's component off the slice plane, kept as is
   moved.resize(m);
+  edge_normal.resize(m);
   lift.resize(m);
+  for (std::size_t k = 0; k < m; ++k) edge_normal[k] = outward(flat_[loop[(k + 1) % m]] - flat_[loop[k]]);
   for (std::size_t k = 0; k < m; ++k) {
-    const dvec2& a = flat_[loop[(k + m - 1) % m]];
     const dvec2& b = flat_[loop[k]];
-    const dvec2& c = flat_[loop[(k + 1) % m]];
-    dvec2 nrm = outward(b - a) + outward(c - b);
+    dvec2 nrm = edge_normal[(k + m - 1) % m] + edge_normal[k];
     const double l = glm::length(nrm);
     nrm = l > 1e-12 ? nrm / l : (glm::length(b - centroid) > 0 ? glm::normalize(b - centroid) : dvec2(1, 0));
     moved[k] = b + pts.offset[loop[k]] * nrm;
