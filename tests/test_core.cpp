@@ -1,13 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <set>
+
 #include <unistd.h>
 
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/math.h"
+#include "core/mesh.h"
 #include "core/report.h"
 #include "core/rng.h"
 
@@ -54,6 +58,28 @@ TEST(Warnings, CountsAndExamples) {
   EXPECT_EQ(w.total(), 6u);
   EXPECT_EQ(w.list()[0].examples.size(), Warnings::max_examples);
   EXPECT_NE(w.to_string().find("a thing (5x; e.g. node 0"), std::string::npos);
+}
+
+// snap_to_grid rounds without a library call; it must agree with std::nearbyint of the
+// division bit for bit: ties to even, signed zeros, and values too large to have a fraction.
+TEST(FloatGrid, SnapAgreesWithNearbyint) {
+  auto reference = [](double x, double spacing) { return std::nearbyint(x / spacing) * spacing; };
+  auto same_bits = [](double a, double b) { return std::signbit(a) == std::signbit(b) && (a == b); };
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<double> xs = {0.0,    -0.0,       0.5,     -0.5, 1.5,          -1.5,
+                            2.5,    -2.5,       0.3,     -0.3, 0x1p51 - 0.5, -(0x1p51 - 0.5),
+                            0x1p51, 0x1p52 + 1, -0x1p60, 1e300};
+  for (int k = 0; k < 20000; ++k) xs.push_back(unit(rng) * std::ldexp(1.0, k % 60 - 10));
+  for (const double spacing : {1.0, 0x1p-20, float_grid(3.7), export_grid_spacing(120.0), 0x1p10}) {
+    for (const double x0 : xs) {
+      const double x = x0 * spacing;  // ties stay ties at every spacing (a power of two)
+      const glm::dvec3 got = snap_to_grid(glm::dvec3(x, -x, 0.25 * x), spacing);
+      EXPECT_TRUE(same_bits(got.x, reference(x, spacing))) << x << " at " << spacing;
+      EXPECT_TRUE(same_bits(got.y, reference(-x, spacing))) << -x << " at " << spacing;
+      EXPECT_TRUE(same_bits(got.z, reference(0.25 * x, spacing))) << 0.25 * x << " at " << spacing;
+    }
+  }
 }
 
 TEST(Frames, TransportKeepsOrthonormalAndMinimal) {
