@@ -76,7 +76,7 @@ double pseudo_angle(double x, double y) {
 /// more than the walk.
 struct Scratch {
   std::vector<double> dist2, key, smax2, lk, edge_length;
-  std::vector<std::uint32_t> order, stack, bucket_begin;
+  std::vector<std::uint32_t> order, stack, bucket_begin, sector_of;
   struct Entry {
     double key, dist2;
     std::uint32_t i;
@@ -230,9 +230,15 @@ void boundary_loop(const std::vector<dvec2>& p, double concave_turn_degrees, std
       std::sort(entries.begin(), entries.end());
     } else {
       const std::size_t sectors = std::clamp<std::size_t>(n / 8, 16, 512);
-      auto sector = [&](std::uint32_t i) {
-        return std::min(sectors - 1, static_cast<std::size_t>(key[i] / 4.0 * double(sectors)));
-      };
+      // Each point's sector, once (key in [0, 4): key x sectors / 4 below 512, so an int
+      // conversion, a single instruction where the unsigned one is not).
+      std::vector<std::uint32_t>& sector_of = scratch.sector_of;
+      sector_of.resize(n);
+      const double per_key = double(sectors) / 4.0;
+      const auto last = static_cast<std::uint32_t>(sectors - 1);
+      for (std::uint32_t i = 0; i < n; ++i)
+        sector_of[i] = std::min(last, static_cast<std::uint32_t>(static_cast<int>(key[i] * per_key)));
+      auto sector = [&](std::uint32_t i) { return sector_of[i]; };
       std::vector<double>& smax2 = scratch.smax2;
       smax2.assign(sectors, 0.0);
       for (std::uint32_t i = 0; i < n; ++i) smax2[sector(i)] = std::max(smax2[sector(i)], dist2[i]);
