@@ -857,9 +857,9 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
     for (std::size_t k = 0; k < pts.point.size(); ++k) {
       const double t = l2 > 0 ? std::clamp(glm::dot(pts.point[k] - a, ab) / l2, 0.0, 1.0) : 0.0;
       const double d = glm::length(pts.point[k] - (a + t * ab)) - glm::mix(ra, rb, t) - pts.offset[k];
+      if (d <= enough) return d;  // (at the first such point, not the edge's nearest)
       best = std::min(best, d);
     }
-    if (best <= enough) return best;
     const double l = len(y);
     if (start + l < reach) {
       for (const NodeId c : s_.children[y.idx()]) {
