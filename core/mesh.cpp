@@ -299,6 +299,13 @@ std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const g
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
     Counts& counts = local.local();
+    // (The tables as plain pointers: through the vectors, the compiler reloaded them at every
+    // point, as the counts written might alias them.)
+    const glm::dvec2* const shadows = q.data();
+    const std::uint32_t* const cell_begin = begin.data();
+    const std::uint32_t* const cell_point = point.data();
+    int* const crossing_count = counts.crossings.data();
+    std::uint8_t* const ambiguous_flag = counts.ambiguous.data();
     for (std::size_t f = r.begin(); f != r.end(); ++f) {
       const auto& t = mesh.triangles[f];
       const glm::dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
@@ -312,14 +319,15 @@ std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const g
       const std::size_t y0 = cell_of(bl.y, lo.y), y1 = cell_of(bh.y, lo.y);
       for (std::size_t y = y0; y <= y1; ++y) {
         for (std::size_t x = x0; x <= x1; ++x) {
-          for (std::uint32_t k = begin[y * side + x]; k < begin[y * side + x + 1]; ++k) {
-            const std::uint32_t i = point[k];
-            if (q[i].x < bl.x || q[i].x > bh.x || q[i].y < bl.y || q[i].y > bh.y) continue;
+          for (std::uint32_t k = cell_begin[y * side + x], end = cell_begin[y * side + x + 1]; k < end; ++k) {
+            const std::uint32_t i = cell_point[k];
+            const glm::dvec2 qi = shadows[i];
+            if (qi.x < bl.x || qi.x > bh.x || qi.y < bl.y || qi.y > bh.y) continue;
             const int crossing = ray_crossing(a, b, c, points[i]);
             if (crossing == kRayAmbiguous)
-              counts.ambiguous[i] = 1;
+              ambiguous_flag[i] = 1;
             else
-              counts.crossings[i] += crossing;
+              crossing_count[i] += crossing;
           }
         }
       }
