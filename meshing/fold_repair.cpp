@@ -215,7 +215,7 @@ class FoldRepair {
       const auto& t = mesh_.triangles[f];
       const glm::dvec3 n = normal(t);
       for (int e = 0; e < 3; ++e) {
-        const std::uint32_t g = across(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)]);
+        const std::uint32_t g = across_near(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)]);
         if (g == UINT32_MAX) continue;
         const glm::dvec3 m = normal(mesh_.triangles[g]);
         const double len = glm::length(n) * glm::length(m);
@@ -812,6 +812,20 @@ class FoldRepair {
       }
     }
     return UINT32_MAX;
+  }
+
+  // across(f, u, v), first looking at the triangles stitched just before and after f (a
+  // strip's neighbours: two of a strip triangle's three), where the edge v -> u is found
+  // without searching u's triangles. On a manifold mesh one triangle holds that edge, so the
+  // answer is the same.
+  [[nodiscard]] std::uint32_t across_near(std::uint32_t f, std::uint32_t u, std::uint32_t v) const {
+    auto holds = [&](std::uint32_t g) {
+      const auto& t = mesh_.triangles[g];
+      return (t[0] == v && t[1] == u) || (t[1] == v && t[2] == u) || (t[2] == v && t[0] == u);
+    };
+    if (f > 0 && holds(f - 1)) return f - 1;
+    if (f + 1 < mesh_.triangles.size() && holds(f + 1)) return f + 1;
+    return across(f, u, v);
   }
 
   [[nodiscard]] static std::uint32_t third(const Mesh::Triangle& t, std::uint32_t u, std::uint32_t v) {
