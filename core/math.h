@@ -2,6 +2,7 @@
 /// Small geometric helpers shared by the stages (GLM, double precision).
 
 #include <cmath>
+#include <numbers>
 
 #include <glm/glm.hpp>
 
@@ -55,6 +56,22 @@ inline double solid_angle(const dvec3& a, const dvec3& b, const dvec3& c) {
   const double det = glm::dot(a, glm::cross(b, c));
   const double div = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
   return 2.0 * std::atan2(det, div);
+}
+
+/// atan2(y, x) within 2e-6 radians, several times cheaper than std::atan2 (one division and
+/// a degree-11 odd polynomial for atan on [0, 1], a minimax fit): for weights and angles that
+/// need no more. 0 at the origin.
+inline double fast_atan2(double y, double x) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  if (!(ax > 0 || ay > 0)) return 0.0;
+  const bool steep = ax < ay;
+  const double t = steep ? ax / ay : ay / ax;  // in [0, 1]
+  const double t2 = t * t;
+  double a = t * (0.99997726 +
+                  t2 * (-0.33262347 + t2 * (0.19354346 + t2 * (-0.11643287 + t2 * (0.05265332 + t2 * -0.01172120)))));
+  if (steep) a = 0.5 * std::numbers::pi - a;
+  if (x < 0) a = std::numbers::pi - a;
+  return y < 0 ? -a : a;
 }
 
 /// 2D cross product (z of the 3D cross product): > 0 when b is counter-clockwise of a.

@@ -88,20 +88,6 @@ std::size_t unpaired_half_edges(const Mesh& mesh, const VertexCorners& corners) 
 
 namespace {
 
-/// atan2(y, x) for y > 0 (an angle in (0, pi)) within 2e-6 radians: a weight needs no more,
-/// and it is several times cheaper than std::atan2 (one division and a degree-11 odd
-/// polynomial for atan on [0, 1], a minimax fit).
-double fast_angle(double y, double x) {
-  const double ax = std::abs(x);
-  const bool steep = ax < y;
-  const double t = steep ? ax / y : y / ax;  // in [0, 1]
-  const double t2 = t * t;
-  double a = t * (0.99997726 +
-                  t2 * (-0.33262347 + t2 * (0.19354346 + t2 * (-0.11643287 + t2 * (0.05265332 + t2 * -0.01172120)))));
-  if (steep) a = 0.5 * std::numbers::pi - a;
-  return x < 0 ? std::numbers::pi - a : a;
-}
-
 /// The angle-weighted normal's weights at the corners of triangle (p0, p1, p2) of face normal
 /// fn: each corner's angle over |fn| (twice the area), so that fn x w is the corner's angle
 /// times the unit normal; 0 for a degenerate triangle. The third angle is what the first two
@@ -112,7 +98,7 @@ inline std::array<double, 3> corner_weights(const glm::dvec3& p0, const glm::dve
                                             const glm::dvec3& fn) {
   const double len = glm::length(fn);
   if (!(len > 0)) return {0, 0, 0};
-  const double a0 = fast_angle(len, glm::dot(p1 - p0, p2 - p0)), a1 = fast_angle(len, glm::dot(p2 - p1, p0 - p1));
+  const double a0 = fast_atan2(len, glm::dot(p1 - p0, p2 - p0)), a1 = fast_atan2(len, glm::dot(p2 - p1, p0 - p1));
   const double a2 = std::max(0.0, std::numbers::pi - a0 - a1);
   const double inv = 1.0 / len;
   return {a0 * inv, a1 * inv, a2 * inv};

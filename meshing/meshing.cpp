@@ -16,6 +16,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "core/errors.h"
+#include "core/math.h"
 #include "meshing/fold_repair.h"
 #include "meshing/intersections.h"
 
@@ -881,7 +882,7 @@ void Builder::compute_uvs() {
                         const Frame& f = c_.loop_frame[l];
                         for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
                           const dvec2 q = f.to_local(c_.point[v] - centre);
-                          vertex_angle_[v] = std::atan2(q.y, q.x);
+                          vertex_angle_[v] = fast_atan2(q.y, q.x);  // (std::atan2: most of this pass)
                           double a = vertex_angle_[v] / kTwoPi;
                           if (a < 0) a += 1;
                           vertex_u_[v] = a * repeat;
