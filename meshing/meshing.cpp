@@ -29,6 +29,22 @@ constexpr std::size_t kMinMergedLoop = 6;
 /// Largest mesh (triangles) whose fold repair may try variants (MeshParams::fold_repair_variants).
 constexpr std::size_t kVariantTriangles = 300'000;
 
+/// Drops the entries of [0, n) that `keep` refuses by filling each such hole with the last
+/// kept entry after it (`move(from, to)`); returns how many are kept, now [0, count). Where
+/// the holes are few, so are the moves (rather than shifting every entry after the first hole).
+template <class Keep, class Move>
+std::size_t fill_holes(std::size_t n, Keep&& keep, Move&& move) {
+  std::size_t last = n;  // the entries from `last` on are done with
+  for (std::size_t hole = 0; hole < last; ++hole) {
+    if (keep(hole)) continue;
+    while (last > hole + 1 && !keep(last - 1)) --last;
+    if (last <= hole + 1) return hole;  // nothing kept after the hole
+    --last;
+    move(last, hole);
+  }
+  return last;
+}
+
 /// Signed angle difference wrapped into (-pi, pi].
 double wrap_pi(double a) {
   while (a > std::numbers::pi) a -= kTwoPi;
@@ -726,27 +742,21 @@ void Builder::repair_folds() {
   if (r.collapses == 0 && r.refills == 0) return;
   // Collapses and refills leave the triangles they removed degenerate (u, u, u): drop them
   // (the vertices they removed go with the unused ones). They are few: each hole takes the
-  // last live triangle (rather than moving every triangle after the first hole).
-  auto dead = [&](std::size_t f) {
-    const auto& t = mesh_.triangles[f];
-    return t[0] == t[1] && t[1] == t[2];
-  };
-  std::size_t last = mesh_.triangles.size();
-  for (std::size_t hole = 0; hole < last; ++hole) {
-    if (!dead(hole)) continue;
-    while (last > hole + 1 && dead(last - 1)) --last;
-    if (last <= hole + 1) {
-      last = hole;
-      break;
-    }
-    --last;
-    mesh_.triangles[hole] = mesh_.triangles[last];
-    mesh_.triangle_branch[hole] = mesh_.triangle_branch[last];
-    kind_[hole] = kind_[last];
-  }
-  mesh_.triangles.resize(last);
-  mesh_.triangle_branch.resize(last);
-  kind_.resize(last);
+  // last live triangle.
+  const std::size_t kept = fill_holes(
+      mesh_.triangles.size(),
+      [&](std::size_t f) {
+        const auto& t = mesh_.triangles[f];
+        return t[0] != t[1] || t[1] != t[2];
+      },
+      [&](std::size_t from, std::size_t to) {
+        mesh_.triangles[to] = mesh_.triangles[from];
+        mesh_.triangle_branch[to] = mesh_.triangle_branch[from];
+        kind_[to] = kind_[from];
+      });
+  mesh_.triangles.resize(kept);
+  mesh_.triangle_branch.resize(kept);
+  kind_.resize(kept);
 }
 
 void Builder::drop_unused_vertices() {
@@ -762,30 +772,20 @@ void Builder::drop_unused_vertices() {
                           std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
                       }
                     });
-  std::size_t last = nv;                // the vertices from `last` on are done with
-  std::vector<std::uint32_t> moved_to;  // for vertex kept + k: its new index (kept: the new count)
   std::vector<std::pair<std::uint32_t, std::uint32_t>> moves;  // (from, to)
-  for (std::size_t hole = 0; hole < last; ++hole) {
-    if (used[hole]) continue;
-    while (last > hole + 1 && !used[last - 1]) --last;
-    if (last <= hole + 1) {
-      last = hole;
-      break;
-    }
-    --last;
-    moves.emplace_back(static_cast<std::uint32_t>(last), static_cast<std::uint32_t>(hole));
-  }
-  const std::size_t kept = last;
+  const std::size_t kept = fill_holes(
+      nv, [&](std::size_t v) { return used[v] != 0; },
+      [&](std::size_t from, std::size_t to) {
+        mesh_.positions[to] = mesh_.positions[from];
+        mesh_.vertex_strand[to] = mesh_.vertex_strand[from];
+        mesh_.vertex_node[to] = mesh_.vertex_node[from];
+        vertex_u_[to] = vertex_u_[from];
+        vertex_v_[to] = vertex_v_[from];
+        moves.emplace_back(static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to));
+      });
   if (kept == nv) return;
-  moved_to.assign(nv - kept, UINT32_MAX);
-  for (const auto& [from, to] : moves) {
-    mesh_.positions[to] = mesh_.positions[from];
-    mesh_.vertex_strand[to] = mesh_.vertex_strand[from];
-    mesh_.vertex_node[to] = mesh_.vertex_node[from];
-    vertex_u_[to] = vertex_u_[from];
-    vertex_v_[to] = vertex_v_[from];
-    moved_to[from - kept] = to;
-  }
+  std::vector<std::uint32_t> moved_to(nv - kept, UINT32_MAX);  // for vertex kept + k: its new index
+  for (const auto& [from, to] : moves) moved_to[from - kept] = to;
   mesh_.positions.resize(kept);
   mesh_.vertex_strand.resize(kept);
   mesh_.vertex_node.resize(kept);
