@@ -358,8 +358,7 @@ class Walker {
     // section, where the bundles sit beside each other rather than round on one axis.
     const dvec3 axis =
         parent.valid() ? normalize_or(s_.position[n.idx()] - s_.position[parent.idx()], dvec3(0)) : dvec3(0);
-    // The points and strands are written in place (room made once: a push per point was a
-    // fifth of the evaluation).
+    // The points and strands are written in place (room made once per node).
     const std::size_t at = out.point.size();
     out.point.resize(at + count);
     out.strand.resize(at + count);
