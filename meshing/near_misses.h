@@ -35,8 +35,8 @@
 /// configs/preview.json (no outer surface): agraf 14 -> 5 thick nodes outside (a quarter
 /// radius only and no rounds: 14 -> 10), boutdenoylum2 4 -> 0. Normals are recomputed at the
 /// vertices of the moved triangles (core/mesh.h update_normals); UVs stay. Every mesh pays
-/// one inside test of every thick node (12-20 ms on the grown presets, 71 ms on the bench
-/// tree, where the step takes 0.08 s in all with its push). The triangles within kGather radii of each node outside are gathered in
+/// one inside test of every thick node (12-20 ms on the grown presets, 57 ms on the bench
+/// tree, where the step takes 0.07 s in all with its push). The triangles within kGather radii of each node outside are gathered in
 /// one pass; the pushes' neighbourhoods come from them where they fit.
 
 #include <cstddef>
