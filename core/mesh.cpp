@@ -354,9 +354,8 @@ inline double round_to_integer(double x) {
 }  // namespace
 
 glm::dvec3 snap_to_grid(const glm::dvec3& p, double spacing) {
-  // (spacing a power of two: dividing by it is multiplying by its exact inverse. A third of
-  // the stitching stage's float-grid pass on a large tree was three library calls and three
-  // divisions per vertex.)
+  // (spacing a power of two: dividing by it is multiplying by its exact inverse. The
+  // float-grid pass over every vertex made three library calls and three divisions each.)
   const double inv = 1.0 / spacing;
   return glm::dvec3(round_to_integer(p.x * inv), round_to_integer(p.y * inv), round_to_integer(p.z * inv)) * spacing;
 }
