@@ -64,14 +64,15 @@ inline double solid_angle(const dvec3& a, const dvec3& b, const dvec3& c) {
 inline double fast_atan2(double y, double x) {
   const double ax = std::abs(x), ay = std::abs(y);
   if (!(ax > 0 || ay > 0)) return 0.0;
-  const bool steep = ax < ay;
-  const double t = steep ? ax / ay : ay / ax;  // in [0, 1]
+  // (Selects rather than branches: the octant is as good as random from one call to the next.)
+  const double t = std::min(ax, ay) / std::max(ax, ay);  // in [0, 1]
   const double t2 = t * t;
-  double a = t * (0.99997726 +
-                  t2 * (-0.33262347 + t2 * (0.19354346 + t2 * (-0.11643287 + t2 * (0.05265332 + t2 * -0.01172120)))));
-  if (steep) a = 0.5 * std::numbers::pi - a;
-  if (x < 0) a = std::numbers::pi - a;
-  return y < 0 ? -a : a;
+  const double a =
+      t *
+      (0.99997726 + t2 * (-0.33262347 + t2 * (0.19354346 + t2 * (-0.11643287 + t2 * (0.05265332 + t2 * -0.01172120)))));
+  const double b = ax < ay ? 0.5 * std::numbers::pi - a : a;
+  const double c = x < 0 ? std::numbers::pi - b : b;
+  return y < 0 ? -c : c;
 }
 
 /// 2D cross product (z of the 3D cross product): > 0 when b is counter-clockwise of a.
