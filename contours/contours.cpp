@@ -456,8 +456,7 @@ class Walker {
   }
 
   /// Smallest distance between the two point sets (3D) when it is below `cap`; otherwise
-  /// infinity. May stop early with any distance <= `enough` (below `cap`: from `cap` on it
-  /// would not start).
+  /// infinity. May stop early with any distance <= `enough`.
   static double gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, double cap, double enough);
 
   // --- output -------------------------------------------------------------------------------
@@ -634,7 +633,8 @@ double Walker::gap(const std::vector<dvec3>& a, const std::vector<dvec3>& b, dou
   }
   const dvec3 sep = glm::max(glm::max(lo_a - hi_b, lo_b - hi_a), dvec3(0));
   if (glm::length(sep) >= cap) return std::numeric_limits<double>::infinity();
-  double best2 = cap * cap;
+  // (From infinity rather than cap^2, so that `enough` may be `cap` itself.)
+  double best2 = std::numeric_limits<double>::infinity();
   const double enough2 = enough * enough;
   // Small sets pair by pair: up to 16,384 pairs the grid's sorts and 27 merges cost more
   // (pairwise up to 1,024 / 4,096 / 16,384 / 65,536 pairs: BM_Contours 785 / 763 / 753 / 762 ms
@@ -822,8 +822,8 @@ double Walker::split_gap_at(NodeId fork, double fork_base, double u) {
   evaluate_cut(cut_b_, pts_b_);
   // Exact up to the threshold; may stop early at any distance that passes neither the
   // threshold nor the 0.5 x the neighbour distance a forced split needs (the gap is only
-  // compared with those). (gap needs `enough` below `cap`.)
-  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(fork), std::min(0.99 * threshold(fork), 0.5 * spacing_));
+  // compared with those).
+  last_gap_ = gap(pts_a_.point, pts_b_.point, threshold(fork), std::min(threshold(fork), 0.5 * spacing_));
   last_fork_ = fork;
   last_fork_base_ = fork_base;
   last_u_ = u;
@@ -931,7 +931,7 @@ bool Walker::nested_apart(NodeId fork, double fork_base, NodeId lateral, double 
   }
   if (pts_rest_.point.empty()) return false;
   const double threshold_here = threshold(fork), enough = min_clearance(fork);
-  if (!(gap(pts_l_.point, pts_rest_.point, threshold_here, 0.99 * threshold_here) > threshold_here)) return false;
+  if (!(gap(pts_l_.point, pts_rest_.point, threshold_here, threshold_here) > threshold_here)) return false;
   const NodeId y = s_.parent[lateral.idx()];
   const double reach = u + 2.0 * s_.radius[y.idx()];
   return cone_clearance(pts_l_, s_.children[y.idx()][0], base, reach, enough) > enough &&
