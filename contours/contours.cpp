@@ -267,27 +267,20 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
   for (std::size_t i = 0; i < n; ++i) std::copy(per_node[i].begin(), per_node[i].end(), cand.begin() + cand_begin[i]);
 }
 
-/// Walks one tube (see the top of this file) into a Fragment. One per task: it holds scratch
-/// buffers only.
 /// A slice plane tilted against its edge's axis (frames turn smoothly through a bend, edges
-/// do not) cuts the edge's round cone in an ellipse, not a circle: an offset `w` in the plane
-/// is stretched within the plane until its distance from the axis is |w| (at most twice).
-dvec3 unslant(const dvec3& w, const dvec3& axis) {
-  const double l = glm::length(w);
-  const double perp = glm::length(w - axis * glm::dot(w, axis));
-  return perp > 0.5 * l ? w * (l / perp) : w * 2.0;
-}
-
-/// The same stretch for the offset q (slice coordinates) of a slice whose frame's normal and
-/// binormal have components `na` and `nb` along the axis, as a factor of the offset: one square
-/// root rather than two, no 3D vector (every point of every slice between nodes goes through it).
-double unslant_factor(const dvec2& q, double na, double nb) {
-  const double l2 = glm::dot(q, q);
-  const double s = q.x * na + q.y * nb;  // the offset's component along the axis
+/// do not) cuts the edge's round cone in an ellipse, not a circle: an offset in the plane is
+/// stretched within the plane until its distance from the axis is its length (at most twice).
+/// The factor for an offset of squared length l2 whose component along the axis is s.
+double unslant_factor(double l2, double s) {
   const double perp2 = l2 - s * s;
   return perp2 > 0.25 * l2 ? std::sqrt(l2 / perp2) : 2.0;
 }
+dvec3 unslant(const dvec3& w, const dvec3& axis) {
+  return w * unslant_factor(glm::dot(w, w), glm::dot(w, axis));
+}
 
+/// Walks one tube (see the top of this file) into a Fragment. One per task: it holds scratch
+/// buffers only.
 class Walker {
  public:
   explicit Walker(const Tables& t) : s_(t.s), f_(t.f), st_(t.st), p_(t.p), spacing_(t.spacing), tables_(t) {}
@@ -421,7 +414,8 @@ class Walker {
     for (std::uint32_t k = 0; k < count; ++k) {
       const std::uint32_t j = cand[k];
       const dvec2 q = glm::mix(f_.position[pbase + j] * scale_p, f_.position[base + j] * scale_n, w);
-      const double stretch = unslant_factor(q, na, nb);
+      // (The offset's component along the axis from the frame's: no 3D vector per point.)
+      const double stretch = unslant_factor(glm::dot(q, q), q.x * na + q.y * nb);
       dvec3 pt = g.center + g.frame.to_world(q) * (w_round < 1.0 ? (1.0 - w_round) + w_round * stretch : stretch);
       if (above_fork) {
         const double h = glm::dot(pt - fork_pos, fork_up);
