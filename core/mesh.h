@@ -33,6 +33,12 @@ struct Mesh {
   [[nodiscard]] std::size_t vertex_count() const { return positions.size(); }
   [[nodiscard]] std::size_t triangle_count() const { return triangles.size(); }
   [[nodiscard]] bool empty() const { return triangles.empty(); }
+  /// The normal of triangle t, not normalised: its length is twice the area, and it points
+  /// outwards for a triangle counter-clockwise seen from outside.
+  [[nodiscard]] glm::dvec3 face_normal(const Triangle& t) const {
+    const glm::dvec3& p = positions[t[0]];
+    return glm::cross(positions[t[1]] - p, positions[t[2]] - p);
+  }
 };
 
 /// The corners (3 f + k: corner k of triangle f) around every vertex, in triangle order:

@@ -213,11 +213,11 @@ class FoldRepair {
     for_chunks([&](std::size_t, std::uint32_t f) {
       if (!suspect_[f]) return;
       const auto& t = mesh_.triangles[f];
-      const glm::dvec3 n = normal(t);
+      const glm::dvec3 n = mesh_.face_normal(t);
       for (int e = 0; e < 3; ++e) {
         const std::uint32_t g = across_near(f, t[std::size_t(e)], t[std::size_t((e + 1) % 3)]);
         if (g == UINT32_MAX) continue;
-        const glm::dvec3 m = normal(mesh_.triangles[g]);
+        const glm::dvec3 m = mesh_.face_normal(mesh_.triangles[g]);
         const double len = glm::length(n) * glm::length(m);
         if (!(glm::dot(n, m) > cos_crease * len)) {
           for (const std::uint32_t v : t) std::atomic_ref<std::uint8_t>(near[v]).store(1, std::memory_order_relaxed);
@@ -353,7 +353,7 @@ class FoldRepair {
     const glm::dvec3 old = mesh_.positions[v];
     const glm::dvec3 origin = origin_.try_emplace(v, old).first->second;
     std::vector<glm::dvec3> facing(faces.size());
-    for (std::size_t i = 0; i < faces.size(); ++i) facing[i] = normal(mesh_.triangles[faces[i]]);
+    for (std::size_t i = 0; i < faces.size(); ++i) facing[i] = mesh_.face_normal(mesh_.triangles[faces[i]]);
     // Only the region's triangles near the fan around v, wherever v moves within the limit.
     Box reach = box(faces);
     const double travel = glm::length(old - origin) + limit;  // farthest v can get from here
@@ -401,7 +401,7 @@ class FoldRepair {
       set_vertex(v, target);
       bool ok = true;
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
-        ok = glm::dot(normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
+        ok = glm::dot(mesh_.face_normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
       }
       if (ok && crossings_around(faces, near, near_boxes, before) < before && !crosses_kept(kept, fan, fan, v, old)) {
         moved_.insert(moved_.end(), faces.begin(), faces.end());
@@ -749,7 +749,7 @@ class FoldRepair {
 
     const glm::dvec3 pu = mesh_.positions[u], pw = mesh_.positions[w];
     std::vector<glm::dvec3> facing(fan.size());
-    for (std::size_t i = 0; i < fan.size(); ++i) facing[i] = normal(mesh_.triangles[fan[i]]);
+    for (std::size_t i = 0; i < fan.size(); ++i) facing[i] = mesh_.face_normal(mesh_.triangles[fan[i]]);
     const Box reach = box(faces);
     std::vector<std::uint32_t> near;
     std::vector<Box> near_boxes;
@@ -780,7 +780,7 @@ class FoldRepair {
       set_vertex(u, target);
       bool ok = true;
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
-        ok = glm::dot(normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
+        ok = glm::dot(mesh_.face_normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
       }
       if (ok && crossings_around(fan, near, near_boxes, before) < before &&
           !crosses_kept(kept, old_faces, fan_triangles(fan), u, pu)) {
@@ -844,11 +844,6 @@ class FoldRepair {
     return !(glm::length(glm::cross(q - p, r - p)) > kSliver * longest);
   }
 
-  [[nodiscard]] glm::dvec3 normal(const Mesh::Triangle& t) const {
-    const glm::dvec3& p = mesh_.positions[t[0]];
-    return glm::cross(mesh_.positions[t[1]] - p, mesh_.positions[t[2]] - p);
-  }
-
   // The intersecting pairs among `region` that involve f1 or f2 (the others do not change
   // when f1 and f2 are flipped).
   [[nodiscard]] Box box(std::uint32_t f) const {
@@ -897,10 +892,10 @@ class FoldRepair {
       if (t[0] == d || t[1] == d || t[2] == d) return false;  // (c, d) is an edge already
     }
     const Mesh::Triangle old1 = mesh_.triangles[f1], old2 = mesh_.triangles[f2];
-    const glm::dvec3 facing = normal(old1) + normal(old2);
+    const glm::dvec3 facing = mesh_.face_normal(old1) + mesh_.face_normal(old2);
     // (a, b, c) and (b, a, d) become (a, d, c) and (d, b, c): the outline a d b c is kept.
     const Mesh::Triangle new1{a, d, c}, new2{d, b, c};
-    const glm::dvec3 n1 = normal(new1), n2 = normal(new2);
+    const glm::dvec3 n1 = mesh_.face_normal(new1), n2 = mesh_.face_normal(new2);
     if (!(glm::dot(n1, facing) > 0) || !(glm::dot(n2, facing) > 0)) return false;
 
     const std::size_t before = crossings(f1, f2, region, boxes);

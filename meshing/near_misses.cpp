@@ -83,11 +83,6 @@ double weight(const Push& p, double distance) {
   return x * x * (3.0 - 2.0 * x);
 }
 
-dvec3 face_normal(const Mesh& m, std::uint32_t f) {
-  const auto& t = m.triangles[f];
-  return glm::cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
-}
-
 void undo(Mesh& mesh, const Push& p) {
   for (std::size_t k = 0; k < p.vertices.size(); ++k) mesh.positions[p.vertices[k]] = p.old[k];
 }
@@ -290,7 +285,7 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
       p.triangle = n.triangle;
       p.gathered = std::move(gathered[i]);
       p.gather = kGather * skeleton.radius[p.node];
-      const dvec3 fn = face_normal(mesh, n.triangle);
+      const dvec3 fn = mesh.face_normal(mesh.triangles[n.triangle]);
       const double fl = glm::length(fn);
       p.direction = n.distance > 0 ? (p.at - p.q) / n.distance : (fl > 0 ? fn / fl : dvec3(0));
       if (p.direction == dvec3(0)) continue;
@@ -362,7 +357,7 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
       Push& p = pushes[i];
       std::vector<dvec3> normal_before;
       normal_before.reserve(p.triangles.size());
-      for (const std::uint32_t f : p.triangles) normal_before.push_back(face_normal(mesh, f));
+      for (const std::uint32_t f : p.triangles) normal_before.push_back(mesh.face_normal(mesh.triangles[f]));
       std::vector<std::optional<int>> before;
       before.push_back(crossings(mesh, p.triangles, p.at));
       for (const std::uint32_t k : p.near_nodes) before.push_back(crossings(mesh, p.triangles, at[k]));
@@ -376,7 +371,7 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
         p.reach = r + 2.0 * p.depth;
         move(mesh, p, result.grid);
         for (std::size_t k = 0; k < p.triangles.size() && p.ok; ++k) {
-          const dvec3 after = face_normal(mesh, p.triangles[k]);
+          const dvec3 after = mesh.face_normal(mesh.triangles[p.triangles[k]]);
           const double la = glm::length(after), lb = glm::length(normal_before[k]);
           p.ok = la > 1e-3 * lb && glm::dot(after, normal_before[k]) > 0;
         }
