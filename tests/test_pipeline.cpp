@@ -441,6 +441,17 @@ std::pair<NearMissStats, MeshCheckReport> cover_moved_nodes(PipelineResult& r, c
   return {st, check_mesh(r.mesh.mesh, cp)};
 }
 
+/// All `count` nodes moved out were covered, and the mesh after is sound, free of crossings,
+/// with every thick node inside.
+void expect_all_covered(const NearMissStats& st, const MeshCheckReport& after, std::size_t count) {
+  EXPECT_EQ(st.outside_before, count);
+  EXPECT_EQ(st.covered, count);
+  EXPECT_EQ(st.outside_after, 0u);
+  expect_sound(after);
+  EXPECT_EQ(after.self_intersecting_pairs, 0u);
+  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+}
+
 TEST(Pipeline, NearMissesArePushedInside) {
   // A thick node of a plain branch moved sideways to 1.3 radii from its axis lies a little
   // outside the finished mesh: the surface nearest it is pushed over it, a few vertices moved,
@@ -457,14 +468,9 @@ TEST(Pipeline, NearMissesArePushedInside) {
   ASSERT_TRUE(pick.valid());
   const std::vector<glm::dvec3> normals = r.mesh.mesh.normals;
   const auto [st, after] = cover_moved_nodes(r, {pick});
-  EXPECT_EQ(st.outside_before, 1u);
-  EXPECT_EQ(st.covered, 1u);
-  EXPECT_EQ(st.outside_after, 0u);
+  expect_all_covered(st, after, 1);
   EXPECT_GE(st.moved_vertices, 3u);
   EXPECT_LE(st.moved_vertices, 20u);
-  expect_sound(after);
-  EXPECT_EQ(after.self_intersecting_pairs, 0u);
-  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
   EXPECT_NE(r.mesh.mesh.normals, normals);  // recomputed where the surface moved
   EXPECT_EQ(r.mesh.mesh.normals, angle_weighted_normals(r.mesh.mesh));
 }
@@ -481,12 +487,7 @@ TEST(Pipeline, NearMissesNextToEachOtherArePushedInRounds) {
   const NodeId a(4), b(5);
   ASSERT_EQ(r.skeleton.skeleton.children[a.idx()][0], b);
   const auto [st, after] = cover_moved_nodes(r, {a, b});
-  EXPECT_EQ(st.outside_before, 2u);
-  EXPECT_EQ(st.covered, 2u);
-  EXPECT_EQ(st.outside_after, 0u);
-  expect_sound(after);
-  EXPECT_EQ(after.self_intersecting_pairs, 0u);
-  EXPECT_EQ(after.thick_nodes_inside, after.thick_nodes);
+  expect_all_covered(st, after, 2);
 }
 
 TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
