@@ -174,6 +174,35 @@ TEST(Checks, SoupPathAgreesWithCgalOnTangles) {
   for (const Mesh& m : {folded, test::merged(folded, copy)}) expect_soup_path_agrees(m, 5, 100);
 }
 
+TEST(Checks, SoupPathAgreesWithCgalOnFoldedPlanes) {
+  // Triangles sharing a vertex or an edge in one plane, or a few units in the last place off
+  // it, where the floating-point shortcuts (one side of a plane, an edge passing outside a
+  // triangle, neighbours across an edge not coplanar) cannot decide and the exact tests must:
+  // a flat grid jittered within its plane until neighbouring triangles overlap.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-0.7, 0.7);
+  std::uniform_int_distribution<int> ulps(-2, 2);
+  constexpr std::uint32_t kSide = 24;
+  for (const bool off_plane : {false, true}) {
+    Mesh grid;
+    for (std::uint32_t i = 0; i <= kSide; ++i) {
+      for (std::uint32_t j = 0; j <= kSide; ++j) {
+        double z = 0.25;
+        for (int u = off_plane ? ulps(rng) : 0; u != 0; u += u > 0 ? -1 : 1) z = std::nextafter(z, u > 0 ? 1.0 : -1.0);
+        grid.positions.emplace_back(double(i) + jitter(rng), double(j) + jitter(rng), z);
+      }
+    }
+    for (std::uint32_t i = 0; i < kSide; ++i) {
+      for (std::uint32_t j = 0; j < kSide; ++j) {
+        const std::uint32_t v = i * (kSide + 1) + j;
+        grid.triangles.push_back({v, v + kSide + 1, v + 1});
+        grid.triangles.push_back({v + 1, v + kSide + 1, v + kSide + 2});
+      }
+    }
+    expect_soup_path_agrees(grid, 11, 50);
+  }
+}
+
 TEST(Checks, SoupPathAgreesWithCgalOnLargeMeshes) {
   // From 40,000 triangles the soup path searches slabs of space in parallel, each pair in the
   // slab where its boxes' overlap starts: two jittered spheres through each other (40,960
