@@ -39,6 +39,7 @@
 #include <span>
 
 #include <tbb/concurrent_vector.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_group.h>
 
@@ -160,10 +161,14 @@ struct Task {
   std::vector<NodeId> excluded;
 };
 
-/// The output of one tube's walk: its loops (numbered from 0, `part.tubes[0]` is the tube)
-/// and, if it ends in a junction, the junction and the tasks of its two child tubes.
+/// The output of one tube's walk: its loops, the loops [loop_first, loop_end) of the
+/// walking thread's store (their vertices from vertex_first on; `part.tubes[0]` is the tube,
+/// its loops numbered as in the store), its figures in `part.stats` and, if it ends in a
+/// junction, the junction and the tasks of its two child tubes.
 struct Fragment {
   ContourSet part;
+  const ContourSet* store = nullptr;
+  std::uint32_t loop_first = 0, loop_end = 0, vertex_first = 0;
   bool has_junction = false;
   Junction junction;           // lower loop in part's numbering; upper loops set on assembly
   std::array<Task, 2> next{};  // main child, lateral
@@ -285,7 +290,9 @@ class Walker {
  public:
   explicit Walker(const Tables& t) : s_(t.s), f_(t.f), st_(t.st), p_(t.p), spacing_(t.spacing), tables_(t) {}
 
-  void walk(const Task& task, Fragment& out);
+  /// Appends the tube's loops to `store` (the thread's: a walk runs on one thread from start
+  /// to end, without another walk in between).
+  void walk(const Task& task, Fragment& out, ContourSet& store);
 
  private:
   // --- geometry helpers -------------------------------------------------------------------
@@ -482,7 +489,7 @@ class Walker {
     constexpr std::uint8_t kNotInLoop = 0xff;
     std::vector<std::uint8_t>& table = scratch_.strand_side;
     table.resize(f_.strand_count(), kNotInLoop);
-    const std::span<const StrandId> ids(out_->strand.data() + out_->loop_begin[loop], out_->loop_size(loop));
+    const std::span<const StrandId> ids(store_->strand.data() + store_->loop_begin[loop], store_->loop_size(loop));
     for (const StrandId s : ids) {
       if (s.valid() && s.value < table.size()) table[s.value] = unmarked;
     }
@@ -584,7 +591,8 @@ class Walker {
   NodeId last_fork_;
   double last_fork_base_ = 0, last_u_ = 0, last_gap_ = 0;
   std::optional<double> last_clearance_;
-  ContourSet* out_ = nullptr;     // the walk's Fragment::part
+  ContourSet* out_ = nullptr;     // the walk's Fragment::part: its tube and figures
+  ContourSet* store_ = nullptr;   // the thread's store: the loops
   std::vector<NodeId> excluded_;  // of the task
   double anchor_distance_ = 0;    // of the task's anchor, from the root
   // Scratch buffers, the thread's (a walk runs on one thread from start to end, and most
@@ -786,19 +794,20 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
       }
     }
   }
-  const auto loop_index = static_cast<std::uint32_t>(out_->loop_kind.size());
+  ContourSet& store = *store_;
+  const auto loop_index = static_cast<std::uint32_t>(store.loop_kind.size());
   for (std::size_t k = 0; k < m; ++k) {
-    out_->point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
-    out_->strand.push_back(pts.strand[loop[k]]);
+    store.point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
+    store.strand.push_back(pts.strand[loop[k]]);
   }
-  out_->loop_begin.push_back(static_cast<std::uint32_t>(out_->point.size()));
-  out_->loop_node.push_back(g.node);
-  out_->loop_t.push_back(g.t);
-  out_->loop_distance.push_back(distance);
-  out_->loop_center.push_back(g.center);
-  out_->loop_frame.push_back(g.frame);
-  out_->loop_radius.push_back(g.radius);
-  out_->loop_kind.push_back(kind);
+  store.loop_begin.push_back(static_cast<std::uint32_t>(store.point.size()));
+  store.loop_node.push_back(g.node);
+  store.loop_t.push_back(g.t);
+  store.loop_distance.push_back(distance);
+  store.loop_center.push_back(g.center);
+  store.loop_frame.push_back(g.frame);
+  store.loop_radius.push_back(g.radius);
+  store.loop_kind.push_back(kind);
   out_->tubes[tube].loops.push_back(loop_index);
   if (kind == LoopKind::fused) ++out_->stats.fused_loops;
   return loop_index;
@@ -939,9 +948,12 @@ std::vector<std::uint8_t> Walker::lateral_sides(NodeId lateral, std::uint32_t lo
   });
 }
 
-void Walker::walk(const Task& task, Fragment& fragment) {
+void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
   out_ = &fragment.part;
-  out_->loop_begin.assign(1, 0);
+  store_ = &store;
+  fragment.store = &store;
+  fragment.loop_first = static_cast<std::uint32_t>(store.loop_count());
+  fragment.vertex_first = static_cast<std::uint32_t>(store.point.size());
   out_->tubes.assign(1, Tube{});
   constexpr std::uint32_t tube = 0;
   const NodeId anchor = task.anchor;
@@ -1198,7 +1210,7 @@ ContourSet assemble(Fragment& root) {
   // copied to their places in parallel (on the large grown tree 1.7 M vertices and 136 k
   // loops: one thread copying them took a twentieth of the stage).
   struct Placed {
-    ContourSet* part;
+    Fragment* fragment;
     std::uint32_t loop_offset, vertex_offset;
   };
   std::vector<Placed> placed;
@@ -1210,14 +1222,14 @@ ContourSet assemble(Fragment& root) {
     Fragment& fr = *item.fragment;
     ContourSet& part = fr.part;
     const std::uint32_t loop_offset = loops;
-    placed.push_back({&part, loops, vertices});
-    loops += static_cast<std::uint32_t>(part.loop_count());
-    vertices += static_cast<std::uint32_t>(part.point.size());
+    placed.push_back({&fr, loops, vertices});
+    loops += fr.loop_end - fr.loop_first;
+    vertices += fr.store->loop_begin[fr.loop_end] - fr.vertex_first;
     {
       Tube& t = out.tubes[item.tube];
       t.branch = part.tubes[0].branch;
       t.start_junction = item.start_junction;
-      for (const std::uint32_t l : part.tubes[0].loops) t.loops.push_back(loop_offset + l);
+      for (const std::uint32_t l : part.tubes[0].loops) t.loops.push_back(loop_offset + (l - fr.loop_first));
       if (item.start_junction != kNone) out.junctions[item.start_junction].upper[item.side] = t.loops.front();
     }
     out.stats.evaluated_points += part.stats.evaluated_points;
@@ -1228,7 +1240,7 @@ ContourSet assemble(Fragment& root) {
     out.stats.warnings.merge(part.stats.warnings);
     if (!fr.has_junction) continue;
     Junction j = std::move(fr.junction);
-    j.lower += loop_offset;
+    j.lower = loop_offset + (j.lower - fr.loop_first);
     j.lower_tube = item.tube;
     const auto junction = static_cast<std::uint32_t>(out.junctions.size());
     const auto first_child = static_cast<std::uint32_t>(out.tubes.size());
@@ -1251,25 +1263,28 @@ ContourSet assemble(Fragment& root) {
   out.loop_frame.resize(loops);
   out.loop_radius.resize(loops);
   out.loop_kind.resize(loops);
-  auto copy = [](const auto& from, auto& to, std::size_t at) {
-    std::copy(from.begin(), from.end(), to.begin() + std::ptrdiff_t(at));
-  };
-  // Each fragment's buffers are released once copied, by the thread that copied them (freed
-  // one by one after the stage, they took a serial 15 ms of the large grown tree).
+  // Each fragment's tube and figures are released once copied, by the thread that copied
+  // them (freed one by one after the stage, they took a serial 15 ms of the large grown tree).
   tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
-    ContourSet& part = *placed[k].part;
+    const Fragment& fr = *placed[k].fragment;
+    const ContourSet& st = *fr.store;
     const std::uint32_t lo = placed[k].loop_offset, vo = placed[k].vertex_offset;
-    copy(part.point, out.point, vo);
-    copy(part.strand, out.strand, vo);
-    for (std::size_t l = 0; l + 1 < part.loop_begin.size(); ++l) out.loop_begin[lo + l] = vo + part.loop_begin[l];
-    copy(part.loop_node, out.loop_node, lo);
-    copy(part.loop_t, out.loop_t, lo);
-    copy(part.loop_distance, out.loop_distance, lo);
-    copy(part.loop_center, out.loop_center, lo);
-    copy(part.loop_frame, out.loop_frame, lo);
-    copy(part.loop_radius, out.loop_radius, lo);
-    copy(part.loop_kind, out.loop_kind, lo);
-    part = ContourSet{};
+    const std::uint32_t l0 = fr.loop_first, l1 = fr.loop_end, v0 = fr.vertex_first, v1 = st.loop_begin[l1];
+    auto copy = [](const auto& from, std::size_t begin, std::size_t end, auto& to, std::size_t at) {
+      std::copy(from.begin() + std::ptrdiff_t(begin), from.begin() + std::ptrdiff_t(end),
+                to.begin() + std::ptrdiff_t(at));
+    };
+    copy(st.point, v0, v1, out.point, vo);
+    copy(st.strand, v0, v1, out.strand, vo);
+    for (std::uint32_t l = l0; l < l1; ++l) out.loop_begin[lo + (l - l0)] = vo + (st.loop_begin[l] - v0);
+    copy(st.loop_node, l0, l1, out.loop_node, lo);
+    copy(st.loop_t, l0, l1, out.loop_t, lo);
+    copy(st.loop_distance, l0, l1, out.loop_distance, lo);
+    copy(st.loop_center, l0, l1, out.loop_center, lo);
+    copy(st.loop_frame, l0, l1, out.loop_frame, lo);
+    copy(st.loop_radius, l0, l1, out.loop_radius, lo);
+    copy(st.loop_kind, l0, l1, out.loop_kind, lo);
+    placed[k].fragment->part = ContourSet{};
   });
   out.stats.loops = out.loop_count();
   out.stats.loop_vertices = out.point.size();
@@ -1298,10 +1313,24 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
   tbb::concurrent_vector<std::unique_ptr<Fragment>> fragments;
+  // The loops go to one store per thread, copied out in order by assemble (a set of arrays
+  // per tube, allocated and freed one by one: 65 k tubes of the large grown tree, whose frees
+  // alone took 16-20 ms of the assembly on 2 threads).
+  tbb::enumerable_thread_specific<ContourSet> stores([] {
+    ContourSet store;
+    store.loop_begin.assign(1, 0);
+    return store;
+  });
   tbb::task_group group;
   std::function<void(Fragment*, Task)> spawn = [&](Fragment* fragment, Task task) {
     group.run([&, fragment, task] {
-      Walker(tables).walk(task, *fragment);
+      ContourSet& store = stores.local();
+      thread_local bool walking = false;  // (a walk's loops must be contiguous in its store)
+      SM_CHECK(!walking, "contour walks interleaved on one thread");
+      walking = true;
+      Walker(tables).walk(task, *fragment, store);
+      walking = false;
+      fragment->loop_end = static_cast<std::uint32_t>(store.loop_count());
       const std::size_t n = ++done;
       if (progress && (n & 63) == 0) {
         const std::lock_guard lock(progress_mutex);
