@@ -170,7 +170,7 @@ struct Fragment {
   const ContourSet* store = nullptr;
   std::uint32_t loop_first = 0, loop_end = 0, vertex_first = 0;
   bool has_junction = false;
-  Junction junction;           // lower loop in part's numbering; upper loops set on assembly
+  Junction junction;           // lower loop in the store's numbering; upper loops set on assembly
   std::array<Task, 2> next{};  // main child, lateral
   std::array<Fragment*, 2> child{};
 };
@@ -1325,11 +1325,19 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
   std::function<void(Fragment*, Task)> spawn = [&](Fragment* fragment, Task task) {
     group.run([&, fragment, task] {
       ContourSet& store = stores.local();
-      thread_local bool walking = false;  // (a walk's loops must be contiguous in its store)
-      SM_CHECK(!walking, "contour walks interleaved on one thread");
-      walking = true;
-      Walker(tables).walk(task, *fragment, store);
-      walking = false;
+      {
+        // (A walk's loops must be contiguous in its store: no walk may start on this thread
+        // before it ends.)
+        thread_local bool walking = false;
+        SM_CHECK(!walking, "contour walks interleaved on one thread");
+        struct Walking {
+          Walking() { walking = true; }
+          ~Walking() { walking = false; }
+          Walking(const Walking&) = delete;
+          Walking& operator=(const Walking&) = delete;
+        } const guard;
+        Walker(tables).walk(task, *fragment, store);
+      }
       fragment->loop_end = static_cast<std::uint32_t>(store.loop_count());
       const std::size_t n = ++done;
       if (progress && (n & 63) == 0) {
