@@ -158,6 +158,27 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   }
 }
 
+TEST(Cli, BenchReportsThroughputAgainstThePaper) {
+  // bench on a skeleton file: the figures on stdout and in --json agree, the paper's ratio
+  // is particles per second over 564,632 / 2.75, and --check judges the mesh.
+  const fs::path dir = test::temp_dir("cli_bench");
+  ASSERT_EQ(run("grow --seed 1 -o " + (dir / "t.json").string()).code, 0);
+  const CmdResult r =
+      run("bench --skeleton " + (dir / "t.json").string() + " --repeat 2 --check --json " + (dir / "b.json").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("particles/s"), std::string::npos);
+  EXPECT_NE(r.out.find("x the paper's 205321 particles/s"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("watertight, genus 0, 0 self-intersections"), std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir / "b.json"));
+  const double rate = j.at("meshing_particles_per_second").get<double>();
+  EXPECT_GT(rate, 0.0);
+  const double times_paper = rate / (564632.0 / 2.75);
+  EXPECT_NEAR(j.at("meshing_times_paper").get<double>(), times_paper, 1e-9 * times_paper);
+  EXPECT_GT(j.at("triangles").get<double>(), 10000.0);
+  EXPECT_TRUE(j.at("check").at("ok").get<bool>());
+  EXPECT_EQ(run("bench --skeleton " + (dir / "missing.json").string()).code, 1);
+}
+
 TEST(Cli, CheckListsAsManyExamplesAsAsked) {
   // Three separate triangles: nine boundary edges.
   const fs::path dir = test::temp_dir("cli_check_examples");
