@@ -1147,7 +1147,7 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       // radii above their forks at the median, 7.5 -> 5.2 at the 90th percentile. At every
       // fork, small_pine kept pairs at particle seeds 3 and 4. Measuring the split gap in the
       // fork's radius where that is smaller than the neighbour distance split them earlier
-      // still, 2.7 radii at the median, but the bench tree's fold repair then found 10,306
+      // still, 2.6 radii at the median, but the bench tree's fold repair then found 10,306
       // pairs instead of 1,922 and the fork retry ran 9 times.)
       const double min_sep = 0.25 * (s_.radius[fork.idx()] < spacing_ ? fine_step(g) : step);
       if (separated || forced) {
