@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <tuple>
+#include <utility>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
@@ -63,23 +64,19 @@ int certain_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
   return det > bound ? 1 : det < -bound ? -1 : 0;
 }
 
-// Whether the points p and q lie on the same side of the plane through a, b, c, for certain.
-bool certainly_one_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p,
-                        const glm::dvec3& q) {
+// The certain sides of p and q of the plane through a, b, c (certain_side); q's only where
+// p's is certain (0 otherwise).
+std::pair<int, int> certain_sides(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p,
+                                  const glm::dvec3& q) {
   const int s = certain_side(a, b, c, p);
-  return s != 0 && certain_side(a, b, c, q) == s;
+  return {s, s != 0 ? certain_side(a, b, c, q) : 0};
 }
 
-// Whether the segment pq certainly misses the triangle abc (floating point decides it for
-// certain; false when it cannot). Both ends strictly on one side of the triangle's plane; or
-// strictly on either side, and the line through them passes outside an edge of the triangle:
-// the orientations of (p, q) against the three edges, all of one sign (or zero) when the line
+// Whether the line through p and q passes outside the triangle abc for certain: the
+// orientations of (p, q) against its three edges, all of one sign (or zero) when the line
 // meets the triangle, have two certainly of opposite signs.
-bool certainly_misses(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b,
-                      const glm::dvec3& c) {
-  const int sp = certain_side(a, b, c, p), sq = certain_side(a, b, c, q);
-  if (sp == 0 || sq == 0) return false;
-  if (sp == sq) return true;
+bool line_certainly_outside(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b,
+                            const glm::dvec3& c) {
   const int e0 = certain_side(p, q, a, b), e1 = certain_side(p, q, b, c), e2 = certain_side(p, q, c, a);
   return e0 * e1 < 0 || e1 * e2 < 0 || e0 * e2 < 0;
 }
@@ -235,11 +232,17 @@ class SoupIntersector {
       // plane; and an edge off b's plane cannot meet b.
       const glm::dvec3 &p = position(b, sb + 1), &q = position(b, sb + 2);  // b's opposite edge
       const glm::dvec3 &r = position(a, sa + 1), &t = position(a, sa + 2);  // a's
-      if (certainly_one_side(a0, a1, a2, p, q) || certainly_one_side(b0, b1, b2, r, t)) return false;
-      // Else both opposite edges missing the other triangle (the exact test below, decided in
-      // floating point where it can be: the fold repair's first round on the bench tree sent
-      // 76 k such pairs to it).
-      if (certainly_misses(p, q, a0, a1, a2) && certainly_misses(r, t, b0, b1, b2)) return false;
+      const auto [sp, sq] = certain_sides(a0, a1, a2, p, q);
+      if (sp != 0 && sq == sp) return false;
+      const auto [sr, st] = certain_sides(b0, b1, b2, r, t);
+      if (sr != 0 && st == sr) return false;
+      // Else both opposite edges missing the other triangle (the exact test below), decided
+      // in floating point where each edge crosses the other's plane and its line passes
+      // outside the other triangle (the fold repair's first round on the bench tree sent 76 k
+      // such pairs to the exact test).
+      if (sp * sq < 0 && sr * st < 0 && line_certainly_outside(p, q, a0, a1, a2) &&
+          line_certainly_outside(r, t, b0, b1, b2))
+        return false;
     }
     const Triangle3 ta(pt(a, 0), pt(a, 1), pt(a, 2)), tb(pt(b, 0), pt(b, 1), pt(b, 2));
     switch (shared) {
