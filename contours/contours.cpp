@@ -1165,6 +1165,20 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
               s_.describe(fork));
         }
         split = std::min(d, std::max(split, last + min_sep));
+        // After a coarse step (along a long straight edge) the bundles may have been apart
+        // for most of it: one more fused loop a fine step below the split, where they still
+        // touch, keeps the crotch short.
+        if (separated) {
+          const double fine = fine_step(g), below = split - fine;
+          if (below - std::max(last, fork_base) > 0.5 * fine) {
+            split_gap_at(fork, fork_base, below);
+            if (!pts_a_.point.empty() && !pts_b_.point.empty() && !separated_now()) {
+              fuse_points();
+              add_loop(pts_, fused_geometry(), LoopKind::fused, anchor_distance + below, tube);
+              last = below;
+            }
+          }
+        }
         // The junction: the tube's last loop below; each child's tube starts with its own
         // section at the split (the junction's upper loops, linked on assembly).
         Junction& j = open_junction(fragment, fork, tube, split - fork_base);

@@ -629,15 +629,17 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
 }
 
 TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
-  // agraf at particle seed 2: the slicings that untangle the crotch at the fork near
-  // (-0.256, -0.323, 1.148) (a whorl of 6 mm twigs) span it with a web of large flat
-  // triangles, edges 6.3 fork radii long against 3.8 in the first mesh (measured). The retry
-  // refuses them (a group's longest edge may grow by half at most) and keeps another: no
-  // pair left, every thick node inside, and no edge near that fork longer than 1.5 x 3.8.
+  // agraf at particle seed 4: a slicing that untangles the whorl of forks near
+  // (-0.1673, 0.2151, 1.7209) (forks 931-935, 9.6 mm) spans it with a web of large flat
+  // triangles, edges 8.1 fork radii long against 3.3 in the first mesh (measured). The retry
+  // refuses it (a group's longest edge may grow by half at most) and keeps another: no pair
+  // left, every thick node inside, and no edge near that fork longer than 1.5 x 3.3. (Until
+  // the fused sections got a last loop a fine step below their splits, agraf at seed 2 had
+  // such a web at the fork near (-0.256, -0.323, 1.148); its first mesh now needs none.)
   const auto file = sample_named("mtg_agraf.json");
   if (!file) GTEST_SKIP() << "../shared/skeletons not found";
   PipelineParams p;
-  p.particles.seed = 2;
+  p.particles.seed = 4;
   PipelineResult r;
   const MeshCheckReport rep = run_and_check(read_skeleton(*file), &r, p);
   expect_sound(rep);
@@ -645,7 +647,7 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
   EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
   EXPECT_GE(r.fork_retry.webs_refused, 1u);
   const Skeleton& s = r.skeleton.skeleton;
-  const glm::dvec3 at(-0.2564, -0.3229, 1.148);
+  const glm::dvec3 at(-0.1673, 0.2151, 1.7209);
   NodeId fork;
   for (std::size_t i = 0; i < s.size(); ++i) {
     if (s.is_fork(NodeId(i)) &&
@@ -661,7 +663,7 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
     if (glm::length((m[t[0]] + m[t[1]] + m[t[2]]) / 3.0 - s.position[fork.idx()]) > 6 * radius) continue;
     for (int k = 0; k < 3; ++k) longest = std::max(longest, glm::length(m[t[(k + 1) % 3]] - m[t[k]]));
   }
-  EXPECT_LT(longest / radius, 1.5 * 3.8);
+  EXPECT_LT(longest / radius, 1.5 * 3.3);
 }
 
 TEST(Pipeline, Samples) {
@@ -695,8 +697,8 @@ TEST(Pipeline, GoldenStatistics) {
   run_and_check(test::grown_tree(1), &r);
   EXPECT_EQ(r.skeleton.skeleton.size(), 471u);
   EXPECT_NEAR(double(r.particles.strand_count()), 2766.0, 2766.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 24934.0, 24934.0 * 0.02);
-  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 49864.0, 49864.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.vertex_count()), 25543.0, 25543.0 * 0.02);
+  EXPECT_NEAR(double(r.mesh.mesh.triangle_count()), 51082.0, 51082.0 * 0.02);
   EXPECT_EQ(r.mesh.mesh.triangle_count(), 2 * r.mesh.mesh.vertex_count() - 4);  // genus 0, all triangles
 }
 
