@@ -26,8 +26,6 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 /// Stacked junctions are merged only when every upper loop has at least this many vertices.
 constexpr std::size_t kMinMergedLoop = 6;
-/// Largest mesh (triangles) whose fold repair may try variants (MeshParams::fold_repair_variants).
-constexpr std::size_t kVariantTriangles = 300'000;
 
 /// Drops the entries of [0, n) that `keep` refuses by filling each such hole with the last
 /// kept entry after it (`move(from, to)`); returns how many are kept, now [0, count). Where
@@ -645,7 +643,7 @@ void Builder::repair_folds() {
   options.keep_side = s_.position;
   options.grid = grid_;
   // Which pairs a repair untangles depends on the order of its attempts. On meshes of at most
-  // kVariantTriangles triangles, the pairs left anywhere are counted (the repair itself
+  // count_pairs_up_to triangles, the pairs left anywhere are counted (the repair itself
   // watches only the triangles around its changes), and where there are
   // some, two more variants (vertex moves also towards the branch's axis, after or before the
   // other targets) start again from the stitched mesh; the run leaving the fewest is kept.
@@ -656,7 +654,8 @@ void Builder::repair_folds() {
   // nothing. (Off by default: MeshParams::fold_repair_variants. The count is made for the
   // pipeline's fork retry as well, which uses the pairs left: MeshResult::crossings.)
   // (The undo log is kept only where variants may follow: it costs a hash insert per change.)
-  const bool small = mesh_.triangles.size() <= kVariantTriangles && mesh_.vertex_node.size() == mesh_.positions.size();
+  const bool small =
+      mesh_.triangles.size() <= p_.count_pairs_up_to && mesh_.vertex_node.size() == mesh_.positions.size();
   const bool variants = p_.fold_repair_variants && small;
   FoldRepairUndo undo;
   FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, variants ? &undo : nullptr);

@@ -73,20 +73,32 @@ struct MeshParams {
   /// 1-3: 449 without, 252 with (boutdenoylum2 10 -> 0, qsm 63 -> 17, agraf 141 -> 91,
   /// small_pine 235 -> 144); grown `bush` preset 3 -> 0.
   bool fold_repair_refills = true;
-  /// On meshes of at most 300,000 triangles where the fold repair leaves self-intersecting pairs
+  /// On meshes of at most count_pairs_up_to triangles where the fold repair leaves self-intersecting pairs
   /// (counted over the whole mesh), try two more orders of its vertex moves from the stitched
   /// mesh and keep the run leaving the fewest (see meshing.cpp, repair_folds). Off by default
   /// since the fork retry (below) does better: samples x particle seeds 1-3, 135 pairs with
   /// these variants alone, 82 with the retry alone, 73 with both at 1.9 x the retry's time.
   bool fold_repair_variants = false;
+  /// Largest mesh (triangles) whose self-intersecting pairs are counted over the whole mesh
+  /// after the fold repair, for the fork retry and the outer surface below (and the variants
+  /// above). A larger mesh has only the pairs counted that the fold repair left among the
+  /// triangles it examined (junctions, the strips at fused and split loops, and their
+  /// neighbours), since a count over the whole mesh costs more than the fold repair: grown
+  /// presets at grow seed 1, 440,000-940,000 triangles, 0.20-0.57 s -> 0.46-1.08 s where they
+  /// are clean, 0.59 -> 3.83 s for broadleaf, whose retry then also covers a node outside.
+  /// Pairs away from the junctions (a branch running into a neighbour's crotch) then stay
+  /// unrepaired, reported by a note of `strandmesh mesh` only: grown `oak` at grow seed 21,
+  /// 962,248 triangles, 12 pairs left in 0.54 s; counted everywhere, 0 in 3.68 s. Hero assets
+  /// raise it (configs/high_detail.json counts every mesh).
+  std::size_t count_pairs_up_to = 300'000;
   /// Where self-intersecting pairs (counted as for fold_repair_variants, on meshes of at most
-  /// 300,000 triangles) or thick skeleton nodes outside the mesh are still left, the pipeline
+  /// count_pairs_up_to triangles) or thick skeleton nodes outside the mesh are still left, the pipeline
   /// re-slices the forks around them with other split gaps, fork transitions and slice steps
   /// and keeps each crotch's best: up to 10 more runs of contours and meshing
   /// (pipeline/fork_retry.h).
   bool fork_retry = true;
   /// Where self-intersecting pairs or thick skeleton nodes outside the mesh are still left after
-  /// the fork retry (meshes of at most 300,000 triangles), the mesh is replaced by its outer
+  /// the fork retry (meshes of at most count_pairs_up_to triangles), the mesh is replaced by its outer
   /// surface: the intersecting triangles cut along their intersections and the parts inside
   /// other parts removed (CGAL's autorefinement), and a small sphere joined around each thick
   /// node outside (CGAL's union; meshing/outer_surface.h), where the result passes the mesh
@@ -135,8 +147,8 @@ struct MeshResult {
   MeshStats stats;
   /// The self-intersecting triangle pairs left, if the fold repair counted them
   /// (`crossings_counted`: with MeshParams::fold_repair_variants, fork_retry or
-  /// outer_surface, the repair not stopped): over the whole mesh on meshes of at most 300,000
-  /// triangles (`crossings_everywhere`), else those it left among the triangles it examined
+  /// outer_surface, the repair not stopped): over the whole mesh on meshes of at most count_pairs_up_to
+  /// triangles (MeshParams; `crossings_everywhere`), else those it left among the triangles it examined
   /// (near forks; FoldRepairStats::left).
   std::vector<Crossing> crossings;
   bool crossings_counted = false;

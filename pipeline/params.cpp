@@ -86,6 +86,7 @@ void visit_fields(MeshParams& p, V&& v) {
   v("fold_repair_collapses", p.fold_repair_collapses);
   v("fold_repair_refills", p.fold_repair_refills);
   v("fold_repair_variants", p.fold_repair_variants);
+  v("count_pairs_up_to", p.count_pairs_up_to);
   v("fork_retry", p.fork_retry);
   v("outer_surface", p.outer_surface);
   v("cover_near_misses", p.cover_near_misses);

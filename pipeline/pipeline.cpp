@@ -161,6 +161,7 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"refilled_disks", r.mesh.stats.fold_refills}}},
                {"fork_retry",
                 {{"pairs_counted", r.fork_retry.counted},
+                 {"pairs_counted_everywhere", r.mesh.crossings_counted && r.mesh.crossings_everywhere},
                  {"pairs_before", r.fork_retry.pairs_before},
                  {"pairs_after", r.fork_retry.pairs_after},
                  {"thick_nodes_outside_before", r.fork_retry.outside_before},

@@ -158,6 +158,28 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   }
 }
 
+TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {
+  // Over meshing.count_pairs_up_to triangles the pairs are counted only where the fold repair
+  // looked (near the junctions): the run says so, and --stats records it. Within the limit it
+  // says nothing of the kind.
+  const fs::path dir = test::temp_dir("cli_count_pairs");
+  ASSERT_EQ(run("grow --seed 1 -o " + (dir / "t.json").string()).code, 0);
+  { std::ofstream(dir / "small_limit.json") << R"({"meshing": {"count_pairs_up_to": 1000}})"; }
+  const std::string mesh =
+      "mesh " + (dir / "t.json").string() + " -o " + (dir / "t.glb").string() + " --stats " + (dir / "s.json").string();
+  const CmdResult limited = run(mesh + " --config " + (dir / "small_limit.json").string());
+  ASSERT_EQ(limited.code, 0) << limited.err;
+  const std::string note = "self-intersections were looked for near the junctions only";
+  EXPECT_NE((limited.out + limited.err).find(note), std::string::npos) << limited.out << limited.err;
+  EXPECT_FALSE(
+      nlohmann::json::parse(read_file(dir / "s.json")).at("fork_retry").at("pairs_counted_everywhere").get<bool>());
+  const CmdResult whole = run(mesh);
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  EXPECT_EQ((whole.out + whole.err).find(note), std::string::npos);
+  EXPECT_TRUE(
+      nlohmann::json::parse(read_file(dir / "s.json")).at("fork_retry").at("pairs_counted_everywhere").get<bool>());
+}
+
 TEST(Cli, BenchReportsThroughputAgainstThePaper) {
   // bench on a skeleton file: the figures on stdout and in --json agree, the paper's ratio
   // is particles per second over 564,632 / 2.75, and --check judges the mesh.

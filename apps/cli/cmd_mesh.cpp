@@ -98,6 +98,15 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
+      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere) {
+        std::snprintf(line, sizeof line,
+                      "note: self-intersections were looked for near the junctions only (%zu triangles, more than "
+                      "meshing.count_pairs_up_to = %zu): `strandmesh check` counts them all; a higher limit "
+                      "(configs/high_detail.json) has them looked for and repaired everywhere (about 2x the time, up "
+                      "to 7x where it repairs)",
+                      r.mesh.mesh.triangle_count(), params.meshing.count_pairs_up_to);
+        log::info(line);
+      }
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
       for (const auto& [stage, phases] : stage_phases(r)) {
         std::snprintf(line, sizeof line, "  %-10s %8.3f s", stage, r.timings.get(stage));
