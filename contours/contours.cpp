@@ -566,7 +566,14 @@ class Walker {
   SliceGeometry cut_geometry(const std::vector<CutEdge>& edges) const {
     return edge_geometry(edges.front().node, edges.front().t);
   }
-  [[nodiscard]] double threshold(NodeId fork) const { return split_gap(fork) * spacing_; }
+  /// The split gap's unit at a fork: the neighbour distance, or thin_gap_radii x the thinner
+  /// child's radius where that is less (ContourParams::thin_gap_radii).
+  [[nodiscard]] double gap_unit(NodeId fork) const {
+    if (!(p_.thin_gap_radii > 0)) return spacing_;
+    const auto& c = s_.children[fork.idx()];
+    return std::min(spacing_, p_.thin_gap_radii * std::min(s_.radius[c[0].idx()], s_.radius[c[1].idx()]));
+  }
+  [[nodiscard]] double threshold(NodeId fork) const { return split_gap(fork) * gap_unit(fork); }
   [[nodiscard]] bool excluded(NodeId n) const {
     return !excluded_.empty() && std::find(excluded_.begin(), excluded_.end(), n) != excluded_.end();
   }

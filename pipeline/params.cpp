@@ -67,6 +67,7 @@ void visit_fields(ContourParams& p, V&& v) {
   v("max_slices_per_edge", p.max_slices_per_edge);
   v("max_corner_cut", p.max_corner_cut);
   v("split_gap", p.split_gap);
+  v("thin_gap_radii", p.thin_gap_radii);
   v("fork_transition", p.fork_transition);
   v("min_fused_length", p.min_fused_length);
   v("split_nested_laterals", p.split_nested_laterals);

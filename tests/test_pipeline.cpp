@@ -22,6 +22,8 @@
 #include "core/errors.h"
 #include "meshing/checks.h"
 #include "pipeline/pipeline.h"
+#include "skeleton/grow/presets.h"
+#include "skeleton/grow/tree_grower.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 
@@ -587,6 +589,41 @@ TEST(Pipeline, LocalContourFactorsChangeOnlyTheirFork) {
   // All factors 1: the same contours as without any.
   p.local.assign(s.size(), LocalContourScale{});
   EXPECT_EQ(compute_contours(s, r.particles, r.strands, p).point, r.contours.point);
+}
+
+TEST(Pipeline, TwigForksSplitOnTheTwigsScale) {
+  // The conifer preset: twigs of 1.5 mm against a neighbour distance of 5.7 mm. With the
+  // split gap measured in twig radii at their forks (ContourParams::thin_gap_radii, on by
+  // default) the twigs' bundles split nearer their forks than with the neighbour distance as
+  // the unit (a smaller web in each crotch), and the mesh is still perfect.
+  const GrowPreset preset =
+      load_grow_preset(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs" / "grow" / "conifer.json");
+  PipelineResult r;
+  expect_perfect(run_and_check(grow_tree(preset.params).skeleton, &r));
+  const Skeleton& s = r.skeleton.skeleton;
+  const double nd = r.particles.neighbour_distance;
+  ContourParams off;
+  ASSERT_GT(off.thin_gap_radii, 0.0);
+  off.thin_gap_radii = 0;
+  const ContourSet c = compute_contours(s, r.particles, r.strands, off);
+  std::map<std::uint32_t, double> split_off;
+  for (const Junction& j : c.junctions) split_off[j.fork.idx()] = j.split_distance;
+  std::size_t nearer = 0, farther = 0, twig_forks = 0;
+  double sum_on = 0, sum_off = 0;
+  for (const Junction& j : r.contours.junctions) {
+    const auto& ch = s.children[j.fork.idx()];
+    if (!ch[1].valid() || 2.0 * std::min(s.radius[ch[0].idx()], s.radius[ch[1].idx()]) >= nd) continue;
+    const auto it = split_off.find(j.fork.idx());
+    if (it == split_off.end()) continue;
+    ++twig_forks;
+    sum_on += j.split_distance;
+    sum_off += it->second;
+    nearer += j.split_distance < it->second ? 1 : 0;
+    farther += j.split_distance > it->second ? 1 : 0;
+  }
+  EXPECT_GT(twig_forks, 100u);
+  EXPECT_GT(nearer, 10 * farther);
+  EXPECT_LT(sum_on, 0.9 * sum_off);
 }
 
 TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
