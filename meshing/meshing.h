@@ -87,8 +87,11 @@ struct MeshParams {
   /// presets at grow seed 1, 440,000-940,000 triangles, 0.20-0.57 s -> 0.46-1.08 s where they
   /// are clean, 0.59 -> 3.83 s for broadleaf, whose retry then also covers a node outside.
   /// Pairs away from the junctions (a branch running into a neighbour's crotch) then stay
-  /// unrepaired, reported by a note of `strandmesh mesh` only: grown `oak` at grow seed 21,
-  /// 962,248 triangles, 12 pairs left in 0.54 s; counted everywhere, 0 in 3.68 s. Hero assets
+  /// unrepaired, with a note of `strandmesh mesh` (grown `oak` at grow seed 21, before
+  /// ContourParams::thin_gap_radii: 12 pairs left in 0.54 s; counted everywhere, 0 in 3.68 s),
+  /// and the thick nodes are tested only by the near-miss push (cover_near_misses), whose
+  /// leftovers are warned about (`thick_nodes_outside`; grown conifer at grow seed 11, one
+  /// twig node; counted everywhere, the fork retry covers it, 0.39 -> 6.3 s). Hero assets
   /// raise it (configs/high_detail.json counts every mesh).
   std::size_t count_pairs_up_to = 300'000;
   /// Where self-intersecting pairs (counted as for fold_repair_variants, on meshes of at most

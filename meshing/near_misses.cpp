@@ -234,7 +234,13 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     if (!inside[k]) todo.push_back(static_cast<std::uint32_t>(k));
   }
   stats.outside_before = stats.outside_after = todo.size();
+  auto name_left = [&] {
+    for (std::size_t k = 0; k < thick.size(); ++k) {
+      if (!inside[k]) stats.left.push_back(NodeId(thick[k]));
+    }
+  };
   if (todo.empty() || todo.size() > kMaxNodes) {
+    name_left();
     stats.seconds = clock.lap();
     return stats;
   }
@@ -421,6 +427,7 @@ NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, co
     }
   }
   stats.outside_after = stats.outside_before - stats.covered;
+  name_left();
   // Every triangle at a corner of a moved triangle meets the moved triangles' box: `around`.
   std::sort(local.begin(), local.end());
   local.erase(std::unique(local.begin(), local.end()), local.end());

@@ -54,6 +54,7 @@ struct NearMissStats {
   std::size_t covered = 0;         ///< pushes kept
   std::size_t refused = 0;         ///< pushes undone (a triangle turned, a new crossing, a node left or not reached)
   std::size_t moved_vertices = 0;  ///< vertices moved by the pushes kept
+  std::vector<NodeId> left;        ///< the thick nodes still outside (outside_after of them)
   double seconds = 0;
 };
 

@@ -87,4 +87,10 @@ ForkRetryStats retry_forks(PipelineResult& result, const PipelineParams& params,
 /// problems layer shows them).
 void warn_self_intersections_left(PipelineResult& result);
 
+/// Adds the warning `thick_nodes_outside` (naming them) for the thick skeleton nodes the
+/// near-miss push left outside the mesh (NearMissStats::left) that are still outside the
+/// final mesh (tested again where the outer surface replaced it). Nothing when
+/// meshing.cover_near_misses is off, which is where they are found on every mesh size.
+void warn_thick_nodes_outside(PipelineResult& result);
+
 }  // namespace sm

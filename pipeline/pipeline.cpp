@@ -80,6 +80,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, nodes_outside);
   r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
   warn_self_intersections_left(r);
+  warn_thick_nodes_outside(r);
 }
 
 PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
