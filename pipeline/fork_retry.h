@@ -46,12 +46,14 @@
 /// time.
 ///
 /// It runs only where the meshing stage counted the pairs (MeshResult::crossings_counted) and
-/// found some pairs or thick nodes outside. On meshes of more than meshing.count_pairs_up_to triangles (300,000) the
-/// pairs are those the fold repair left near the forks, and the thick nodes outside are looked for only where there are
-/// such pairs: the test itself is cheap (core/mesh.h inside_closed_mesh for many points: 12-20 ms on the grown presets,
-/// 57 ms on the 3.4 M-triangle bench tree), but each run of a retry on such a tree costs most of a second, and the
-/// nodes it would find outside are near misses, which the push of meshing/near_misses.h covers after the retry (the
-/// bench tree's one of 32,817; conifer grow seeds 3, 4, 6).
+/// found some pairs or thick nodes outside. On meshes of more than meshing.count_pairs_up_to
+/// triangles (300,000) the pairs are those the fold repair left near the forks, and the thick
+/// nodes outside are looked for only where there are such pairs: the test itself is cheap
+/// (core/mesh.h inside_closed_mesh for many points: 12-20 ms on the grown presets, 57 ms on
+/// the 3.4 M-triangle bench tree), but each run of a retry on such a tree costs most of a
+/// second, and the nodes it would find outside are near misses, which the push of
+/// meshing/near_misses.h covers after the retry (the bench tree's one of 32,817; conifer grow
+/// seeds 3, 4, 6; those it leaves are warned about: warn_thick_nodes_outside).
 
 #include <cstddef>
 #include <string>
