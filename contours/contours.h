@@ -194,6 +194,12 @@ struct ContourSet {
   [[nodiscard]] std::uint32_t loop_size(std::uint32_t l) const { return loop_begin[l + 1] - loop_begin[l]; }
 };
 
+/// Throws InvalidInputError naming the first parameter out of its range ("contours.slice_step
+/// must be > 0, got 0"): a zero step or split gap would slice forever, a negative one means
+/// nothing. compute_contours checks its parameters with it; the pipeline checks them before
+/// its first stage, so a bad config file fails at once.
+void validate_params(const ContourParams& params);
+
 /// Slices every branch and selects the boundary loops.
 /// Preconditions: `field` and `strands` were computed for `skeleton`.
 ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -1082,8 +1083,22 @@ Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
   return c;
 }
 
+void validate_params(const MeshParams& p) {
+  auto require = [](bool ok, const char* key, const char* rule, double got) {
+    if (ok) return;
+    char line[160];
+    std::snprintf(line, sizeof line, "meshing.%s must be %s, got %g", key, rule, got);
+    throw InvalidInputError(line);
+  };
+  require(std::isfinite(p.tip_dome) && p.tip_dome >= 0, "tip_dome", ">= 0", p.tip_dome);
+  require(std::isfinite(p.uv_repeat_u) && p.uv_repeat_u > 0, "uv_repeat_u", "> 0", p.uv_repeat_u);
+  require(std::isfinite(p.fold_repair_max_move) && p.fold_repair_max_move >= 0, "fold_repair_max_move", ">= 0",
+          p.fold_repair_max_move);
+}
+
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
                       const ProgressFn& progress) {
+  validate_params(params);
   Builder b(skeleton, contours, params);
   return b.run(progress);
 }

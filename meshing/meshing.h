@@ -161,6 +161,11 @@ struct MeshResult {
   double grid = 0;
 };
 
+/// Throws InvalidInputError naming the first parameter out of its range ("meshing.uv_repeat_u
+/// must be > 0, got 0"). build_mesh checks its parameters with it; the pipeline checks them
+/// before its first stage.
+void validate_params(const MeshParams& params);
+
 /// Builds the branch mesh from the contour loops.
 /// Precondition: `contours` was computed for `skeleton`.
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params = {},

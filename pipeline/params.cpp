@@ -210,6 +210,13 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   read_section(doc, "strands", name, p.strands);
   read_section(doc, "contours", name, p.contours);
   read_section(doc, "meshing", name, p.meshing);
+  // Values out of range, named with the file (the stages check them again).
+  try {
+    validate_params(p.contours);
+    validate_params(p.meshing);
+  } catch (const InvalidInputError& e) {
+    throw InvalidInputError(name + ": " + e.what());
+  }
   return p;
 }
 

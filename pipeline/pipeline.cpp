@@ -43,6 +43,9 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   auto report = [&](std::string_view phase, double f) {
     if (progress) progress(phase, f);
   };
+  // Parameters out of range fail before any stage runs (the particle stage checks its own).
+  validate_params(p.contours);
+  validate_params(p.meshing);
   Stopwatch clock;
   auto timed = [&](Stage s, auto&& fn) {
     if (from > s) return;

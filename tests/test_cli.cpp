@@ -238,6 +238,13 @@ TEST(Cli, MeshFailuresLeaveNoOutput) {
   EXPECT_EQ(cfg.code, 1);
   EXPECT_NE(cfg.err.find("unknown key \"slice_stepp\""), std::string::npos) << cfg.err;
   EXPECT_FALSE(fs::exists(dir / "c.glb"));
+  // A value out of range (a zero slice step sliced forever).
+  write_file_atomically(dir / "zero.json", R"({"contours": {"slice_step": 0, "min_slice_step": 0}})");
+  const CmdResult zero = run("mesh " + (dir / "ok.json").string() + " --config " + (dir / "zero.json").string() +
+                             " -o " + (dir / "z.glb").string());
+  EXPECT_EQ(zero.code, 1);
+  EXPECT_NE(zero.err.find("contours.slice_step must be > 0"), std::string::npos) << zero.err;
+  EXPECT_FALSE(fs::exists(dir / "z.glb"));
   // An output folder that does not exist.
   EXPECT_EQ(run("mesh " + (dir / "ok.json").string() + " -o " + (dir / "nope" / "t.glb").string()).code, 1);
 }

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -793,6 +794,34 @@ TEST(Pipeline, ShippedConfigsLoad) {
   // default.json spells out exactly the built-in defaults.
   EXPECT_EQ(params_to_json(load_params(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs/default.json")),
             params_to_json(PipelineParams{}));
+}
+
+TEST(Pipeline, ParamsOutOfRangeAreRejectedNamingTheKey) {
+  // A zero slice step or split gap sliced forever, a huge bisection count as good as; every
+  // such value fails when the config is read (naming the file and the key) and again when a
+  // stage is called with it, before any work.
+  for (const auto& [config, key] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"contours": {"slice_step": 0, "min_slice_step": 0}})", "contours.slice_step must be > 0"},
+           {R"({"contours": {"split_gap": -1}})", "contours.split_gap must be > 0"},
+           {R"({"contours": {"split_bisection_steps": 100000000}})", "contours.split_bisection_steps"},
+           {R"({"contours": {"concave_turn_degrees": 180}})", "contours.concave_turn_degrees"},
+           {R"({"contours": {"thin_gap_radii": -2}})", "contours.thin_gap_radii must be >= 0"},
+           {R"({"meshing": {"tip_dome": -5}})", "meshing.tip_dome must be >= 0"},
+           {R"({"meshing": {"uv_repeat_u": 0}})", "meshing.uv_repeat_u must be > 0"}}) {
+    SCOPED_TRACE(config);
+    try {
+      parse_params_json(config, "cfg.json");
+      ADD_FAILURE() << "accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cfg.json: " + key), std::string::npos) << e.what();
+    }
+  }
+  PipelineParams p;
+  p.contours.slice_step = 0;
+  EXPECT_THROW(run_pipeline(test::y_fork(), p), InvalidInputError);
+  p = {};
+  p.meshing.uv_repeat_u = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(run_pipeline(test::y_fork(), p), InvalidInputError);
 }
 
 TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {

@@ -233,6 +233,12 @@ std::vector<ParamField> contour_fields(ContourParams& p) {
        .value = &p.split_gap,
        .min = 0.1,
        .max = 5},
+      {.key = "thin_gap_radii",
+       .help = "at forks of twigs thinner than half the neighbour distance, the split gap is in this many twig radii "
+               "instead (0 = always the neighbour distance)",
+       .value = &p.thin_gap_radii,
+       .min = 0,
+       .max = 5},
       {.key = "fork_transition",
        .help =
            "above a fork, a bundle reaches its own round section within this distance (relative to the fork radius)",
@@ -297,21 +303,31 @@ std::vector<ParamField> mesh_fields(MeshParams& p) {
        .value = &p.fold_repair_max_move,
        .min = 0,
        .max = 1},
+      {.key = "count_pairs_up_to",
+       .help = "largest mesh (triangles) whose self-intersecting pairs are counted over the whole mesh for the "
+               "variants, the fork retry and the outer surface; larger meshes only near the junctions",
+       .value = SizeRef{&p.count_pairs_up_to},
+       .min = 1000,
+       .max = 1e9,
+       .logarithmic = true},
       {.key = "fold_repair_variants",
-       .help = "where pairs are left (meshes up to 300,000 triangles), try two more orders of the repair's moves",
+       .help = "where pairs are left (meshes up to count_pairs_up_to triangles), try two more orders of the repair's "
+               "moves",
        .value = &p.fold_repair_variants,
        .min = 0,
        .max = 1},
       {.key = "fork_retry",
-       .help = "where self-intersecting pairs or thick nodes outside are left (meshes up to 300,000 triangles), "
-               "re-slice the forks around them with other contour settings and keep each crotch's best (up to 10 "
+       .help = "where self-intersecting pairs or thick nodes outside are left (meshes up to count_pairs_up_to "
+               "triangles), re-slice the forks around them with other contour settings and keep each crotch's best (up "
+               "to 10 "
                "more runs)",
        .value = &p.fork_retry,
        .min = 0,
        .max = 1},
       {.key = "outer_surface",
-       .help = "where self-intersecting pairs or thick nodes outside are still left (meshes up to 300,000 "
-               "triangles), keep the mesh's outer surface (CGAL autorefinement; spheres joined around the nodes) if "
+       .help = "where self-intersecting pairs or thick nodes outside are still left (meshes up to "
+               "count_pairs_up_to triangles), keep the mesh's outer surface (CGAL autorefinement; spheres joined "
+               "around the nodes) if "
                "it checks better",
        .value = &p.outer_surface,
        .min = 0,
