@@ -1090,7 +1090,8 @@ void validate_params(const MeshParams& p) {
     std::snprintf(line, sizeof line, "meshing.%s must be %s, got %g", key, rule, got);
     throw InvalidInputError(line);
   };
-  require(std::isfinite(p.tip_dome) && p.tip_dome >= 0, "tip_dome", ">= 0", p.tip_dome);
+  // (A dome of 1e9 radii ran for minutes: its spikes cross everything near them.)
+  require(std::isfinite(p.tip_dome) && p.tip_dome >= 0 && p.tip_dome <= 10, "tip_dome", "in [0, 10]", p.tip_dome);
   require(std::isfinite(p.uv_repeat_u) && p.uv_repeat_u > 0, "uv_repeat_u", "> 0", p.uv_repeat_u);
   require(std::isfinite(p.fold_repair_max_move) && p.fold_repair_max_move >= 0, "fold_repair_max_move", ">= 0",
           p.fold_repair_max_move);

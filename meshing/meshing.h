@@ -33,7 +33,7 @@
 namespace sm {
 
 struct MeshParams {
-  /// Height of the dome on a tip relative to the tip loop's radius (0 = flat cap).
+  /// Height of the dome on a tip relative to the tip loop's radius (0 = flat cap; at most 10).
   double tip_dome = 0.9;
   /// Texture repeats around the branch (u runs over [0, uv_repeat_u) once around).
   double uv_repeat_u = 1.0;

@@ -212,6 +212,7 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   read_section(doc, "meshing", name, p.meshing);
   // Values out of range, named with the file (the stages check them again).
   try {
+    validate_params(p.skeleton);
     validate_params(p.contours);
     validate_params(p.meshing);
   } catch (const InvalidInputError& e) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -296,7 +297,9 @@ void fix_thick_children(WorkTree& t, const SkeletonParams& params, SkeletonRepor
   if (params.thick_child_policy == ThickChildPolicy::clamp_child) {
     for (std::uint32_t c : order) {
       if (t.parent[c] == kNone) continue;
-      const double limit = ratio * t.radius[t.parent[c]];
+      // (Never below the radius floor, raised to before: a small max_child_ratio compounds
+      // down the tree, 0.1 gave twigs of 1e-17 m, and zero-length collar edges.)
+      const double limit = std::max(ratio * t.radius[t.parent[c]], rep.radius_floor);
       if (t.radius[c] > limit * (1 + 1e-12)) {
         t.radius[c] = limit;
         note(c);
@@ -727,7 +730,9 @@ void add_collars(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep)
     const double rv = t.radius[v], rc = t.radius[c];
     const double len = glm::length(t.pos[c] - t.pos[v]);
     const double at = params.collar_ratio * rv;
-    if (rc >= params.collar_max_child_ratio * rv || len < at + params.collar_min_stub * rc) continue;
+    // (A collar at the child itself would leave a zero-length edge: collar_min_stub 0.)
+    if (rc >= params.collar_max_child_ratio * rv || len < at + params.collar_min_stub * rc || len - at <= 1e-6 * len)
+      continue;
     const dvec3 dir = (t.pos[c] - t.pos[v]) / len;
     t.insert_above(c, t.pos[v] + dir * at, rc + 0.25 * (rv - rc));
     ++rep.collars;  // a refinement, not a repair: counted, not warned about
@@ -791,7 +796,36 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
 
 }  // namespace
 
+void validate_params(const SkeletonParams& p) {
+  auto require = [](bool ok, const char* key, const char* rule, double got) {
+    if (ok) return;
+    char line[160];
+    std::snprintf(line, sizeof line, "skeleton.%s must be %s, got %g", key, rule, got);
+    throw InvalidInputError(line);
+  };
+  auto non_negative = [&](double x, const char* key) { require(std::isfinite(x) && x >= 0, key, ">= 0", x); };
+  auto degrees = [&](double x, const char* key) {
+    require(std::isfinite(x) && x >= 0 && x <= 180, key, "in [0, 180] degrees", x);
+  };
+  non_negative(p.merge_edge_ratio, "merge_edge_ratio");
+  non_negative(p.radius_floor, "radius_floor");
+  require(std::isfinite(p.max_child_ratio) && p.max_child_ratio > 0, "max_child_ratio", "> 0", p.max_child_ratio);
+  // (Below one radius, resampling multiplies the nodes without adding shape: 1e-9 made
+  // 10,000 nodes of every edge.)
+  require(p.max_edge_ratio == 0 || (std::isfinite(p.max_edge_ratio) && p.max_edge_ratio >= 1), "max_edge_ratio",
+          "0 (off) or at least 1", p.max_edge_ratio);
+  non_negative(p.binarize_step_ratio, "binarize_step_ratio");
+  non_negative(p.collar_ratio, "collar_ratio");
+  non_negative(p.collar_max_child_ratio, "collar_max_child_ratio");
+  non_negative(p.collar_min_stub, "collar_min_stub");
+  degrees(p.max_lateral_angle, "max_lateral_angle");
+  degrees(p.max_turn_back, "max_turn_back");
+  non_negative(p.tight_bend_ratio, "tight_bend_ratio");
+  non_negative(p.branch_clearance, "branch_clearance");
+}
+
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
+  validate_params(params);
   Stopwatch clock;
   SkeletonResult result;
   SkeletonReport& rep = result.report;

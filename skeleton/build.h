@@ -45,7 +45,7 @@ struct SkeletonParams {
   double max_child_ratio = 1.0;
   ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
   /// Edges longer than this many times the local radius are split into equal parts;
-  /// 0 disables resampling (default).
+  /// 0 disables resampling (default); otherwise at least 1.
   double max_edge_ratio = 0.0;
   /// Step between the extra nodes of a binarized whorl (an input node with 3 to
   /// max_chain_forks + 1 children), relative to the node's radius; hubs with more children
@@ -145,6 +145,11 @@ struct SkeletonResult {
   Skeleton skeleton;
   SkeletonReport report;
 };
+
+/// Throws InvalidInputError naming the first parameter out of its range
+/// ("skeleton.max_child_ratio must be > 0, got -1"). build_skeleton checks its parameters with
+/// it; so does the config reader (parse_params_json), naming the file.
+void validate_params(const SkeletonParams& params);
 
 /// Validates and sanitizes `raw` into a binary framed skeleton.
 /// Throws InvalidInputError (naming node and rule) on malformed input.

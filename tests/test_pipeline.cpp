@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -797,16 +798,22 @@ TEST(Pipeline, ShippedConfigsLoad) {
 }
 
 TEST(Pipeline, ParamsOutOfRangeAreRejectedNamingTheKey) {
-  // A zero slice step or split gap sliced forever, a huge bisection count as good as; every
-  // such value fails when the config is read (naming the file and the key) and again when a
-  // stage is called with it, before any work.
+  // A zero slice step or split gap sliced forever, a huge bisection count, a dome of 1e9 radii
+  // or a resampling of 1e-9 radii as good as (every config key tried at 0, -1, 1e-9 and 1e9 on
+  // the default tree: these ran past 30 s, a few others were internal errors); every such
+  // value fails when the config is read (naming the file and the key) and again when a stage
+  // is called with it, before any work.
   for (const auto& [config, key] : std::vector<std::pair<std::string, std::string>>{
            {R"({"contours": {"slice_step": 0, "min_slice_step": 0}})", "contours.slice_step must be > 0"},
            {R"({"contours": {"split_gap": -1}})", "contours.split_gap must be > 0"},
            {R"({"contours": {"split_bisection_steps": 100000000}})", "contours.split_bisection_steps"},
            {R"({"contours": {"concave_turn_degrees": 180}})", "contours.concave_turn_degrees"},
            {R"({"contours": {"thin_gap_radii": -2}})", "contours.thin_gap_radii must be >= 0"},
-           {R"({"meshing": {"tip_dome": -5}})", "meshing.tip_dome must be >= 0"},
+           {R"({"meshing": {"tip_dome": -5}})", "meshing.tip_dome must be in [0, 10]"},
+           {R"({"meshing": {"tip_dome": 1e9}})", "meshing.tip_dome must be in [0, 10]"},
+           {R"({"skeleton": {"max_child_ratio": -1}})", "skeleton.max_child_ratio must be > 0"},
+           {R"({"skeleton": {"max_lateral_angle": 270}})", "skeleton.max_lateral_angle must be in [0, 180]"},
+           {R"({"skeleton": {"max_edge_ratio": 1e-9}})", "skeleton.max_edge_ratio must be 0 (off) or at least 1"},
            {R"({"meshing": {"uv_repeat_u": 0}})", "meshing.uv_repeat_u must be > 0"}}) {
     SCOPED_TRACE(config);
     try {
@@ -822,6 +829,25 @@ TEST(Pipeline, ParamsOutOfRangeAreRejectedNamingTheKey) {
   p = {};
   p.meshing.uv_repeat_u = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(run_pipeline(test::y_fork(), p), InvalidInputError);
+  p = {};
+  p.skeleton.collar_min_stub = -1;
+  EXPECT_THROW(run_pipeline(test::y_fork(), p), InvalidInputError);
+}
+
+TEST(Pipeline, SmallChildRatiosKeepTheRadiusFloor) {
+  // max_child_ratio 0.1 clamps each generation to a tenth of its parent: without the radius
+  // floor the twigs of the default tree reached 1e-17 m and their collars zero-length edges
+  // (an internal error). And collar_min_stub 0 put a collar on its child. Now both mesh.
+  for (const auto& set :
+       std::vector<std::function<void(PipelineParams&)>>{[](PipelineParams& q) { q.skeleton.max_child_ratio = 0.1; },
+                                                         [](PipelineParams& q) { q.skeleton.collar_min_stub = 0; }}) {
+    PipelineParams p;
+    set(p);
+    PipelineResult r;
+    expect_sound(run_and_check(test::grown_tree(1), &r, p));
+    const Skeleton& s = r.skeleton.skeleton;
+    for (std::size_t i = 0; i < s.size(); ++i) EXPECT_GE(s.radius[i], r.skeleton.report.radius_floor * (1 - 1e-12));
+  }
 }
 
 TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {
