@@ -1330,30 +1330,23 @@ ContourSet assemble(Fragment& root) {
 }  // namespace
 
 void validate_params(const ContourParams& p) {
-  auto require = [](bool ok, const char* key, const char* rule, double got) {
-    if (ok) return;
-    char line[160];
-    std::snprintf(line, sizeof line, "contours.%s must be %s, got %g", key, rule, got);
-    throw InvalidInputError(line);
-  };
-  auto positive = [&](double x, const char* key) { require(std::isfinite(x) && x > 0, key, "> 0", x); };
-  auto non_negative = [&](double x, const char* key) { require(std::isfinite(x) && x >= 0, key, ">= 0", x); };
-  positive(p.slice_step, "slice_step");
-  non_negative(p.min_slice_step, "min_slice_step");
-  non_negative(p.max_corner_cut, "max_corner_cut");
-  positive(p.split_gap, "split_gap");
-  non_negative(p.thin_gap_radii, "thin_gap_radii");
-  non_negative(p.fork_transition, "fork_transition");
-  non_negative(p.min_fused_length, "min_fused_length");
-  require(p.split_bisection_steps <= 64, "split_bisection_steps", "at most 64 (a double's precision)",
-          double(p.split_bisection_steps));
-  require(std::isfinite(p.concave_turn_degrees) && p.concave_turn_degrees >= 0 && p.concave_turn_degrees < 180,
-          "concave_turn_degrees", "in [0, 180)", p.concave_turn_degrees);
-  non_negative(p.fallback_max_edge, "fallback_max_edge");
+  const ParamChecker check{"contours"};
+  check.positive(p.slice_step, "slice_step");
+  check.non_negative(p.min_slice_step, "min_slice_step");
+  check.non_negative(p.max_corner_cut, "max_corner_cut");
+  check.positive(p.split_gap, "split_gap");
+  check.non_negative(p.thin_gap_radii, "thin_gap_radii");
+  check.non_negative(p.fork_transition, "fork_transition");
+  check.non_negative(p.min_fused_length, "min_fused_length");
+  check.require(p.split_bisection_steps <= 64, "split_bisection_steps", "at most 64 (a double's precision)",
+                double(p.split_bisection_steps));
+  check.require(std::isfinite(p.concave_turn_degrees) && p.concave_turn_degrees >= 0 && p.concave_turn_degrees < 180,
+                "concave_turn_degrees", "in [0, 180)", p.concave_turn_degrees);
+  check.non_negative(p.fallback_max_edge, "fallback_max_edge");
   for (const LocalContourScale& l : p.local) {
-    positive(l.split_gap, "local split_gap factor");
-    non_negative(l.fork_transition, "local fork_transition factor");
-    positive(l.slice_step, "local slice_step factor");
+    check.positive(l.split_gap, "local split_gap factor");
+    check.non_negative(l.fork_transition, "local fork_transition factor");
+    check.positive(l.slice_step, "local slice_step factor");
   }
 }
 

@@ -44,6 +44,17 @@ class InternalError : public Error {
 /// Used for invariants that must hold in release builds as well (cheap checks only).
 void check_invariant(bool cond, const char* what, const char* file, int line);
 
+/// Range checks of a stage's parameters: each throws InvalidInputError "SECTION.KEY must be
+/// RULE, got VALUE" (e.g. "contours.slice_step must be > 0, got 0") when the value is out of
+/// range; NaN and infinities are always out.
+struct ParamChecker {
+  const char* section;  ///< the config section: "skeleton", "contours", ...
+  void require(bool ok, const char* key, const char* rule, double got) const;
+  void positive(double x, const char* key) const;                      ///< finite and > 0
+  void non_negative(double x, const char* key) const;                  ///< finite and >= 0
+  void within(double x, double lo, double hi, const char* key) const;  ///< finite and in [lo, hi]
+};
+
 }  // namespace sm
 
 #define SM_CHECK(cond, what) ::sm::check_invariant(static_cast<bool>(cond), what, __FILE__, __LINE__)

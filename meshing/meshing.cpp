@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -1084,17 +1083,11 @@ Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
 }
 
 void validate_params(const MeshParams& p) {
-  auto require = [](bool ok, const char* key, const char* rule, double got) {
-    if (ok) return;
-    char line[160];
-    std::snprintf(line, sizeof line, "meshing.%s must be %s, got %g", key, rule, got);
-    throw InvalidInputError(line);
-  };
+  const ParamChecker check{"meshing"};
   // (A dome of 1e9 radii ran for minutes: its spikes cross everything near them.)
-  require(std::isfinite(p.tip_dome) && p.tip_dome >= 0 && p.tip_dome <= 10, "tip_dome", "in [0, 10]", p.tip_dome);
-  require(std::isfinite(p.uv_repeat_u) && p.uv_repeat_u > 0, "uv_repeat_u", "> 0", p.uv_repeat_u);
-  require(std::isfinite(p.fold_repair_max_move) && p.fold_repair_max_move >= 0, "fold_repair_max_move", ">= 0",
-          p.fold_repair_max_move);
+  check.within(p.tip_dome, 0, 10, "tip_dome");
+  check.positive(p.uv_repeat_u, "uv_repeat_u");
+  check.non_negative(p.fold_repair_max_move, "fold_repair_max_move");
 }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,

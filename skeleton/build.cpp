@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -797,31 +796,22 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
 }  // namespace
 
 void validate_params(const SkeletonParams& p) {
-  auto require = [](bool ok, const char* key, const char* rule, double got) {
-    if (ok) return;
-    char line[160];
-    std::snprintf(line, sizeof line, "skeleton.%s must be %s, got %g", key, rule, got);
-    throw InvalidInputError(line);
-  };
-  auto non_negative = [&](double x, const char* key) { require(std::isfinite(x) && x >= 0, key, ">= 0", x); };
-  auto degrees = [&](double x, const char* key) {
-    require(std::isfinite(x) && x >= 0 && x <= 180, key, "in [0, 180] degrees", x);
-  };
-  non_negative(p.merge_edge_ratio, "merge_edge_ratio");
-  non_negative(p.radius_floor, "radius_floor");
-  require(std::isfinite(p.max_child_ratio) && p.max_child_ratio > 0, "max_child_ratio", "> 0", p.max_child_ratio);
+  const ParamChecker check{"skeleton"};
+  check.non_negative(p.merge_edge_ratio, "merge_edge_ratio");
+  check.non_negative(p.radius_floor, "radius_floor");
+  check.positive(p.max_child_ratio, "max_child_ratio");
   // (Below one radius, resampling multiplies the nodes without adding shape: 1e-9 made
   // 10,000 nodes of every edge.)
-  require(p.max_edge_ratio == 0 || (std::isfinite(p.max_edge_ratio) && p.max_edge_ratio >= 1), "max_edge_ratio",
-          "0 (off) or at least 1", p.max_edge_ratio);
-  non_negative(p.binarize_step_ratio, "binarize_step_ratio");
-  non_negative(p.collar_ratio, "collar_ratio");
-  non_negative(p.collar_max_child_ratio, "collar_max_child_ratio");
-  non_negative(p.collar_min_stub, "collar_min_stub");
-  degrees(p.max_lateral_angle, "max_lateral_angle");
-  degrees(p.max_turn_back, "max_turn_back");
-  non_negative(p.tight_bend_ratio, "tight_bend_ratio");
-  non_negative(p.branch_clearance, "branch_clearance");
+  check.require(p.max_edge_ratio == 0 || (std::isfinite(p.max_edge_ratio) && p.max_edge_ratio >= 1), "max_edge_ratio",
+                "0 (off) or at least 1", p.max_edge_ratio);
+  check.non_negative(p.binarize_step_ratio, "binarize_step_ratio");
+  check.non_negative(p.collar_ratio, "collar_ratio");
+  check.non_negative(p.collar_max_child_ratio, "collar_max_child_ratio");
+  check.non_negative(p.collar_min_stub, "collar_min_stub");
+  check.within(p.max_lateral_angle, 0, 180, "max_lateral_angle");
+  check.within(p.max_turn_back, 0, 180, "max_turn_back");
+  check.non_negative(p.tight_bend_ratio, "tight_bend_ratio");
+  check.non_negative(p.branch_clearance, "branch_clearance");
 }
 
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
