@@ -462,25 +462,4 @@ void warn_self_intersections_left(PipelineResult& r) {
   }
 }
 
-void warn_thick_nodes_outside(PipelineResult& r) {
-  const Skeleton& s = r.skeleton.skeleton;
-  std::vector<NodeId> left = r.near_misses.left;
-  if (!left.empty() && r.outer_surface.applied) {
-    std::vector<glm::dvec3> at;
-    for (const NodeId n : left) at.push_back(s.position[n.idx()]);
-    const std::vector<std::uint8_t> inside = inside_closed_mesh(r.mesh.mesh, at);
-    std::vector<NodeId> still;
-    for (std::size_t k = 0; k < left.size(); ++k) {
-      if (!inside[k]) still.push_back(left[k]);
-    }
-    left = std::move(still);
-  }
-  for (const NodeId n : left) {
-    r.mesh.stats.warnings.add("thick_nodes_outside",
-                              "skeleton node at least the median radius thick left outside the mesh (after the "
-                              "fork retry, the near-miss push and the outer surface)",
-                              s.describe(n));
-  }
-}
-
 }  // namespace sm

@@ -53,7 +53,7 @@
 /// the 3.4 M-triangle bench tree), but each run of a retry on such a tree costs most of a
 /// second, and the nodes it would find outside are near misses, which the push of
 /// meshing/near_misses.h covers after the retry (the bench tree's one of 32,817; conifer grow
-/// seeds 3, 4, 6; those it leaves are warned about: warn_thick_nodes_outside).
+/// seeds 3, 4, 6; the pipeline warns of those it leaves: thick_nodes_outside).
 
 #include <cstddef>
 #include <string>
@@ -88,11 +88,5 @@ ForkRetryStats retry_forks(PipelineResult& result, const PipelineParams& params,
 /// `self_intersections_left`, one per pair, naming the crotch below each once; the viewer's
 /// problems layer shows them).
 void warn_self_intersections_left(PipelineResult& result);
-
-/// Adds the warning `thick_nodes_outside` (naming them) for the thick skeleton nodes the
-/// near-miss push left outside the mesh (NearMissStats::left) that are still outside the
-/// final mesh (tested again where the outer surface replaced it). Nothing when
-/// meshing.cover_near_misses is off, which is where they are found on every mesh size.
-void warn_thick_nodes_outside(PipelineResult& result);
 
 }  // namespace sm

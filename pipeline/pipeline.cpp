@@ -4,9 +4,10 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/mesh.h"
 #include "particles/dump.h"
-#include "strands/dump.h"
 #include "skeleton/io.h"
+#include "strands/dump.h"
 
 namespace sm {
 
@@ -37,6 +38,35 @@ void release_intermediates(PipelineResult& r) {
   std::vector<dvec3>().swap(r.contours.point);
   std::vector<StrandId>().swap(r.contours.strand);
 }
+
+namespace {
+
+/// Warns (`thick_nodes_outside`, naming them) of the thick skeleton nodes the near-miss push
+/// left outside the mesh (NearMissStats::left) that are still outside the final mesh (tested
+/// again where the outer surface replaced it). Nothing when meshing.cover_near_misses is off,
+/// which is where they are found on every mesh size.
+void warn_thick_nodes_outside(PipelineResult& r) {
+  const Skeleton& s = r.skeleton.skeleton;
+  std::vector<NodeId> left = r.near_misses.left;
+  if (!left.empty() && r.outer_surface.applied) {
+    std::vector<glm::dvec3> at;
+    for (const NodeId n : left) at.push_back(s.position[n.idx()]);
+    const std::vector<std::uint8_t> inside = inside_closed_mesh(r.mesh.mesh, at);
+    std::vector<NodeId> still;
+    for (std::size_t k = 0; k < left.size(); ++k) {
+      if (!inside[k]) still.push_back(left[k]);
+    }
+    left = std::move(still);
+  }
+  for (const NodeId n : left) {
+    r.mesh.stats.warnings.add("thick_nodes_outside",
+                              "skeleton node at least the median radius thick left outside the mesh (after the "
+                              "fork retry, the near-miss push and the outer surface)",
+                              s.describe(n));
+  }
+}
+
+}  // namespace
 
 void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelineParams& p, Stage from,
                     const ProgressFn& progress) {

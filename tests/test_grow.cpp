@@ -491,8 +491,8 @@ TEST(GrowPresetsSlow, EveryPresetMeshesWatertight) {
 }
 
 TEST(GrowPresetsSlow, LargeMeshesRetryThePairsTheRepairLeft) {
-  // The oak preset at seed 3 meshes to 950,000 triangles, over the 300,000 (count_pairs_up_to) up to which the
-  // pairs are counted over the whole mesh; the fold repair leaves 3 pairs near its forks, and
+  // The oak preset at seed 3 meshes to 950,000 triangles, over the 300,000 (count_pairs_up_to)
+  // up to which the pairs are counted over the whole mesh; the fold repair leaves 3 pairs near its forks, and
   // the fork retry, given those, slices them again: none left.
   GrowPreset preset = load_grow_preset(kPresetDir / "oak.json");
   preset.params.seed = 3;
