@@ -29,6 +29,7 @@ Warnings PipelineResult::warnings() const {
   w.merge(strands.stats.warnings);
   w.merge(contours.stats.warnings);
   w.merge(mesh.stats.warnings);
+  w.merge(repair.warnings);
   return w;
 }
 
@@ -76,6 +77,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   // Parameters out of range fail before any stage runs (the particle stage checks its own).
   validate_params(p.contours);
   validate_params(p.meshing);
+  validate_params(p.repair);
   Stopwatch clock;
   auto timed = [&](Stage s, auto&& fn) {
     if (from > s) return;
@@ -101,7 +103,11 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   });
   timed(Stage::contours,
         [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
-  timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
+  timed(Stage::meshing, [&] {
+    r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress);
+    report("repair", 0);
+    r.repair = repair_mesh(r.mesh, r.skeleton.skeleton, p.repair);
+  });
   // (Its runs add their own times to the contours and meshing stages.)
   r.fork_retry = retry_forks(r, p, progress);
   // (Their times count as meshing.)
@@ -193,6 +199,19 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"moved_vertices", r.mesh.stats.fold_moves},
                  {"collapsed_edges", r.mesh.stats.fold_collapses},
                  {"refilled_disks", r.mesh.stats.fold_refills}}},
+               {"repair",
+                {{"pairs_found", r.repair.pairs_found},
+                 {"pairs_left", r.repair.pairs_left},
+                 {"fold_pairs", r.repair.fold_pairs},
+                 {"fold_changes", r.repair.fold_changes},
+                 {"rounds", r.repair.rounds},
+                 {"cut_triangles", r.repair.cut_triangles},
+                 {"dropped_triangles", r.repair.dropped_triangles},
+                 {"new_vertices", r.repair.new_vertices},
+                 {"split_vertices", r.repair.split_vertices},
+                 {"inner_shells", r.repair.inner_shells},
+                 {"problem", r.repair.problem},
+                 {"seconds", r.repair.timings.total()}}},
                {"fork_retry",
                 {{"pairs_counted", r.fork_retry.counted},
                  {"pairs_counted_everywhere", r.mesh.crossings_counted && r.mesh.crossings_everywhere},

@@ -14,6 +14,7 @@
 #include "meshing/outer_surface.h"
 #include "particles/particles.h"
 #include "pipeline/fork_retry.h"
+#include "repair/repair.h"
 #include "skeleton/build.h"
 #include "strands/strands.h"
 
@@ -26,6 +27,7 @@ struct PipelineParams {
   StrandParams strands;
   ContourParams contours;
   MeshParams meshing;
+  RepairParams repair;
 };
 
 /// The stages, in order; `rerun_pipeline` restarts from one of them.
@@ -47,6 +49,8 @@ struct PipelineResult {
   StrandSet strands;
   ContourSet contours;
   MeshResult mesh;
+  /// The repair stage's figures (it edits `mesh` in place).
+  RepairStats repair;
   /// The fork retry's figures (MeshParams::fork_retry).
   ForkRetryStats fork_retry;
   /// The near misses' figures (MeshParams::cover_near_misses), after the fork retry.

@@ -23,14 +23,16 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_option("--thick-child", p.thick_child_policy,
                  "What to do with a child thicker than its parent: clamp (child), raise (parent), keep")
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
-      ->default_str("clamp");
+      ->default_str("keep");
   sub.add_option("--max-child-ratio", p.max_child_ratio, "Largest allowed child/parent radius ratio")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  sub.add_flag("!--no-separate", p.separate_branches, "Do not swing apart branches that run into each other");
+  sub.add_flag("--separate", p.separate,
+               "Edit the tree's shape to ease meshing: swing crossing branches apart, re-attach hairpins, remove "
+               "nodes at tight bends (off: the input is kept and crossings are fused where they are)");
 }
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params) {
