@@ -35,6 +35,9 @@ using FaceIndex = SurfaceMesh::Face_index;
 using OriginMap = SurfaceMesh::Property_map<FaceIndex, std::uint32_t>;
 namespace PMP = CGAL::Polygon_mesh_processing;
 constexpr std::uint32_t kNone = UINT32_MAX;
+// Verdicts on a patch or triangle: inside the union (dropped), on its boundary facing out
+// (kept) or facing in (a part turned inside out: kept, flipped).
+constexpr std::uint8_t kDrop = 0, kKeep = 1, kFlip = 2;
 
 // Hands a triangle's input index on to the triangles it is cut into.
 struct OriginVisitor : PMP::Corefinement::Default_visitor<SurfaceMesh> {
@@ -55,7 +58,11 @@ std::uint32_t triangle_with_edge(const Mesh& mesh, const VertexCorners& vc, std:
 }
 
 /// Gives each vertex whose triangles form several fans a copy per fan (appended), drawn a
-/// hundredth of the way to the centroid of the fan's other vertices. Returns the count split.
+/// hundredth of the way to the centroid of the fan's other vertices; returns the count split.
+/// Triangles at a vertex belong to one fan where they share an edge that no other triangle
+/// uses; at an edge of four or more (two solids of the union touching along it), each
+/// triangle is paired with its neighbour around the edge across the solid between them, so
+/// that the solids come apart.
 std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand) {
   const VertexCorners vc = vertex_corners(mesh);
   std::size_t split = 0;
@@ -64,12 +71,49 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
     const std::uint32_t b = vc.begin[v], e = vc.begin[v + 1], n = e - b;
     if (n < 2) continue;
     UnionFind fans(n);
+    // Corners by the vertex after v (edge v -> x leaving) and before it (edge x -> v arriving).
+    auto next_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 1) % 3]; };
+    auto prev_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 2) % 3]; };
+    std::map<std::uint32_t, std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>> around;  // x -> (leaving, arriving)
     for (std::uint32_t i = 0; i < n; ++i) {
-      const std::uint32_t ci = vc.corner[b + i];
-      const std::uint32_t next = mesh.triangles[ci / 3][(ci % 3 + 1) % 3];
-      for (std::uint32_t j = 0; j < n; ++j) {
-        const std::uint32_t cj = vc.corner[b + j];
-        if (mesh.triangles[cj / 3][(cj % 3 + 2) % 3] == next) fans.unite(i, j);
+      around[next_of(i)].first.push_back(i);
+      around[prev_of(i)].second.push_back(i);
+    }
+    for (const auto& [x, sides] : around) {
+      const auto& [leaving, arriving] = sides;
+      if (leaving.size() == 1 && arriving.size() == 1) {
+        fans.unite(leaving[0], arriving[0]);
+        continue;
+      }
+      if (leaving.empty() || arriving.empty()) continue;
+      // Around the axis v -> x, a triangle leaving v towards x faces the way the angle grows;
+      // one arriving from x faces back. The solid between two neighbours around the axis lies
+      // behind both: an arriving triangle and the next one counter-clockwise, a leaving one.
+      const glm::dvec3 o = mesh.positions[v], axis = glm::normalize(mesh.positions[x] - o);
+      const glm::dvec3 r0 = glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+      const glm::dvec3 r1 = glm::cross(axis, r0);
+      std::vector<std::tuple<double, int, std::uint32_t>> ring;  // angle, leaving?, corner
+      auto third = [&](std::uint32_t i) {
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        for (const std::uint32_t w : t) {
+          if (w != v && w != x) return mesh.positions[w];
+        }
+        return o;
+      };
+      for (const std::uint32_t i : leaving) {
+        const glm::dvec3 d = third(i) - o;
+        ring.emplace_back(std::atan2(glm::dot(d, r1), glm::dot(d, r0)), 1, i);
+      }
+      for (const std::uint32_t i : arriving) {
+        const glm::dvec3 d = third(i) - o;
+        ring.emplace_back(std::atan2(glm::dot(d, r1), glm::dot(d, r0)), 0, i);
+      }
+      std::sort(ring.begin(), ring.end());
+      for (std::size_t k = 0; k < ring.size(); ++k) {
+        const auto& [a0, leave0, i0] = ring[k];
+        const auto& [a1, leave1, i1] = ring[(k + 1) % ring.size()];
+        if (!leave0 && leave1) fans.unite(i0, i1);
       }
     }
     std::vector<std::uint32_t> roots;
@@ -150,8 +194,8 @@ class Attempt {
   std::vector<Piece> pieces_;
   std::vector<glm::dvec3> refined_pos_;
   std::vector<std::uint8_t> dangling_;  // per patch: a cut line ends inside it
-  std::vector<std::uint8_t> keep_;      // per patch
-  std::vector<std::uint8_t> dropped_;   // per mesh triangle (uncut, inside another part)
+  std::vector<std::uint8_t> keep_;      // per patch: kDrop, kKeep or kFlip
+  std::vector<std::uint8_t> uncut_;     // per mesh triangle: its verdict where uncut
 };
 
 // The cut triangles: those of the pairs, and where they meet at a vertex in several fans (not
@@ -354,16 +398,25 @@ void Attempt::judge() {
     const auto& t = mesh_.triangles[f];
     add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], r);
   }
-  const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh_, probe);
+  const std::vector<int> winding = winding_numbers(mesh_, probe);
+  // Kept where exactly one side is outside (winding number 0), facing it: a side turned
+  // inside out (-1 in front, 0 behind) is flipped rather than dropped, which would cut the
+  // branch it belongs to off the tree.
+  auto judge_sides = [&](std::size_t i) -> std::uint8_t {
+    const int front = winding[i], back = winding[i + 1];
+    if (front == 0 && back != 0) return kKeep;
+    if (front != 0 && back == 0) return kFlip;
+    return kDrop;
+  };
   // A group's verdict: its uncut triangle's where it has one (the best placed probe), else its
   // roundest patch's. Every patch whose own probe is well placed must agree.
   std::vector<double> verdict_r(np, -1.0);
-  std::vector<std::uint8_t> verdict(np, 1);
+  std::vector<std::uint8_t> verdict(np, kKeep);
   std::size_t q = 2 * np;
   for (std::uint32_t k = 0; k < np; ++k) {
     const auto& [r, f] = best_uncut[k];
     if (f == kNone || !(r > 0)) continue;
-    verdict[k] = !inside[q] && inside[q + 1];
+    verdict[k] = judge_sides(q);
     verdict_r[k] = std::numeric_limits<double>::infinity();
     q += 2;
   }
@@ -371,15 +424,15 @@ void Attempt::judge() {
     const std::uint32_t root = group.find(k);
     if (best_piece[k].first > 0 && best_piece[k].first > verdict_r[root]) {
       verdict_r[root] = best_piece[k].first;
-      verdict[root] = !inside[2 * k] && inside[2 * k + 1];
+      verdict[root] = judge_sides(2 * k);
     }
   }
-  keep_.assign(np, 1);
+  keep_.assign(np, kKeep);
   for (std::uint32_t k = 0; k < np; ++k) {
     const std::uint32_t root = group.find(k);
     keep_[k] = verdict[root];
     // Slivers' probes sit too near other sheets to be trusted: only round pieces vote.
-    const bool own = !inside[2 * k] && inside[2 * k + 1];
+    const std::uint8_t own = judge_sides(2 * k);
     if (best_piece[k].first > 1e-3 * verdict_r[root] && own != keep_[k]) bad_patch[root] = 1;
   }
   for (std::uint32_t k = 0; k < np; ++k) {
@@ -391,9 +444,9 @@ void Attempt::judge() {
   }
   std::sort(bad.begin(), bad.end());
   bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
-  dropped_.assign(nf_, 0);
+  uncut_.assign(nf_, kKeep);
   for (std::uint32_t f = 0; f < nf_; ++f) {
-    if (local_[f] == kNone && has_patch[group.find(np + f)] && !verdict[group.find(np + f)]) dropped_[f] = 1;
+    if (local_[f] == kNone && has_patch[group.find(np + f)]) uncut_[f] = verdict[group.find(np + f)];
   }
 }
 
@@ -415,7 +468,7 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
   std::vector<glm::dvec3> new_pos;
   std::vector<std::uint32_t> new_origin;  // a cut triangle the new vertex lies on
   for (const Piece& p : pieces_) {
-    if (!keep_[p.patch]) continue;
+    if (keep_[p.patch] == kDrop) continue;
     for (const std::uint32_t r : p.v) {
       if (out_vertex[r] != kNone) continue;
       if (r < n_sub_) {
@@ -433,7 +486,10 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
     }
   }
   st.new_vertices = new_pos.size();
-  for (std::uint32_t f = 0; f < nf; ++f) st.dropped_triangles += dropped_[f];
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    st.dropped_triangles += uncut_[f] == kDrop;
+    st.flipped_triangles += uncut_[f] == kFlip;
+  }
 
   // Uncut triangles not dropped, in order, then the kept pieces.
   out.positions = mesh.positions;
@@ -441,13 +497,20 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
   const bool uvs = mesh.corner_uvs.size() == nf, branches = mesh.triangle_branch.size() == nf;
   origin_of.clear();
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (local_[f] != kNone || dropped_[f]) continue;
-    out.triangles.push_back(mesh.triangles[f]);
+    if (local_[f] != kNone || uncut_[f] == kDrop) continue;
+    const auto& t = mesh.triangles[f];
+    const bool flip = uncut_[f] == kFlip;
+    out.triangles.push_back(flip ? Mesh::Triangle{t[0], t[2], t[1]} : t);
     origin_of.push_back(f);
-    if (uvs) out.corner_uvs.push_back(mesh.corner_uvs[f]);
+    if (uvs) {
+      const auto& uv = mesh.corner_uvs[f];
+      out.corner_uvs.push_back(flip ? std::array<glm::vec2, 3>{uv[0], uv[2], uv[1]} : uv);
+    }
   }
-  for (const Piece& p : pieces_) {
-    if (!keep_[p.patch]) continue;
+  for (const Piece& piece : pieces_) {
+    if (keep_[piece.patch] == kDrop) continue;
+    Piece p = piece;
+    if (keep_[p.patch] == kFlip) std::swap(p.v[1], p.v[2]);
     const Mesh::Triangle t{out_vertex[p.v[0]], out_vertex[p.v[1]], out_vertex[p.v[2]]};
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;  // welded or snapped flat
     out.triangles.push_back(t);

@@ -33,6 +33,7 @@ struct SelfUnionStats {
   std::size_t cut_triangles = 0;      ///< triangles of those pairs (replaced by their kept parts)
   std::size_t patches = 0;            ///< patches of the cut triangles
   std::size_t dropped_triangles = 0;  ///< uncut triangles dropped (inside other parts)
+  std::size_t flipped_triangles = 0;  ///< uncut triangles flipped (a part turned inside out)
   std::size_t new_vertices = 0;       ///< vertices on the cut lines
   std::size_t split_vertices = 0;     ///< vertices split where kept patches met at a point
   std::size_t inner_shells = 0;       ///< components of negative volume dropped
