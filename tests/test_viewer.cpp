@@ -15,7 +15,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 #include "viewer/app.h"

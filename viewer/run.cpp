@@ -16,7 +16,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/mesh_io.h"
+#include "meshio/mesh_io.h"
 #include "particles/dump.h"
 #include "skeleton/io.h"
 

@@ -71,7 +71,7 @@ RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& 
 ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name,
                               const ParticleField* field = nullptr);
 
-/// Reads a mesh file (meshing/mesh_io.h) into a run with only the mesh stage present.
+/// Reads a mesh file (meshio/mesh_io.h) into a run with only the mesh stage present.
 RunData load_mesh_file(const std::filesystem::path& path);
 
 /// Loads any input by its kind (`mesh_file` only applies to stage dumps).

@@ -12,7 +12,7 @@
 #include "apps/cli/commands.h"
 #include "core/log.h"
 #include "meshing/checks.h"
-#include "meshing/mesh_io.h"
+#include "meshio/mesh_io.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
 
