@@ -15,7 +15,7 @@
 #include "contours/contours.h"
 #include "core/huge_pages.h"
 #include "core/mesh.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "meshing/meshing.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/grow/presets.h"

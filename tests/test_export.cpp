@@ -15,7 +15,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "meshio/export.h"
 #include "meshio/mesh_io.h"
 #include "tests/fixtures.h"

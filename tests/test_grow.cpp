@@ -23,7 +23,7 @@
 #include "tests/fixtures.h"
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #endif
 

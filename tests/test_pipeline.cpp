@@ -22,7 +22,7 @@
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/grow/presets.h"
 #include "skeleton/grow/tree_grower.h"

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "core/progress.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "viewer/scene.h"
 

@@ -17,7 +17,7 @@
 #include "apps/cli/commands.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/grow/presets.h"
 #include "skeleton/grow/tree_grower.h"
