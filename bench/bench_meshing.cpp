@@ -18,8 +18,8 @@
 #include "meshcheck/checks.h"
 #include "meshing/meshing.h"
 #include "pipeline/pipeline.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 
 namespace {

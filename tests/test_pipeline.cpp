@@ -24,8 +24,8 @@
 #include "core/errors.h"
 #include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 
