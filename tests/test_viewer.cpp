@@ -13,6 +13,7 @@
 #include <imgui_internal.h>
 #include <nlohmann/json.hpp>
 
+#include "contours/dump.h"
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "meshio/export.h"
