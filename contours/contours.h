@@ -88,11 +88,7 @@ struct ContourParams {
   /// in this many of that child's radii instead, so the bundles split once they are apart on
   /// the twigs' scale rather than the particles' (each surface must still clear the other
   /// subtree's cones by half a split gap of neighbour distances); 0 = always the neighbour
-  /// distance. Grown conifer seed 1: 670 of its 685 twig forks split nearer (none farther),
-  /// 6.35 -> 5.18 twig radii above the fork at the median, a visibly smaller web in each
-  /// crotch; bench tree 2,027 -> 1,856 pairs found by the fold repair, none left either way.
-  /// Measuring the surfaces' clearance in twig radii as well split earlier still but folded:
-  /// 7,071 pairs found on the bench tree, 111 left to the fork retry (8 runs, 14.6 s).
+  /// distance (docs/defaults.md: why 2).
   double thin_gap_radii = 2.0;
   /// Above a fork, each child's bundle goes from its place beside its sibling in the fork's
   /// section to its own round section within this distance, relative to the fork's radius
