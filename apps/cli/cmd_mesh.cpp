@@ -10,7 +10,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 
