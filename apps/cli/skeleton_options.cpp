@@ -33,8 +33,8 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_flag("!--no-separate", p.separate_branches, "Do not swing apart branches that run into each other");
 }
 
-SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params) {
-  SkeletonResult result = build_skeleton(read_skeleton(path), params);
+SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read) {
+  SkeletonResult result = build_skeleton(read_skeleton(path, read), params);
   for (const auto& w : result.report.warnings.list()) {
     std::string line = w.message + " (" + std::to_string(w.count) + "x";
     for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
