@@ -8,7 +8,7 @@
 #include <numeric>
 
 #include "core/errors.h"
-#include "meshing/intersections.h"
+#include "meshcheck/intersections.h"
 #include "meshing/fold_repair.h"
 #include "repair/self_union.h"
 

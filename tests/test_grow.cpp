@@ -1,4 +1,4 @@
-// Tests of the growers (skeleton/grow/): crown volumes, the self-organizing and space
+// Tests of the growers (grow/): crown volumes, the self-organizing and space
 // colonization growers, presets, and the grow command.
 
 #include <gtest/gtest.h>
@@ -16,14 +16,14 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "skeleton/build.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
-#include "skeleton/grow/volume.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
+#include "grow/volume.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #endif
 
@@ -226,7 +226,7 @@ TEST(Volume, ScatterIsSeededAndStablePerPoint) {
   const auto c = scatter_points(volume, 1000, 7);
   const auto d = scatter_points(volume, 3000, 8);
   EXPECT_EQ(a, b);
-  // Point i has its own stream: fewer points keep the ones that remain (seed 001 §3.2.1).
+  // Point i has its own stream: fewer points keep the ones that remain (core/rng.h).
   EXPECT_TRUE(std::equal(c.begin(), c.end(), a.begin()));
   EXPECT_NE(a, d);
   tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
@@ -330,7 +330,7 @@ TEST(Grow, SameSeedSameBytesForAnyThreadCount) {
 
 TEST(Grow, RadiusParametersDoNotReshuffleGrowth) {
   // Radii are computed after growth; with the cleanup off, changing them must leave every
-  // position and parent as it was (seed 001 §3.2.1: one parameter, one aspect).
+  // position and parent as it was (core/rng.h: one parameter, one aspect).
   GrowerParams p = small_tree();
   p.min_edge_ratio = 0;
   const RawSkeleton a = grow_tree(p).skeleton;

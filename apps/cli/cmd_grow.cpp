@@ -1,6 +1,6 @@
 // strandmesh grow: procedural skeletons from the built-in growers.
 //
-//   strandmesh grow --seed N -o tree.json                   the simple random grower (seed 003 §2.6)
+//   strandmesh grow --seed N -o tree.json                   the simple random grower (grow/random_grower.h)
 //   strandmesh grow --preset NAME|FILE.json [--seed N] -o tree.json   self-organizing / space colonization
 //   strandmesh grow --list-presets
 
@@ -12,9 +12,9 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/random_grower.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/random_grower.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 
 #ifndef STRANDMESH_CONFIG_DIR

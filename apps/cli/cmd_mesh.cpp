@@ -5,11 +5,12 @@
 #include <utility>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 
@@ -24,10 +25,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       std::uint32_t root_strands = 0;
       bool print_config = false;
       SkeletonParams skeleton;
+      InputOptions input_options;
     };
     auto o = std::make_shared<Opts>();
     // Required unless --print-config (checked below, so the config can be printed alone).
-    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc); required");
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg); required");
     sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")->capture_default_str();
@@ -38,6 +40,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_option("--stats", o->stats_path, "Write the run's figures (counts, seconds per stage) as JSON");
     sub.add_flag("--print-config", o->print_config, "Print the full parameter set as a config file and exit");
     add_skeleton_options(sub, o->skeleton);
+    add_input_options(sub, o->input_options);
     // Which skeleton options were given explicitly (they override the config file).
     std::vector<CLI::Option*> skeleton_opts;
     for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
@@ -71,7 +74,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         return int(kUsage);
       }
       (void)mesh_format_from_path(o->output);  // an unknown extension fails before the long run
-      const RawSkeleton raw = read_skeleton(o->input);
+      const RawSkeleton raw = read_skeleton(o->input, read_options(o->input_options));
       ProgressBar bar(!global.quiet);
       std::mutex m;
       PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {

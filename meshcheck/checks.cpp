@@ -2,7 +2,7 @@
 // self-intersections and point-in-mesh (checks_cgal.cpp), and fidelity to the skeleton's
 // round cones through a bounding-volume hierarchy.
 //
-// Why these definitions: DESIGN.md promises a closed, manifold, oriented genus-0 surface
+// Why these definitions: strandmesh promises a closed, manifold, oriented genus-0 surface
 // without self-intersections that follows the skeleton's radii. Each count here is one of those
 // promises, measured exactly (integer topology, exact CGAL predicates), so a test or a user
 // can trust a zero. Fidelity compares against the round cone (convex hull of the two end
@@ -13,7 +13,7 @@
 // the distance to a cone depends on its radii, and a box per cone gives exact lower bounds for
 // branch-and-bound, so the nearest cone is found exactly in O(log N) on typical trees.
 
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 
 #include <algorithm>
 #include <cmath>
@@ -27,7 +27,7 @@
 
 #include "core/errors.h"
 #include "core/union_find.h"
-#include "meshing/checks_cgal.h"
+#include "meshcheck/checks_cgal.h"
 
 namespace sm {
 
