@@ -168,6 +168,7 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"new_vertices", r.repair.new_vertices},
                  {"split_vertices", r.repair.split_vertices},
                  {"inner_shells", r.repair.inner_shells},
+                 {"lumps", r.repair.lumps},
                  {"problem", r.repair.problem},
                  {"seconds", r.repair.timings.total()}}},
                {"fork_retry",

@@ -136,7 +136,7 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
   std::vector<std::uint32_t> origin;
   while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
     ++st.rounds;
-    const SelfUnionStats u = self_union(mesh, pairs, std::getenv("SM_NOGRID") ? 0.0 : r.grid, origin);
+    const SelfUnionStats u = self_union(mesh, pairs, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
       break;
@@ -150,6 +150,7 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
     st.new_vertices += u.new_vertices;
     st.split_vertices += u.split_vertices;
     st.inner_shells += u.inner_shells;
+    st.lumps += u.lumps;
     if (r.triangle_kind.size() == origin.size() || !r.triangle_kind.empty()) {
       std::vector<TriangleKind> kind(origin.size());
       for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];

@@ -552,7 +552,7 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
 }  // namespace
 
 SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
-                          std::vector<std::uint32_t>& origin_out) {
+                          std::span<const glm::dvec3> anchors, std::vector<std::uint32_t>& origin_out) {
   SelfUnionStats st;
   st.pairs = pairs.size();
   const auto nf = static_cast<std::uint32_t>(mesh.triangles.size());
@@ -620,7 +620,9 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
   st.split_vertices = split_pinches(out, node, strand);
 
-  // Inner shells: components (through shared vertices) of negative volume.
+  // Components (through shared vertices) other than the largest: inner shells (a void
+  // enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out,
+  // come apart from the tube it folded) go; a part that holds a skeleton node stays.
   if (!out.triangles.empty()) {
     UnionFind comp(out.positions.size());
     for (const auto& t : out.triangles) {
@@ -629,31 +631,54 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     }
     // Signed volumes about one common origin (any origin gives a closed component's volume).
     std::map<std::uint32_t, double> volume;
+    std::map<std::uint32_t, std::vector<std::uint32_t>> members;
     const glm::dvec3 o = out.positions[out.triangles.front()[0]];
-    for (const auto& t : out.triangles) {
-      volume[comp.find(t[0])] +=
-          glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+    for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+      const auto& t = out.triangles[f];
+      const std::uint32_t c = comp.find(t[0]);
+      volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+      members[c].push_back(f);
+    }
+    std::uint32_t largest = volume.begin()->first;
+    for (const auto& [c, v] : volume) {
+      if (v > volume[largest]) largest = c;
+    }
+    std::map<std::uint32_t, std::uint8_t> keep_comp;
+    for (const auto& [c, v] : volume) {
+      if (c == largest) {
+        keep_comp[c] = 1;
+        continue;
+      }
+      st.inner_shells += v < 0 ? 1 : 0;
+      bool holds = false;
+      if (v > 0) {
+        Mesh part;
+        part.positions = out.positions;
+        glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
+        for (const std::uint32_t f : members[c]) {
+          part.triangles.push_back(out.triangles[f]);
+          for (const std::uint32_t x : out.triangles[f]) {
+            lo = glm::min(lo, out.positions[x]);
+            hi = glm::max(hi, out.positions[x]);
+          }
+        }
+        std::vector<glm::dvec3> near;
+        for (const glm::dvec3& a : anchors) {
+          if (glm::all(glm::greaterThanEqual(a, lo)) && glm::all(glm::lessThanEqual(a, hi))) near.push_back(a);
+        }
+        for (const int w : winding_numbers(part, near)) holds = holds || w != 0;
+      }
+      keep_comp[c] = holds ? 1 : 0;
+      st.lumps += (v > 0 && !holds) ? 1 : 0;
     }
     std::size_t w = 0;
     for (std::size_t f = 0; f < out.triangles.size(); ++f) {
-      if (volume[comp.find(out.triangles[f][0])] < 0) continue;
+      if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
       out.triangles[w] = out.triangles[f];
       origin_of[w] = origin_of[f];
       if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
       if (branches) out.triangle_branch[w] = out.triangle_branch[f];
       ++w;
-    }
-    for (const auto& [c, v] : volume) st.inner_shells += v < 0 ? 1 : 0;
-    if (std::getenv("SM_DEBUG_UNION")) {
-      std::map<std::uint32_t, std::size_t> count;
-      for (const auto& t : out.triangles) ++count[comp.find(t[0])];
-      std::map<std::uint32_t, std::pair<std::uint32_t, std::uint32_t>> nodes;  // min, max node
-      for (const auto& t : out.triangles) {
-        if (out.vertex_node.empty()) break;
-        auto& mm = nodes.try_emplace(comp.find(t[0]), UINT32_MAX, 0).first->second;
-        for (auto v : t) { mm.first = std::min(mm.first, out.vertex_node[v].value); mm.second = std::max(mm.second, out.vertex_node[v].value); }
-      }
-      for (const auto& [c, v] : volume) std::fprintf(stderr, "component %u: %zu triangles, volume %g, nodes %u-%u\n", c, count[c], v / 6, nodes[c].first, nodes[c].second);
     }
     out.triangles.resize(w);
     origin_of.resize(w);

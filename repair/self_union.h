@@ -15,12 +15,15 @@
 ///
 /// Around a transversal crossing the kept surface is a 2-manifold by construction; where cut
 /// lines end at a vertex (a fold) the kept patches may meet at that vertex only, and it is
-/// split, one copy per fan, each drawn a hundredth of the way into its fan. Inner shells (a
-/// void enclosed by crossing branches: components of negative volume) are dropped.
+/// split, one copy per fan, each drawn a hundredth of the way into its fan. A side turned
+/// inside out (winding number -1 in front, 0 behind) is kept flipped rather than dropped,
+/// which would cut its branch off the tree. Components other than the largest go where they
+/// hold none of the `anchors` (skeleton nodes): inner shells of voids and loose lumps.
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -37,6 +40,7 @@ struct SelfUnionStats {
   std::size_t new_vertices = 0;       ///< vertices on the cut lines
   std::size_t split_vertices = 0;     ///< vertices split where kept patches met at a point
   std::size_t inner_shells = 0;       ///< components of negative volume dropped
+  std::size_t lumps = 0;              ///< other components without an anchor inside, dropped
   std::size_t left_out = 0;           ///< pairs left as they were: their patches could not be judged
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
@@ -51,6 +55,6 @@ struct SelfUnionStats {
 /// are intersecting (as TriangleIntersections finds them). On failure (`problem` set) the
 /// mesh and `origin` (the identity) are unchanged.
 SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
-                          std::vector<std::uint32_t>& origin);
+                          std::span<const glm::dvec3> anchors, std::vector<std::uint32_t>& origin);
 
 }  // namespace sm

@@ -887,10 +887,8 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
       folded = merge_inner_branches(t, params.max_node_move, rep, raw) || folded;
     }
     folded = drop_hidden_tips(t, rep, raw) || folded;
-    if (params.separate) {
-      folded = reattach_hairpins(t, params, rep, raw) || folded;
-      folded = smooth_tight_bends(t, params, rep, raw) || folded;
-    }
+    if (params.separate) folded = reattach_hairpins(t, params, rep, raw) || folded;
+    folded = smooth_tight_bends(t, params, rep, raw) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
@@ -901,7 +899,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     // Again once the upturned lateral bases are in: on a short twig one can itself be a tight
     // bend. Before the collars, which go on the final edges (so sanitizing the result again
     // adds none).
-    if (params.separate) smooth_tight_bends(t, params, rep, raw);
+    smooth_tight_bends(t, params, rep, raw);
   }
   add_collars(t, params, rep);
   rep.timings.add("repair", clock.lap());
