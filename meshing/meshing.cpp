@@ -435,7 +435,6 @@ class Builder {
     std::vector<std::uint32_t> branch;
     std::vector<TriangleKind> kind;
     std::vector<Mesh::Triangle> scratch;
-    std::vector<std::uint32_t> loops;  // a tube's loops to stitch (forward_loops)
     void emit(std::uint32_t b, TriangleKind k) {
       triangles.insert(triangles.end(), scratch.begin(), scratch.end());
       branch.insert(branch.end(), scratch.size(), b);
@@ -444,7 +443,6 @@ class Builder {
   };
 
   void strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch, Part& out) const;
-  void forward_loops(const Tube& t, std::vector<std::uint32_t>& out) const;
   void fuse(const Junction& j, std::uint32_t branch, Part& out) const;
   /// The cap's ring and apex are the vertices first .. first + loop size (allocated by run()).
   void tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t first, Part& out);
@@ -500,29 +498,6 @@ void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::ui
     }
   }
   std::rotate(upper.begin(), upper.begin() + static_cast<std::ptrdiff_t>(best), upper.end());
-}
-
-// At a sharp bend (a zigzag of a measured tree, a branch doubling back) the slices on either
-// side of the node cross each other on the inner side, and a strip between two of them would
-// turn the tube inside out. A loop is kept only where it lies ahead of the last loop kept
-// (its centroid in front of that loop's plane, and that loop behind its own): the strip then
-// bridges the bend from the last loop before it to the first loop after it. The tube's first
-// and last loops always stay (junctions and caps attach to them).
-void Builder::forward_loops(const Tube& t, std::vector<std::uint32_t>& out) const {
-  out.clear();
-  if (t.loops.empty()) return;
-  auto ahead = [&](std::uint32_t a, std::uint32_t b) {
-    const glm::dvec3 d = c_.loop_center[b] - c_.loop_center[a];
-    return glm::dot(d, c_.loop_frame[a].tangent) > 0 && glm::dot(d, c_.loop_frame[b].tangent) > 0;
-  };
-  out.push_back(t.loops.front());
-  for (std::size_t k = 1; k + 1 < t.loops.size(); ++k) {
-    if (ahead(out.back(), t.loops[k])) out.push_back(t.loops[k]);
-  }
-  if (t.loops.size() > 1) {
-    while (out.size() > 1 && !ahead(out.back(), t.loops.back())) out.pop_back();
-    out.push_back(t.loops.back());
-  }
 }
 
 void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uint32_t branch, Part& out) const {
@@ -989,9 +964,7 @@ MeshResult Builder::run(const ProgressFn& progress) {
     for (std::size_t ti = pi * kTubesPerPart; ti < std::min(tubes, (pi + 1) * kTubesPerPart); ++ti) {
       const Tube& t = c_.tubes[ti];
       const std::uint32_t branch = t.branch.value;
-      // Strips join the loops that face forward (see forward_loops); the others are skipped.
-      forward_loops(t, part.loops);
-      for (std::size_t k = 0; k + 1 < part.loops.size(); ++k) strip(part.loops[k], part.loops[k + 1], branch, part);
+      for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strip(t.loops[k], t.loops[k + 1], branch, part);
       if (t.end_junction != UINT32_MAX) {
         const std::uint32_t ji = t.end_junction;
         if (!merged_fusion_[ji].empty()) {

@@ -104,11 +104,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   });
   timed(Stage::contours,
         [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
-  timed(Stage::meshing, [&] {
-    r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress);
-    report("repair", 0);
-    r.repair = repair_mesh(r.mesh, r.skeleton.skeleton, p.repair);
-  });
+  timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
   // (Its runs add their own times to the contours and meshing stages.)
   r.fork_retry = retry_forks(r, p, progress);
   // (Their times count as meshing.)
@@ -119,6 +115,10 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   report("outer surface", 0);
   r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, nodes_outside);
   r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
+  // The repair stage: what the fork retry and the outer surface left is fused by the union.
+  report("repair", 0);
+  r.repair = repair_mesh(r.mesh, r.skeleton.skeleton, p.repair);
+  r.timings.add("repair", r.repair.timings.total());
   warn_self_intersections_left(r);
   warn_thick_nodes_outside(r);
 }

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "core/errors.h"
+#include "core/union_find.h"
 #include "meshcheck/intersections.h"
 #include "meshing/fold_repair.h"
 #include "repair/self_union.h"
@@ -59,6 +60,20 @@ void drop_degenerate(MeshResult& r) {
   for (auto& t : m.triangles) {
     for (auto& v : t) v = renumber[v];
   }
+}
+
+/// Connected parts of the mesh (through shared vertices).
+std::size_t components(const Mesh& m) {
+  UnionFind parts(m.positions.size());
+  std::vector<std::uint8_t> used(m.positions.size(), 0);
+  for (const auto& t : m.triangles) {
+    parts.unite(t[0], t[1]);
+    parts.unite(t[1], t[2]);
+    used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  }
+  std::size_t n = 0;
+  for (std::uint32_t v = 0; v < used.size(); ++v) n += used[v] && parts.find(v) == v;
+  return n;
 }
 
 }  // namespace
@@ -134,16 +149,28 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
     }
   }
   std::vector<std::uint32_t> origin;
+  // A round is kept only when the mesh stays a closed, oriented 2-manifold and has fewer
+  // pairs than before; otherwise the mesh goes back to what it was and the repair stops.
   while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
     ++st.rounds;
+    MeshResult before = r;
     const SelfUnionStats u = self_union(mesh, pairs, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
       break;
     }
-    if (std::getenv("SM_DEBUG_UNION")) {
-      std::fprintf(stderr, "left out %zu, cut %zu, patches %zu\n", u.left_out, u.cut_triangles, u.patches);
-      std::fprintf(stderr, "after round %zu: unpaired half-edges %zu\n", st.rounds, unpaired_half_edges(mesh, vertex_corners(mesh)));
+    std::vector<std::array<std::uint32_t, 2>> after;
+    const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh));
+    const std::size_t parts = components(mesh), parts_before = components(before.mesh);
+    if (open == 0 && parts <= parts_before) after = all_pairs();
+    st.timings.add("self_union", clock.lap());
+    if (open > 0 || parts > parts_before || after.size() >= pairs.size()) {
+      st.problem = open > 0 ? "the union left " + std::to_string(open) + " unpaired half-edges"
+                   : parts > parts_before
+                       ? "the union split the mesh into " + std::to_string(parts) + " parts"
+                       : "the union left " + std::to_string(after.size()) + " pairs of " + std::to_string(pairs.size());
+      r = std::move(before);
+      break;
     }
     st.cut_triangles += u.cut_triangles;
     st.dropped_triangles += u.dropped_triangles;
@@ -151,16 +178,12 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
     st.split_vertices += u.split_vertices;
     st.inner_shells += u.inner_shells;
     st.lumps += u.lumps;
-    if (r.triangle_kind.size() == origin.size() || !r.triangle_kind.empty()) {
+    if (!r.triangle_kind.empty()) {
       std::vector<TriangleKind> kind(origin.size());
       for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];
       r.triangle_kind = std::move(kind);
     }
-    st.timings.add("self_union", clock.lap());
-    const std::size_t before = pairs.size();
-    pairs = all_pairs();
-    if (pairs.size() >= before) break;  // what is left the union cannot judge
-    st.timings.add("find_pairs", clock.lap());
+    pairs = std::move(after);
   }
   st.pairs_left = pairs.size();
   r.stats.vertices = mesh.vertex_count();

@@ -484,10 +484,10 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     // stay compact, their forks a merge tolerance apart. (`hub` covers every input node: the
     // tree only grows.)
     const bool whorl = v < raw.size() && !hub[v];
-    // The chain stays short of the main child, which is never moved: where it is near, the
-    // forks crowd closer than the merge tolerance.
-    const double step = std::min(std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9}),
-                                 dist / double(k - 1));
+    // Without `separate` the chain stays short of the main child, which is not moved: where it
+    // is near, the forks crowd closer than the merge tolerance.
+    double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
+    if (!params.separate) step = std::min(step, dist / double(k - 1));
     ch = {sorted[1]};
     std::uint32_t prev = v;
     for (std::size_t j = 1; j + 1 < k; ++j) {
@@ -502,6 +502,13 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     t.children[prev] = {main, sorted[k - 1]};
     t.parent[main] = prev;
     t.parent[sorted[k - 1]] = prev;
+    if (params.separate && dist <= step * double(k - 2) + min_step) {
+      // The main child sits inside the chain: move it just beyond the last chain node.
+      const dvec3 delta = origin + dir * (step * double(k - 2) + 1.5 * std::max(min_step, step)) - t.pos[main];
+      t.pos[main] += delta;
+      rep.warnings.add("binarize_moved_child", "main child moved slightly outward to make room for binarized forks",
+                       main < raw.size() ? raw.place(main) : std::string("inserted node"));
+    }
   }
 }
 
@@ -535,7 +542,7 @@ bool merge_inner_branches(WorkTree& t, double max_move, SkeletonReport& rep, con
           if (glm::dot(ay, ay) <= glm::dot(ax, ax)) continue;  // y's edge must be the longer
           const auto e = t.project(x, v, y);
           if (e.t >= 0.98 || e.t <= 0.0) continue;
-          if (e.offset >= max_move * std::max(t.radius[x], e.radius)) continue;
+          if (e.offset >= max_move * e.radius) continue;
           if (e.t * e.length <= 1.5 * t.radius[v]) {
             // Within the fork's sphere: only a hub along y or a hair from v (see above).
             const bool along = glm::dot(normalize_or(ax, dvec3(0)), normalize_or(ay, dvec3(0))) > cos_along;
@@ -574,7 +581,7 @@ bool fold_backward_branches(WorkTree& t, double max_move, SkeletonReport& rep, c
       for (const std::uint32_t x : ch) {
         const auto e = t.project(x, p, v);
         if (e.t <= 0.02 || e.t >= 0.98 || (1.0 - e.t) * e.length <= 1.5 * t.radius[v]) continue;
-        if (e.offset >= max_move * std::max(t.radius[x], e.radius)) continue;
+        if (e.offset >= max_move * e.radius) continue;
         const std::uint32_t m = t.insert_above(v, e.foot, e.radius);
         t.fold_into(x, m);
         ++rep.merged_inner;
@@ -883,8 +890,10 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     // that are opt-in (SkeletonParams::separate).
     bool folded = false;
     if (params.merge_inner_branches) {
-      folded = fold_backward_branches(t, params.max_node_move, rep, raw);
-      folded = merge_inner_branches(t, params.max_node_move, rep, raw) || folded;
+      // (With `separate`, nodes up to half the edge's radius off its axis fold in, as before.)
+      const double max_offset = params.separate ? 0.5 : params.max_node_move;
+      folded = fold_backward_branches(t, max_offset, rep, raw);
+      folded = merge_inner_branches(t, max_offset, rep, raw) || folded;
     }
     folded = drop_hidden_tips(t, rep, raw) || folded;
     if (params.separate) folded = reattach_hairpins(t, params, rep, raw) || folded;

@@ -43,9 +43,9 @@ struct SkeletonParams {
   double radius_floor = 0.0;
   /// A child may be at most this many times as thick as its parent before the policy applies.
   double max_child_ratio = 1.0;
-  /// Radii are the input's truth (measured trees have children thicker than their parent at
-  /// most nodes); clamp_child or raise_parent change them.
-  ThickChildPolicy thick_child_policy = ThickChildPolicy::keep;
+  /// keep leaves radii as the input gives them (measured trees have children thicker than
+  /// their parent at most nodes).
+  ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
   /// Edges longer than this many times the local radius are split into equal parts;
   /// 0 disables resampling (default); otherwise at least 1.
   double max_edge_ratio = 0.0;
@@ -113,9 +113,9 @@ struct SkeletonParams {
   double tight_bend_ratio = 0.5;
   /// Opt-in shape edits that move the user's branches: swing apart branches whose round cones
   /// intersect away from their common fork (branch_clearance), re-attach hairpins
-  /// (max_turn_back) and remove nodes at tight bends (tight_bend_ratio). Off: crossing
-  /// branches stay where they are and the repair stage meshes their union.
-  bool separate = false;
+  /// (max_turn_back). Off: crossing branches stay where they are and the repair stage meshes
+  /// their union (the input-faithful mode, `strandmesh mesh --keep-input`).
+  bool separate = true;
   /// Largest distance any sanitizing step may move an input node, relative to its radius
   /// (merging a node into a sibling's or parent's edge that it lies inside); larger moves are
   /// made only by the opt-in `separate`.

@@ -23,16 +23,16 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_option("--thick-child", p.thick_child_policy,
                  "What to do with a child thicker than its parent: clamp (child), raise (parent), keep")
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
-      ->default_str("keep");
+      ->default_str("clamp");
   sub.add_option("--max-child-ratio", p.max_child_ratio, "Largest allowed child/parent radius ratio")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  sub.add_flag("--separate", p.separate,
-               "Edit the tree's shape to ease meshing: swing crossing branches apart, re-attach hairpins, remove "
-               "nodes at tight bends (off: the input is kept and crossings are fused where they are)");
+  sub.add_flag("!--keep-input", p.separate,
+               "Keep the input where it is: crossing branches are not swung apart nor hairpins re-attached; the "
+               "repair stage fuses crossings where they are (with --thick-child keep, radii as given too)");
 }
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read) {
