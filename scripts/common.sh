@@ -14,6 +14,7 @@ STRANDMESH_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libimgui-dev libglfw3-dev libgl-dev libstb-dev
   xvfb xauth libgl1-mesa-dri
+  parallel time
 )
 # Node.js and npm run the Khronos glTF validator (scripts/validate_gltf.sh). Installed only when
 # missing: a machine may already have a newer Node.js whose npm conflicts with Debian's.
