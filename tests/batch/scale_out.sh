@@ -19,11 +19,12 @@ say "$((TREES + 1)) inputs in ${secs} s ($(awk -v n="$TREES" -v s="$secs" 'BEGIN
 
 say "GNU parallel, 2 shards, then --merge"
 t0=$SECONDS
-parallel -j 2 "$SM" -q --threads 1 batch "$WORK/in" --config "$CONFIG" -o "$WORK/parallel" --shard {}/2 ::: 0 1 || true
+parallel -j 2 /usr/bin/time -f '%M' -o "$WORK/time_shard{}" "$SM" -q --threads 1 batch "$WORK/in" --config "$CONFIG" \
+  -o "$WORK/parallel" --shard {}/2 ::: 0 1 || true
 rc=0
 "$SM" -q batch --merge -o "$WORK/parallel" || rc=$?
 [ "$rc" -eq 5 ] || fail "merge exited $rc, expected 5"
-say "parallel: $((SECONDS - t0)) s"
+say "parallel: $((SECONDS - t0)) s, peak $(tail -qn1 "$WORK"/time_shard* | sort -n | tail -1) KB per process"
 same_outputs "$WORK/jobs2" "$WORK/parallel"
 
 kill_at=$((TREES / 5 > 2 ? TREES / 5 : 2))
