@@ -3,7 +3,8 @@
 /// cmd_<name>.cpp and registers itself with add_<name>_command().
 ///
 /// Exit codes: 0 ok, 1 bad input (malformed file, invalid parameters, unreadable or
-/// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error.
+/// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error,
+/// 4 the mesh fails a check (`check`, `mesh --strict`).
 
 #include <functional>
 #include <string>
@@ -14,7 +15,7 @@
 
 namespace sm::cli {
 
-enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3 };
+enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kCheckFailed = 4 };
 
 struct GlobalOptions {
   int threads = 0;  ///< 0 = all cores

@@ -18,11 +18,6 @@
 
 namespace sm::cli {
 
-namespace {
-/// Exit code of `check` when the mesh was read but fails at least one check.
-constexpr int kCheckFailed = 4;
-}  // namespace
-
 void add_check_command(CLI::App& app, const GlobalOptions& global) {
   add_command(
       app, "check", "Check a mesh: closed, manifold, oriented, genus, self-intersections, skeleton fidelity",
@@ -79,7 +74,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
               log::verbose(buf);
             }
           }
-          return report.ok() ? int(kOk) : kCheckFailed;
+          return report.ok() ? int(kOk) : int(kCheckFailed);
         };
       });
 }

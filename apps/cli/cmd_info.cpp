@@ -24,6 +24,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
     sub.add_flag("--json", o->json, "Print the report as JSON");
     add_skeleton_options(sub, o->params);
     return [o] {
+      if (!o->export_path.empty()) check_json_output(o->export_path, "--export");
       const SkeletonResult result = load_skeleton(o->input, o->params);
       if (o->json) {
         const auto& r = result.report;
