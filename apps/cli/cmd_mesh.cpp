@@ -82,21 +82,25 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       // read-only folder, a target that is a directory or device), and all are written
       // together at the end, or none of them (OutputTransaction).
       (void)mesh_format_from_path(o->output);
-      check_output_path(o->output);
-      if (!o->stats_path.empty()) {
-        if (extension_of(o->stats_path) != "json") throw InvalidInputError(o->stats_path + ": --stats writes JSON; name it .json");
-        check_output_path(o->stats_path);
+      if (!o->stats_path.empty() && extension_of(o->stats_path) != "json") {
+        throw InvalidInputError(o->stats_path + ": --stats writes JSON; the file name must end in .json");
       }
-      if (!o->dump_dir.empty()) check_output_dir(o->dump_dir);
-      const bool dump_dir_existed = !o->dump_dir.empty() && std::filesystem::exists(o->dump_dir);
-      OutputTransaction outputs;
       struct RemoveCreatedDir {  // a dump folder this run created is removed again on failure (when empty)
         std::string dir;
         ~RemoveCreatedDir() {
           std::error_code ec;
           if (!dir.empty()) std::filesystem::remove(dir, ec);  // only removes an empty folder
         }
-      } created{dump_dir_existed ? std::string() : o->dump_dir};
+      } created;
+      if (!o->dump_dir.empty()) {  // first: it may also receive the mesh or the stats
+        check_output_dir(o->dump_dir);
+        std::error_code ec;
+        if (std::filesystem::create_directories(o->dump_dir, ec)) created.dir = o->dump_dir;
+        if (ec) throw IoError("cannot create directory " + o->dump_dir + ": " + ec.message());
+      }
+      check_output_path(o->output);
+      if (!o->stats_path.empty()) check_output_path(o->stats_path);
+      OutputTransaction outputs;
       const RawSkeleton raw = read_skeleton(o->input);
       ProgressBar bar(!global.quiet);
       std::mutex m;

@@ -1,0 +1,10 @@
+// Fuzz target: .glb meshes as `strandmesh check` reads and checks them (meshing/mesh_io.h,
+// meshing/checks.h).
+#include "fuzz/fuzz_reader.h"
+#include "meshing/checks.h"
+#include "meshing/mesh_io.h"
+
+SM_FUZZ_READER(bytes) {
+  const sm::Mesh mesh = sm::parse_mesh(bytes, sm::MeshFormat::glb, "fuzz.glb");
+  (void)sm::check_mesh(mesh);
+}
