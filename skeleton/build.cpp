@@ -221,7 +221,8 @@ WorkTree make_tree(const RawSkeleton& raw, std::uint32_t root,
 void check_magnitudes(const RawSkeleton& raw, double floor) {
   const std::size_t n = raw.size();
   dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  std::size_t thinnest = 0;
+  std::size_t thinnest = 0, farthest = 0;
+  double reach = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const dvec3& p = raw.position[i];
     const double r = std::max(raw.radius[i], floor);
@@ -231,11 +232,21 @@ void check_magnitudes(const RawSkeleton& raw, double floor) {
              " reaches beyond " + fmt(SkeletonLimits::max_coordinate) +
              " m from the origin, the limit for coordinates (move the tree near the origin)");
     }
+    if (far + r > reach) {
+      reach = far + r;
+      farthest = i;
+    }
     lo = glm::min(lo, p - dvec3(r));
     hi = glm::max(hi, p + dvec3(r));
     if (r < std::max(raw.radius[thinnest], floor)) thinnest = i;
   }
   const double r_min = std::max(raw.radius[thinnest], floor);
+  if (reach > SkeletonLimits::max_offset_ratio * r_min) {
+    const dvec3& p = raw.position[farthest];
+    reject(at(raw, farthest) + ": position (" + fmt(p.x) + ", " + fmt(p.y) + ", " + fmt(p.z) + ") is more than " +
+           fmt(SkeletonLimits::max_offset_ratio) + " times the thinnest radius (" + fmt(r_min) + " m at " +
+           raw.place(thinnest) + ") from the origin (move the tree near the origin)");
+  }
   const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
   if (extent > SkeletonLimits::max_extent_ratio * r_min) {
     reject(at(raw, thinnest) + ": radius " + fmt(r_min) + " m is too thin for a tree " + fmt(extent) +

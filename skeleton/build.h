@@ -27,15 +27,19 @@
 namespace sm {
 
 /// Magnitudes a skeleton may have (checked before any repair; beyond them the input is
-/// rejected naming the node and the rule). Meshes are exported in float32, whose 24-bit
-/// mantissa resolves about 1e-7 of a length: a tree more than a million times as large as
-/// its thinnest branch (after the radius floor) cannot be meshed at the precision the
-/// contours need, and a coordinate beyond a million metres (geographic coordinates) keeps
-/// no precision for the bark at all. The costs of the later stages grow with these ratios
-/// too (an edge of 1e6 m at radius 0.05 ran for hours).
+/// rejected naming the node and the rule). Meshes are written in float32 relative to the
+/// tree's centre (meshing/export.h), whose 24-bit mantissa resolves about 1e-7 of the
+/// tree's size: a tree more than a million times as large as its thinnest branch (after the
+/// radius floor) cannot be meshed at the precision the contours need, and the costs of the
+/// later stages grow with that ratio (an edge of 1e6 m at radius 0.05 ran for hours).
+/// Georeferenced trees (UTM or ECEF coordinates, millions of metres) are fine: the stages
+/// work in double precision, which resolves 1e-7 of the thinnest radius up to a billion
+/// radii from the origin.
 struct SkeletonLimits {
-  /// Largest |x|, |y|, |z| of any node plus its radius (metres).
-  static constexpr double max_coordinate = 1e6;
+  /// Largest |x|, |y|, |z| of any node plus its radius (metres): beyond any geographic frame.
+  static constexpr double max_coordinate = 1e8;
+  /// Largest |x|, |y|, |z| of any node plus its radius, over the thinnest radius.
+  static constexpr double max_offset_ratio = 1e9;
   /// Largest extent (bounding box side, radii included) over the thinnest radius.
   static constexpr double max_extent_ratio = 1e6;
 };

@@ -230,7 +230,9 @@ TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
       // Each of these hung (the first three) or was an internal error (exit 3) or wrote -inf.
       {"edge_1e6", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1000000.0],"radius":0.05}]})",
        "nodes[1] (id 1)"},
-      {"root_far", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e7],"radius":0.1},{"id":1,"parent":0,"position":[0,0,-9999999],"radius":0.05}]})",
+      {"root_far", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e7],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
+       "nodes[1] (id 1)"},
+      {"offset_1e9_radii", R"({"nodes":[{"id":0,"parent":-1,"position":[5e7,0,0],"radius":0.01},{"id":1,"parent":0,"position":[5e7,0,1],"radius":0.01}]})",
        "nodes[0] (id 0)"},
       {"root_1e200", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e200],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
        "nodes[0] (id 0)"},
@@ -258,9 +260,12 @@ TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_FALSE(fs::exists(out));
   }
-  // Just inside the limits: accepted.
+  // Just inside the limits: accepted, georeferenced trees (UTM coordinates) included.
   EXPECT_NO_THROW(build_skeleton(parse_skeleton_json(
       R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,90000],"radius":0.1}]})")));
+  RawSkeleton utm = test::y_fork();
+  for (auto& p : utm.position) p += dvec3(6.0e5, 5.2e6, 254.0);
+  EXPECT_NO_THROW(build_skeleton(utm));
 }
 
 TEST(Reliability, ZeroLengthToleranceIsRelativeToTheTree) {
@@ -268,7 +273,7 @@ TEST(Reliability, ZeroLengthToleranceIsRelativeToTheTree) {
   // 1e12 m, real 0.9 m edges were merged as zero-length).
   RawSkeleton here = test::y_fork();
   RawSkeleton there = here;
-  for (auto& p : there.position) p += dvec3(9e5, -9e5, 9e5);
+  for (auto& p : there.position) p += dvec3(6.0e5, 5.2e6, 254.0);
   SkeletonParams p;
   p.merge_edge_ratio = 0;
   const SkeletonResult a = build_skeleton(here, p);

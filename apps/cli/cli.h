@@ -23,6 +23,11 @@ struct GlobalOptions {
   bool verbose = false;
 };
 
+/// Validator of an unsigned integer option: CLI11 would take "-1" as 2^64 - 1 (or 2^32 - 1).
+inline const CLI::Validator kNotNegative(
+    [](std::string& s) { return s.find('-') == std::string::npos ? std::string() : "must not be negative, got " + s; },
+    "NON-NEGATIVE");
+
 /// The action a subcommand runs once parsing is done; returns the exit code.
 using Action = std::function<int()>;
 

@@ -44,7 +44,8 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
             ->capture_default_str();
         sub.add_option("--examples", o->examples,
                        "Offending edges, triangle pairs and skeleton nodes listed per kind (a count)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(kNotNegative);
         sub.footer(
             "Exit codes: 0 all checks passed, 4 the mesh fails a check, 1 unreadable or malformed input,\n"
             "            2 usage error.");

@@ -66,7 +66,7 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
     o->seed_option = sub.add_option("--seed", o->seed,
                                     "Random seed (same seed, same skeleton); with --preset it overrides the preset's")
                          ->capture_default_str()
-                         ->check(CLI::NonNegativeNumber);  // "-1" would wrap around
+                         ->check(kNotNegative);
     sub.add_option("--preset", o->preset,
                    "Grow with a preset: a name from configs/grow (see --list-presets) or a path to a .json file");
     sub.add_flag("--list-presets", o->list, "List the grow presets with their node ranges and descriptions");

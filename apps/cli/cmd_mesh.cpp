@@ -34,7 +34,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")
                      ->capture_default_str()
-                     ->check(CLI::NonNegativeNumber);  // "-1" would wrap around to 2^64 - 1
+                     ->check(kNotNegative);
     auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
                         ->check(CLI::NonNegativeNumber);
     auto* root = sub.add_option("--root-strands", o->root_strands, "Choose the spacing so the root has about this many strands")

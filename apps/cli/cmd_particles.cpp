@@ -55,20 +55,20 @@ void add_particles_command(CLI::App& app, const GlobalOptions&) {
                 sub.add_option("--root-strands", o->particles.root_strands,
                                "Choose s so the root carries about this many strands (0 = derived rule)")
                     ->capture_default_str()
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNotNegative);
                 sub.add_option("--max-root-strands", o->particles.max_root_strands,
                                "Cap on the root's strands for the derived spacing")
                     ->capture_default_str()
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNotNegative);
                 sub.add_option("--min-particles", o->particles.min_particles, "Fewest particles in a tip (>= 3)")
                     ->capture_default_str()
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNotNegative);
                 sub.add_option("--max-steps", o->particles.max_steps, "Relaxation steps per node at most")
                     ->capture_default_str()
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNotNegative);
                 sub.add_option("--seed", o->particles.seed, "Random seed (tip patterns, new strands)")
                     ->capture_default_str()
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNotNegative);
                 sub.add_flag("--quality", o->quality,
                              "Also print the quality measures (closest pairs, holes, neighbour losses)");
                 add_skeleton_options(sub, o->skeleton);

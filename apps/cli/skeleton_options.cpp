@@ -14,7 +14,7 @@ namespace sm::cli {
 void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_option("--max-nodes", p.max_nodes, "Reject skeletons with more nodes than this")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);  // "-1" would wrap around to 2^64 - 1
+      ->check(kNotNegative);
   sub.add_option("--merge-edge-ratio", p.merge_edge_ratio, "Merge edges shorter than this x radius into the parent")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
