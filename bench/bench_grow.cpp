@@ -13,8 +13,8 @@
 #include <string>
 
 #include "skeleton/build.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 
 namespace {
 

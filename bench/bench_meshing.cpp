@@ -13,13 +13,13 @@
 #include <tbb/global_control.h>
 
 #include "contours/contours.h"
-#include "core/huge_pages.h"
+#include "apps/common/huge_pages.h"
 #include "core/mesh.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "meshing/meshing.h"
 #include "pipeline/pipeline.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 
 namespace {
@@ -142,7 +142,7 @@ BENCHMARK(BM_ForkRetry)->ArgName("retry")->Arg(0)->Arg(1)->UseRealTime()->Unit(b
 }  // namespace
 
 int main(int argc, char** argv) {
-  sm::keep_freed_memory();  // as the command line does (core/huge_pages.h)
+  sm::keep_freed_memory();  // as the command line does (apps/common/huge_pages.h)
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

@@ -14,7 +14,7 @@
 #include "particles/particles.h"
 #include "particles/quality.h"
 #include "skeleton/build.h"
-#include "skeleton/grow/random_grower.h"
+#include "grow/random_grower.h"
 #include "strands/strands.h"
 
 namespace {

@@ -11,7 +11,7 @@
 # Floating-point contraction is off in every case (-ffp-contract=off: no fused multiply-add
 # the source does not ask for), so the meshes are bit for bit the same whichever instruction
 # set is chosen, and the error bounds of the floating-point filters in front of CGAL's exact
-# predicates (meshing/checks_cgal.cpp) hold as derived.
+# predicates (meshcheck/checks_cgal.cpp) hold as derived.
 function(strandmesh_select_arch)
   if(NOT CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
     return()

@@ -1,8 +1,8 @@
-// Fuzz target: .glb meshes as `strandmesh check` reads and checks them (meshing/mesh_io.h,
-// meshing/checks.h).
+// Fuzz target: .glb meshes as `strandmesh check` reads and checks them (meshio/mesh_io.h,
+// meshcheck/checks.h).
 #include "fuzz/fuzz_reader.h"
-#include "meshing/checks.h"
-#include "meshing/mesh_io.h"
+#include "meshcheck/checks.h"
+#include "meshio/mesh_io.h"
 
 SM_FUZZ_READER(bytes) {
   const sm::Mesh mesh = sm::parse_mesh(bytes, sm::MeshFormat::glb, "fuzz.glb");

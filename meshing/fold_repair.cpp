@@ -42,7 +42,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/math.h"
-#include "meshing/intersections.h"
+#include "meshcheck/intersections.h"
 
 namespace sm {
 

@@ -18,7 +18,7 @@
 #include "core/errors.h"
 #include "core/math.h"
 #include "meshing/fold_repair.h"
-#include "meshing/intersections.h"
+#include "meshcheck/intersections.h"
 
 namespace sm {
 namespace {

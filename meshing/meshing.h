@@ -19,7 +19,7 @@
 ///    it, scaled by the circumference so texels stay square. Seams are per-corner UVs only.
 ///
 /// The result is a welded mesh: a closed 2-manifold of genus 0 for any tree (checked by
-/// `check_mesh`, meshing/checks.h).
+/// `check_mesh`, meshcheck/checks.h).
 
 #include <array>
 #include <cstdint>

@@ -20,8 +20,8 @@
 #include "core/math.h"
 #include "core/mesh.h"
 #include "core/report.h"
-#include "meshing/checks.h"
-#include "meshing/intersections.h"
+#include "meshcheck/checks.h"
+#include "meshcheck/intersections.h"
 
 namespace sm {
 namespace {

@@ -25,7 +25,7 @@
 
 #include "core/mesh.h"
 #include "core/union_find.h"
-#include "meshing/intersections.h"
+#include "meshcheck/intersections.h"
 
 namespace sm {
 

@@ -16,7 +16,7 @@
 #include <tbb/task_arena.h>
 
 #include "core/mesh.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {

@@ -4,6 +4,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "contours/dump.h"
 #include "core/mesh.h"
 #include "particles/dump.h"
 #include "skeleton/io.h"
@@ -121,49 +122,6 @@ PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params
   rerun_pipeline(r, raw, params, Stage::skeleton, progress);
   return r;
 }
-
-namespace {
-
-std::string contours_to_json(const ContourSet& c) {
-  using nlohmann::json;
-  static const char* kinds[] = {"plain", "fused", "split", "tip"};
-  json loops = json::array();
-  for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
-    json strands = json::array(), points = json::array();
-    for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
-      strands.push_back(c.strand[v].valid() ? std::int64_t(c.strand[v].value) : -1);
-      points.push_back({c.point[v].x, c.point[v].y, c.point[v].z});
-    }
-    const auto& ctr = c.loop_center[l];
-    loops.push_back({{"node", c.loop_node[l].value},
-                     {"t", c.loop_t[l]},
-                     {"kind", kinds[static_cast<int>(c.loop_kind[l])]},
-                     {"distance", c.loop_distance[l]},
-                     {"radius", c.loop_radius[l]},
-                     {"center", {ctr.x, ctr.y, ctr.z}},
-                     {"strands", std::move(strands)},
-                     {"points", std::move(points)}});
-  }
-  json tubes = json::array();
-  for (const auto& t : c.tubes) {
-    tubes.push_back({{"loops", t.loops},
-                     {"branch", t.branch.value},
-                     {"start_junction", t.start_junction == UINT32_MAX ? -1 : std::int64_t(t.start_junction)},
-                     {"end_junction", t.end_junction == UINT32_MAX ? -1 : std::int64_t(t.end_junction)}});
-  }
-  json junctions = json::array();
-  for (const auto& j : c.junctions) {
-    junctions.push_back({{"fork", j.fork.value},
-                         {"lower", j.lower},
-                         {"upper", {j.upper[0], j.upper[1]}},
-                         {"split_distance", j.split_distance},
-                         {"forced", j.forced}});
-  }
-  return json{{"loops", std::move(loops)}, {"tubes", std::move(tubes)}, {"junctions", std::move(junctions)}}.dump() +
-         "\n";
-}
-
-}  // namespace
 
 std::string stats_to_json(const PipelineResult& r, double export_seconds, double total_seconds) {
   using nlohmann::json;

@@ -28,7 +28,7 @@ namespace sm {
 
 /// Magnitudes a skeleton may have (checked before any repair; beyond them the input is
 /// rejected naming the node and the rule). Meshes are written in float32 relative to the
-/// tree's centre (meshing/export.h), whose 24-bit mantissa resolves about 1e-7 of the
+/// tree's centre (meshio/export.h), whose 24-bit mantissa resolves about 1e-7 of the
 /// tree's size: a tree more than a million times as large as its thinnest branch (after the
 /// radius floor) cannot be meshed at the precision the contours need, and the costs of the
 /// later stages grow with that ratio (an edge of 1e6 m at radius 0.05 ran for hours).

@@ -84,7 +84,7 @@ struct Skeleton {
   [[nodiscard]] std::vector<std::uint32_t> branch_ids() const;
   /// The median node radius (the lower of the two middle ones for an even count; 0 when
   /// empty). Nodes at least this thick are "thick": the finished mesh must contain them
-  /// (meshing/checks.h).
+  /// (meshcheck/checks.h).
   [[nodiscard]] double median_radius() const;
   /// Human-readable name of node n for messages: "node 12 (input id 40)".
   [[nodiscard]] std::string describe(NodeId n) const;

@@ -9,7 +9,7 @@
 
 #include "core/file_io.h"
 #include "core/rng.h"
-#include "skeleton/grow/random_grower.h"
+#include "grow/random_grower.h"
 
 namespace sm::test {
 

@@ -5,7 +5,7 @@
 #include <exception>
 #include <filesystem>
 
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "tests/mesh_fixtures.h"
 
 int main(int argc, char** argv) {

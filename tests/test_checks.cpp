@@ -1,4 +1,4 @@
-// Mesh checks (meshing/checks.h) on meshes built in code, each with the report it must give,
+// Mesh checks (meshcheck/checks.h) on meshes built in code, each with the report it must give,
 // plus `strandmesh check` end to end.
 
 #include <gtest/gtest.h>
@@ -14,9 +14,9 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/checks.h"
-#include "meshing/export.h"
-#include "meshing/intersections.h"
+#include "meshcheck/checks.h"
+#include "meshio/export.h"
+#include "meshcheck/intersections.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"

@@ -60,7 +60,7 @@ TEST(Cli, GrowIsDeterministicAcrossThreadCounts) {
 }
 
 TEST(Cli, HugePagesChangeNoByte) {
-  // The CLI re-executes itself with glibc's huge-page tunable (core/huge_pages.h); opting out
+  // The CLI re-executes itself with glibc's huge-page tunable (apps/common/huge_pages.h); opting out
   // with STRANDMESH_HUGE_PAGES=0 must give the same file, and so must a user's own tunable.
   const fs::path dir = test::temp_dir("cli_huge");
   const std::string tree = (dir / "tree.json").string();

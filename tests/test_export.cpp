@@ -1,4 +1,4 @@
-// Mesh export and import (meshing/export.h, meshing/mesh_io.h): seams, axes, precision,
+// Mesh export and import (meshio/export.h, meshio/mesh_io.h): seams, axes, precision,
 // round trips, determinism, atomic writes, and readers that reject malformed files cleanly.
 
 #include <gtest/gtest.h>
@@ -15,9 +15,9 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/checks.h"
-#include "meshing/export.h"
-#include "meshing/mesh_io.h"
+#include "meshcheck/checks.h"
+#include "meshio/export.h"
+#include "meshio/mesh_io.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"
 

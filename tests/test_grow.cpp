@@ -1,4 +1,4 @@
-// Tests of the growers (skeleton/grow/): crown volumes, the self-organizing and space
+// Tests of the growers (grow/): crown volumes, the self-organizing and space
 // colonization growers, presets, and the grow command.
 
 #include <gtest/gtest.h>
@@ -16,14 +16,14 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "skeleton/build.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
-#include "skeleton/grow/volume.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
+#include "grow/volume.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #endif
 

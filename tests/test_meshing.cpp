@@ -6,7 +6,7 @@
 #include <map>
 #include <numbers>
 
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "meshing/fold_repair.h"
 #include "meshing/meshing.h"
 #include "meshing/outer_surface.h"

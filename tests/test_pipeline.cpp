@@ -22,10 +22,10 @@
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "fixtures.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 

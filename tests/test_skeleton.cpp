@@ -11,7 +11,7 @@
 #include "core/file_io.h"
 #include "skeleton/build.h"
 #include "skeleton/frames.h"
-#include "skeleton/grow/random_grower.h"
+#include "grow/random_grower.h"
 #include "skeleton/io.h"
 #include "skeleton/separate.h"
 #include "tests/fixtures.h"

@@ -13,9 +13,10 @@
 #include <imgui_internal.h>
 #include <nlohmann/json.hpp>
 
+#include "contours/dump.h"
 #include "core/errors.h"
 #include "core/file_io.h"
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
 #include "viewer/app.h"

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "core/progress.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "viewer/scene.h"
 
@@ -54,8 +54,8 @@ RunData run_skeleton_file(const std::filesystem::path& path, const PipelineParam
 ///  - skeleton.json: the sanitized skeleton, rebuilt with build_skeleton (it round-trips);
 ///  - particles.json: the particle field (particles/dump.h);
 ///  - strands: rebuilt from the particles with `params.strands` (a pure function of them);
-///  - contours.json: loops, tubes and junctions; the loop frames (not in the file) are
-///    recomputed from the skeleton the way the contours stage derives them;
+///  - contours.json: loops, tubes and junctions (contours/dump.h); the loop frames (not in
+///    the file) are recomputed from the skeleton the way the contours stage derives them;
 ///  - the mesh: `mesh_file` when given, else the first .glb/.gltf/.obj/.ply file in the
 ///    directory, else build_mesh on the loaded contours with `params.meshing`.
 /// Files that are missing leave their stage (and the later ones) absent; RunData::note says
@@ -64,14 +64,7 @@ RunData run_skeleton_file(const std::filesystem::path& path, const PipelineParam
 RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& params,
                         const std::filesystem::path& mesh_file = {}, const ProgressFn& progress = {});
 
-/// Parses contours.json text (the format of pipeline.cpp's dump) for `skeleton`. What the
-/// file does not store is recomputed: the loop frames from the skeleton, and, when `field` is
-/// given, each junction's `lower_side` from the particle order at the fork (as the contours
-/// stage derives it). Throws InvalidInputError naming the key on malformed input.
-ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name,
-                              const ParticleField* field = nullptr);
-
-/// Reads a mesh file (meshing/mesh_io.h) into a run with only the mesh stage present.
+/// Reads a mesh file (meshio/mesh_io.h) into a run with only the mesh stage present.
 RunData load_mesh_file(const std::filesystem::path& path);
 
 /// Loads any input by its kind (`mesh_file` only applies to stage dumps).

@@ -23,7 +23,7 @@
 
 #include "contours/contours.h"
 #include "core/mesh.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "particles/particles.h"
 #include "skeleton/skeleton.h"
 #include "strands/strands.h"

@@ -11,11 +11,17 @@
 
 #include <CLI/CLI.hpp>
 
+#include "apps/common/prologue.h"
 #include "core/report.h"
 
 namespace sm::cli {
 
-enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kCheckFailed = 4 };
+using app::ExitCode;  // apps/common/prologue.h: kOk, kBadInput, kUsage, kInternal, kCheckFailed
+using app::kBadInput;
+using app::kCheckFailed;
+using app::kInternal;
+using app::kOk;
+using app::kUsage;
 
 struct GlobalOptions {
   int threads = 0;  ///< 0 = all cores

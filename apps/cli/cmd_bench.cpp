@@ -18,10 +18,10 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 
 #ifndef STRANDMESH_CONFIG_DIR

@@ -1,6 +1,6 @@
 // strandmesh check MESH [--skeleton SKELETON] [--json] [--no-self-intersections]
 //
-// Loads a mesh (.glb, .gltf, .obj, .ply), runs the mesh checks (meshing/checks.h) and prints
+// Loads a mesh (.glb, .gltf, .obj, .ply), runs the mesh checks (meshcheck/checks.h) and prints
 // the report. Exit codes: 0 every check passed, 4 the mesh loaded but failed a check, 1 the
 // mesh or skeleton file is unreadable or malformed, 2 usage error.
 
@@ -11,8 +11,8 @@
 
 #include "apps/cli/commands.h"
 #include "core/log.h"
-#include "meshing/checks.h"
-#include "meshing/mesh_io.h"
+#include "meshcheck/checks.h"
+#include "meshio/mesh_io.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
 

@@ -12,9 +12,9 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "skeleton/grow/presets.h"
-#include "skeleton/grow/random_grower.h"
-#include "skeleton/grow/tree_grower.h"
+#include "grow/presets.h"
+#include "grow/random_grower.h"
+#include "grow/tree_grower.h"
 #include "skeleton/io.h"
 
 #ifndef STRANDMESH_CONFIG_DIR

@@ -9,8 +9,8 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
-#include "meshing/checks.h"
-#include "meshing/export.h"
+#include "meshcheck/checks.h"
+#include "meshio/export.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 

@@ -1,21 +1,13 @@
 // strandmesh: command-line front end. Only composes the stage libraries.
 
-#include <cstdio>
-#include <exception>
-#include <memory>
-#include <thread>
-
-#include <tbb/global_control.h>
+#include <string>
 
 #include "apps/cli/cli.h"
 #include "apps/cli/commands.h"
-#include "core/errors.h"
-#include "core/huge_pages.h"
-#include "core/log.h"
+#include "apps/common/prologue.h"
 
 int main(int argc, char** argv) {
-  sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
-  sm::keep_freed_memory();
+  sm::app::start_process(argv);
   using namespace sm::cli;
   CLI::App app{"strandmesh: watertight strand-based tree meshes (Interactive Invigoration method)", "strandmesh"};
   app.require_subcommand(1);
@@ -34,44 +26,9 @@ int main(int argc, char** argv) {
   app.fallthrough();
   register_commands(app, global);
 
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    app.exit(e);
-    return kUsage;
-  }
-
-  sm::log::set_level(global.quiet ? sm::log::Level::quiet : global.verbose ? sm::log::Level::verbose : sm::log::Level::normal);
-  if (sm::running_with_huge_pages()) sm::log::verbose("memory: transparent huge pages (glibc.malloc.hugetlb=1)");
-  std::unique_ptr<tbb::global_control> threads;
-  if (global.threads > 0) {
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(global.threads));
-  }
+  if (const auto stop = sm::app::parse_command_line(app, argc, argv)) return *stop;
+  const auto thread_limit = sm::app::apply_common_options(global.threads, global.quiet, global.verbose);
   const Action action = parsed_action();
   if (!action) return kUsage;
-  try {
-    return action();
-  } catch (const sm::InvalidInputError& e) {
-    sm::log::error(e.what());
-    return kBadInput;
-  } catch (const sm::IoError& e) {
-    sm::log::error(e.what());
-    return kBadInput;
-  } catch (const sm::UsageError& e) {
-    sm::log::error(e.what());
-    return kUsage;
-  } catch (const std::bad_alloc&) {
-    sm::log::error("out of memory");
-    return kInternal;
-  } catch (const std::exception& e) {
-    sm::log::error(std::string("internal error: ") + e.what());
-    return kInternal;
-  }
+  return sm::app::run_reporting_errors(action);
 }

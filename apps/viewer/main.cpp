@@ -1,30 +1,25 @@
 // strandmesh-view: shows every stage of a run on its own layer (viewer/), interactively or
 // as a headless screenshot. Only parses the command line and hands over to the viewer.
 
-#include <cstdio>
-#include <exception>
-#include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
-#include <tbb/global_control.h>
 
-#include "core/errors.h"
-#include "core/huge_pages.h"
+#include "apps/common/prologue.h"
 #include "core/log.h"
 #include "viewer/app.h"
 #include "viewer/window.h"
 
 namespace {
 
-// 0 ok, 1 bad input, 2 usage, 3 internal (as the strandmesh CLI), 4 no display / no OpenGL 3.3.
-enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kNoDisplay = 4 };
+using sm::app::kOk;
+// The exit codes of the strandmesh CLI (apps/common/prologue.h), and this one.
+constexpr int kNoDisplay = 4;  ///< no display or no OpenGL 3.3
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  sm::reexec_with_huge_pages(argv);  // see core/huge_pages.h
-  sm::keep_freed_memory();
+  sm::app::start_process(argv);
   using namespace sm::viewer;
   CLI::App cli{"strandmesh-view: see what each stage of strandmesh did, layer by layer", "strandmesh-view"};
   cli.set_version_flag("--version", std::string("strandmesh-view ") + STRANDMESH_VERSION);
@@ -64,82 +59,58 @@ int main(int argc, char** argv) {
       "Keys: F frame all, Z frame selection, Esc clear selection.\n"
       "Exit codes: 0 ok, 1 bad input, 2 usage error, 3 internal error, 4 no display or no OpenGL 3.3\n"
       "(run headless under xvfb-run -a).");
-  try {
-    cli.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return cli.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return cli.exit(e);
-  } catch (const CLI::ParseError& e) {
-    cli.exit(e);
-    return kUsage;
-  }
-  sm::log::set_level(quiet ? sm::log::Level::quiet : sm::log::Level::normal);
-  std::unique_ptr<tbb::global_control> limit;
-  if (threads > 0) {
-    limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                  static_cast<std::size_t>(threads));
-  }
+  if (const auto stop = sm::app::parse_command_line(cli, argc, argv)) return *stop;
+  const auto thread_limit = sm::app::apply_common_options(threads, quiet, false);
 
-  try {
-    opts.input = input;
-    opts.config = config;
-    opts.mesh = mesh;
-    if (seed_opt->count() > 0) opts.seed = seed;
-    const auto wh = parse_size(size);
-    std::optional<ViewState> view;
-    if (!layers.empty()) view = parse_layers(layers);
-    const CameraSpec cam = camera.empty() ? CameraSpec{} : parse_camera_spec(camera);
-    classify_input(opts.input);  // a missing input fails before any window opens
+  return sm::app::run_reporting_errors([&]() -> int {
+    try {
+      opts.input = input;
+      opts.config = config;
+      opts.mesh = mesh;
+      if (seed_opt->count() > 0) opts.seed = seed;
+      const auto wh = parse_size(size);
+      std::optional<ViewState> view;
+      if (!layers.empty()) view = parse_layers(layers);
+      const CameraSpec cam = camera.empty() ? CameraSpec{} : parse_camera_spec(camera);
+      classify_input(opts.input);  // a missing input fails before any window opens
 
-    if (!screenshot.empty()) {
-      // Checks only matter when the status panel or the problems layer is drawn (asked for
-      // by name: the default layers of a screenshot skip the checks' time).
-      const bool problems = view && view->visible[static_cast<std::size_t>(Layer::problems)];
-      opts.checks = (ui || problems) && !no_checks;
+      if (!screenshot.empty()) {
+        // Checks only matter when the status panel or the problems layer is drawn (asked for
+        // by name: the default layers of a screenshot skip the checks' time).
+        const bool problems = view && view->visible[static_cast<std::size_t>(Layer::problems)];
+        opts.checks = (ui || problems) && !no_checks;
+        opts.self_intersections = !no_self_intersections;
+        ViewerApp app(opts);
+        ScreenshotOptions so;
+        so.output = screenshot;
+        so.width = wh[0];
+        so.height = wh[1];
+        so.view = view;
+        so.camera = cam;
+        so.ui = ui;
+        if (!color_by.empty()) so.coloring = color_by == "tip" ? StrandColoring::by_tip : StrandColoring::by_strand;
+        if (select_opt->count() > 0) so.select = select;
+        take_screenshot(app, so);
+        if (!app.error().empty()) sm::log::warn(app.error());
+        sm::log::info("wrote " + screenshot);
+        return kOk;
+      }
+      opts.checks = !no_checks;
       opts.self_intersections = !no_self_intersections;
       ViewerApp app(opts);
-      ScreenshotOptions so;
-      so.output = screenshot;
-      so.width = wh[0];
-      so.height = wh[1];
-      so.view = view;
-      so.camera = cam;
-      so.ui = ui;
-      if (!color_by.empty()) so.coloring = color_by == "tip" ? StrandColoring::by_tip : StrandColoring::by_strand;
-      if (select_opt->count() > 0) so.select = select;
-      take_screenshot(app, so);
-      if (!app.error().empty()) sm::log::warn(app.error());
-      sm::log::info("wrote " + screenshot);
+      if (view) app.set_view(*view);
+      if (color_by == "tip") app.set_coloring(StrandColoring::by_tip);
+      WindowOptions wo;
+      wo.width = wh[0];
+      wo.height = wh[1];
+      wo.title = "strandmesh-view: " + input;
+      app.set_initial_view(camera.empty() ? std::nullopt : std::optional<CameraSpec>(cam),
+                           select_opt->count() > 0 ? std::optional<std::uint32_t>(select) : std::nullopt);
+      run_window(app, wo);
       return kOk;
+    } catch (const DisplayError& e) {
+      sm::log::error(e.what());
+      return kNoDisplay;
     }
-    opts.checks = !no_checks;
-    opts.self_intersections = !no_self_intersections;
-    ViewerApp app(opts);
-    if (view) app.set_view(*view);
-    if (color_by == "tip") app.set_coloring(StrandColoring::by_tip);
-    WindowOptions wo;
-    wo.width = wh[0];
-    wo.height = wh[1];
-    wo.title = "strandmesh-view: " + input;
-    app.set_initial_view(camera.empty() ? std::nullopt : std::optional<CameraSpec>(cam),
-                         select_opt->count() > 0 ? std::optional<std::uint32_t>(select) : std::nullopt);
-    run_window(app, wo);
-    return kOk;
-  } catch (const DisplayError& e) {
-    sm::log::error(e.what());
-    return kNoDisplay;
-  } catch (const sm::InvalidInputError& e) {
-    sm::log::error(e.what());
-    return kBadInput;
-  } catch (const sm::IoError& e) {
-    sm::log::error(e.what());
-    return kBadInput;
-  } catch (const sm::UsageError& e) {
-    sm::log::error(e.what());
-    return kUsage;
-  } catch (const std::exception& e) {
-    sm::log::error(std::string("internal error: ") + e.what());
-    return kInternal;
-  }
+  });
 }

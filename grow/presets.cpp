@@ -3,7 +3,7 @@
 // are errors (DESIGN.md, configs/: "a config file only overrides, and an unknown key is an
 // error").
 
-#include "skeleton/grow/presets.h"
+#include "grow/presets.h"
 
 #include <algorithm>
 #include <array>

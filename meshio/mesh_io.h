@@ -36,7 +36,7 @@
 #include <string_view>
 
 #include "core/mesh.h"
-#include "meshing/export.h"
+#include "meshio/export.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {

@@ -13,7 +13,7 @@
 // the distance to a cone depends on its radii, and a box per cone gives exact lower bounds for
 // branch-and-bound, so the nearest cone is found exactly in O(log N) on typical trees.
 
-#include "meshing/checks.h"
+#include "meshcheck/checks.h"
 
 #include <algorithm>
 #include <cmath>
@@ -27,7 +27,7 @@
 
 #include "core/errors.h"
 #include "core/union_find.h"
-#include "meshing/checks_cgal.h"
+#include "meshcheck/checks_cgal.h"
 
 namespace sm {
 

@@ -3,7 +3,7 @@
 // depth; the angle between 2 children is not too small; the radii of the 2 children don't have
 // the same distribution; stop when the branch radius is smaller than a threshold."
 
-#include "skeleton/grow/random_grower.h"
+#include "grow/random_grower.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,14 @@
 #pragma once
 /// \file intersections.h
-/// CGAL's geometry for the fold repair, behind a CGAL-free interface (only checks_cgal.cpp
-/// compiles CGAL): exact triangle-triangle intersection tests on a mesh, with the same
-/// definition as `check_mesh`'s self-intersection count (two triangles intersect when they
-/// meet other than in their shared vertex or shared edge), and the triangulation of a closed
-/// polyline (hole filling).
+/// CGAL's geometry for the repairs, behind a CGAL-free interface: exact triangle-triangle
+/// intersection tests on a mesh, with the same definition as `check_mesh`'s self-intersection
+/// count (two triangles intersect when they meet other than in their shared vertex or shared
+/// edge), the triangulation of a closed polyline (hole filling), and outer surfaces.
+///
+/// No .cpp of its own: TriangleIntersections and triangulate_polyline live in
+/// meshcheck/checks_cgal.cpp, because they share its exact tests with check_mesh; the outer
+/// surfaces live in meshing/outer_surface_cgal.cpp, compiled into sm_meshcheck (the target
+/// with CGAL's flags) until the repair stage takes them over.
 
 #include <array>
 #include <cstdint>

@@ -19,7 +19,7 @@
 // relative to the radius. The cleanup after growth merges chain nodes on thick branches and
 // prunes thin laterals crowded onto thick axes; both are counted in the stats.
 
-#include "skeleton/grow/tree_grower.h"
+#include "grow/tree_grower.h"
 
 #include <algorithm>
 #include <cmath>

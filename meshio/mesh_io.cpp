@@ -5,7 +5,7 @@
 // file is checked against the data that is actually there before anything is allocated or
 // indexed, so truncated or hostile files end in an InvalidInputError, never a crash.
 
-#include "meshing/mesh_io.h"
+#include "meshio/mesh_io.h"
 
 #include <algorithm>
 #include <array>

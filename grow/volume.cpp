@@ -4,7 +4,7 @@
 // Points are scattered uniformly by rejection in the bounds, which is what "pick a random
 // voxel, then a random position inside it" amounts to for equally sized voxels.
 
-#include "skeleton/grow/volume.h"
+#include "grow/volume.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,7 +2,7 @@
 /// Grower presets: GrowerParams as JSON files (`configs/grow/*.json`).
 ///
 /// A preset file is one JSON object whose keys are the GrowerParams field names (see
-/// skeleton/grow/tree_grower.h; docs/growers.md lists them), plus two documentation keys:
+/// grow/tree_grower.h; docs/growers.md lists them), plus two documentation keys:
 ///   "description":    what the tree looks like (string),
 ///   "expected_nodes": [min, max], the node count range the preset is documented to give.
 /// Every key is optional: a missing field keeps its GrowerParams default. An unknown key is an
@@ -20,7 +20,7 @@
 #include <string_view>
 #include <vector>
 
-#include "skeleton/grow/tree_grower.h"
+#include "grow/tree_grower.h"
 
 namespace sm {
 

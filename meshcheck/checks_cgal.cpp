@@ -1,6 +1,6 @@
-// The CGAL part of the mesh checks: self-intersections and point-in-mesh. This is the only
-// translation unit that includes CGAL (it is slow to compile); checks.cpp calls it through
-// checks_cgal.h.
+// The CGAL part of the mesh checks: self-intersections and point-in-mesh, and the exact
+// intersection tests and hole filling of intersections.h. CGAL is slow to compile: checks.cpp
+// calls this through checks_cgal.h.
 //
 // Self-intersections use CGAL Polygon Mesh Processing's `self_intersections` on a Surface_mesh
 // whenever the triangles form a valid polygon mesh, which is the normal case for our output.
@@ -10,7 +10,7 @@
 // the same side of the edge), pairs sharing a vertex only when an opposite edge meets the
 // other triangle, other pairs when the triangles meet at all.
 
-#include "meshing/checks_cgal.h"
+#include "meshcheck/checks_cgal.h"
 
 #include <algorithm>
 #include <cmath>
@@ -27,7 +27,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "meshing/intersections.h"
+#include "meshcheck/intersections.h"
 
 namespace sm::detail {
 

@@ -2,7 +2,7 @@
 /// Procedural trees grown towards attraction points: the self-organizing tree of Pałubicki et
 /// al. 2009 (seed 000 §3, seed 004 §3) and plain space colonization (Runions et al. 2007).
 ///
-/// Attraction points are scattered in a crown volume (skeleton/grow/volume.h). Every
+/// Attraction points are scattered in a crown volume (grow/volume.h). Every
 /// iteration each bud perceives the points in its perception volume, each point going to the
 /// nearest bud that perceives it; buds that perceived points get light Q = 1 (times the
 /// shadow-propagation exposure when `shadow` is on, which also steers buds towards light). In self-organizing mode Q
@@ -37,7 +37,7 @@
 
 #include "core/progress.h"
 #include "core/report.h"
-#include "skeleton/grow/volume.h"
+#include "grow/volume.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {

@@ -1,4 +1,4 @@
-#include "core/huge_pages.h"
+#include "apps/common/huge_pages.h"
 
 #include <cstdlib>
 #include <fstream>
