@@ -229,13 +229,6 @@ RawSkeleton parse_swc(std::string_view text, const std::string& name) {
   return raw;
 }
 
-RawSkeleton read_skeleton(const std::filesystem::path& path) {
-  const std::string text = read_file(path);
-  const std::string name = path.string();
-  if (extension_of(path) == "swc") return parse_swc(text, name);
-  return parse_skeleton_json(text, name);
-}
-
 std::string skeleton_to_json(const Skeleton& s, const std::string& source) {
   json doc;
   doc["source"] = source.empty() ? std::string("strandmesh") : source;

@@ -109,6 +109,49 @@ TEST(Cli, MalformedInputExitsOneWithoutOutput) {
   EXPECT_NE(missing.err.find("cannot open"), std::string::npos);
 }
 
+TEST(Cli, MeasuredTreeFormatsAreReadAndMalformedOnesNamed) {
+  // The QSM and MTG files of tests/data/qsm through `info`, picked by extension (and by content
+  // when the extension says nothing), then a malformed file of each new format: exit 1, the
+  // place named, nothing written.
+  const fs::path data = fs::path(STRANDMESH_SOURCE_DIR) / "tests/data/qsm";
+  const fs::path dir = test::temp_dir("cli_formats");
+  for (const char* f : {"rtwig_QSM.mat", "rtwig_QSM.csv", "rtwig_QSM2.csv", "openalea_mtg_boutdenoylum2.mtg"}) {
+    SCOPED_TRACE(f);
+    const CmdResult r = run("info -q --json " + (data / f).string());
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("\"nodes\""), std::string::npos);
+  }
+  fs::copy_file(data / "openalea_mtg_agraf.mtg", dir / "agraf_no_extension");
+  const CmdResult agraf = run("info -q " + (dir / "agraf_no_extension").string() + " --units mm,0.1mm");
+  EXPECT_EQ(agraf.code, 0) << agraf.err;
+  EXPECT_NE(agraf.out.find("input 794"), std::string::npos) << agraf.out;
+  const CmdResult mapped = run("info -q " + (data / "rtwig_QSM.csv").string() + " --columns radius=length");
+  EXPECT_EQ(mapped.code, 0) << mapped.err;
+  EXPECT_NE(run("info " + (data / "rtwig_QSM.csv").string() + " --units furlong").err.find("--units"), std::string::npos);
+
+  const std::string csv = "ID,parentID,startX,startY,startZ,endX,endY,endZ,radius\n0,-1,0,0,0,0,0,1,0.1\n";
+  const std::string mtg = "CODE:\tFORM-A\nMTG:\nENTITY-CODE\t\tXX\tYY\tZZ\tTopDia\n/P1\t\t0\t0\t0\t10\n";
+  const std::tuple<const char*, std::string, const char*> cases[] = {
+      {"nan.csv", csv + "1,0,0,0,1,0,0,2,abc\n", "nan.csv:3:17: column \"radius\": \"abc\" is not a number"},
+      {"short.csv", csv + "1,0,0,0,1\n", "short.csv:3: 5 fields, the header (line 1) has 9"},
+      {"nocol.csv", "ID,parentID,startX,startY,startZ\n", "nocol.csv:1: no column for the radius"},
+      {"cyl_data.txt", "0.1\t1\t0\t0\t0\t0\t0\t1\t0\t2\n0.1\t1\t0\t0\t1\t0\t0\t1\t1\n",
+       "cyl_data.txt:2: 9 fields, a TreeQSM cylinder line has at least 10"},
+      {"text.mat", "not a MAT file at all", "text.mat: not a MATLAB MAT file"},
+      {"bad.mtg", mtg + "^<1\t\t0\t0\t1\t10\n", "bad.mtg:5:2: expected a class symbol"},
+      {"bad2.mtg", mtg + "^<P2\t\t0\tx\t1\t10\n", "bad2.mtg:5:9: feature YY: \"x\" is not a number"},
+  };
+  for (const auto& [name, text, message] : cases) {
+    SCOPED_TRACE(name);
+    write_file_atomically(dir / name, text);
+    const fs::path out = dir / (std::string(name) + ".glb");
+    const CmdResult r = run("mesh " + (dir / name).string() + " -o " + out.string());
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 TEST(Cli, InfoOnSamplesReportsRepairs) {
   const auto files = test::sample_skeletons();
   if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
 #include "skeleton/io.h"
 
@@ -17,15 +18,17 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
       std::string export_path;
       bool json = false;
       SkeletonParams params;
+      InputOptions input_options;
     };
     auto o = std::make_shared<Opts>();
-    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc)")->required();
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg)")->required();
     sub.add_option("--export", o->export_path, "Also write the sanitized skeleton as JSON to this file");
     sub.add_flag("--json", o->json, "Print the report as JSON");
     add_skeleton_options(sub, o->params);
+    add_input_options(sub, o->input_options);
     return [o] {
       if (!o->export_path.empty()) check_json_output(o->export_path, "--export");
-      const SkeletonResult result = load_skeleton(o->input, o->params);
+      const SkeletonResult result = load_skeleton(o->input, o->params, read_options(o->input_options));
       if (o->json) {
         const auto& r = result.report;
         const Skeleton& s = result.skeleton;

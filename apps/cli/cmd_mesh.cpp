@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
 #include "core/errors.h"
 #include "core/file_io.h"
@@ -26,10 +27,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       bool print_config = false;
       bool strict = false;
       SkeletonParams skeleton;
+      InputOptions input_options;
     };
     auto o = std::make_shared<Opts>();
     // Required unless --print-config (checked below, so the config can be printed alone).
-    sub.add_option("SKELETON", o->input, "Skeleton file (.json or .swc); required");
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg); required");
     sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")
@@ -46,6 +48,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                  "Also run `strandmesh check` on the mesh (against the skeleton) and exit 4 when it fails a check "
                  "(the outputs are written all the same)");
     add_skeleton_options(sub, o->skeleton);
+    add_input_options(sub, o->input_options);
     // Which skeleton options were given explicitly (they override the config file).
     std::vector<CLI::Option*> skeleton_opts;
     for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
@@ -101,7 +104,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       check_output_path(o->output);
       if (!o->stats_path.empty()) check_output_path(o->stats_path);
       OutputTransaction outputs;
-      const RawSkeleton raw = read_skeleton(o->input);
+      const RawSkeleton raw = read_skeleton(o->input, read_options(o->input_options));
       ProgressBar bar(!global.quiet);
       std::mutex m;
       PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {

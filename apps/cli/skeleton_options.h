@@ -5,6 +5,7 @@
 
 #include "apps/cli/cli.h"
 #include "skeleton/build.h"
+#include "skeleton/io.h"
 #include "skeleton/skeleton.h"
 
 namespace sm::cli {
@@ -18,7 +19,7 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& params);
 void check_json_output(const std::string& path, const char* option);
 
 /// Reads and sanitizes a skeleton file; logs the repairs as warnings (unless quiet).
-SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params);
+SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read = {});
 
 /// Multi-line human-readable summary: counts, depth, radius range, extent, repairs.
 std::string describe_skeleton(const SkeletonResult& result);
