@@ -1,5 +1,5 @@
 // Particle relaxation throughput (particles stage) and strand building, on a grown tree of
-// more than 20,000 nodes, with the quality figures beside the time (STYLE.md).
+// more than 20,000 nodes, with the quality figures beside the time.
 //
 // "particles" is the sum over nodes of the cloud sizes, as the paper counts them (its Fig. 9a
 // tree: 21,345 nodes, 6,240 strands, 564,632 particles in 3.38 s, about 170k particles/s).

@@ -1,9 +1,9 @@
-// Boundary selection (seed 003 §2.4.2): the angular walk around the centroid, made robust.
+// Boundary selection: the angular walk around the centroid, made robust.
 //
-// The seed sorts the points by angle around their centroid and walks them like a Graham
-// scan, dropping points where the contour turns inwards by more than a threshold. It measured
-// turns with acos and a sign taken separately, and the sign flipped for nearly collinear
-// points, so points far inside were kept (the seed's Figure 8). Here the side of every turn
+// The plain walk sorts the points by angle around their centroid and walks them like a Graham
+// scan, dropping points where the contour turns inwards by more than a threshold. Measuring
+// turns with acos and a sign taken separately flips the sign for nearly collinear points, so
+// points far inside are kept. Here the side of every turn
 // comes from a cross product (the signed distance of the middle point from the chord), exact
 // up to rounding for any configuration, and only the size of a concave turn is compared with
 // the threshold, as dot(u, v) < cos(threshold) |u| |v| (no trigonometry); collinear and

@@ -1,4 +1,4 @@
-// Contours: slicing, split detection and boundary loops (seed 003 §2.4; DESIGN.md contours/).
+// Contours: slicing, split detection and boundary loops (Interactive Invigoration, Li et al.).
 //
 // The walk is top-down over "tubes". A tube carries the strands of one subtree (rooted at
 // node X, hanging below an anchor node: the fork whose split started the tube, or nothing for

@@ -1,6 +1,6 @@
 #pragma once
 /// Contours stage: cross-section slices along every branch, split detection above forks and
-/// the ordered boundary loop of the strands in each slice (DESIGN.md contours/, seed 003 §2.4).
+/// the ordered boundary loop of the strands in each slice (Interactive Invigoration, Li et al.).
 ///
 /// The result is a graph of loops that the meshing stage stitches:
 ///  - a `Tube` is a run of loops from its start (the root, or a split above a fork) up to its
@@ -10,14 +10,14 @@
 ///  - the first loop of the root tube gets the base cap, the last loop of every tube ending at
 ///    a tip gets a tip cap.
 ///
-/// Slicing (seed 003 §2.4.3): each edge is sliced at steps of `slice_step` x the local radius
+/// Slicing: each edge is sliced at steps of `slice_step` x the local radius
 /// measured along the edge; the leftover distance carries into the next edge(s), so slices
 /// stay evenly spaced across nodes. A slice at distance d on the edge of node n (length L)
 /// takes every strand of n at t = d / L: its cross-section coordinates interpolated between
 /// the particle at parent(n) and at n, placed in the slice's frame on the edge axis (so
 /// sections follow the skeleton's round cones; see contours.cpp for why not the 3D curves).
 ///
-/// Split detection (seed 003 §2.4.1): above a fork F with children A (main) and B (lateral),
+/// Split detection: above a fork F with children A (main) and B (lateral),
 /// slices are taken on both child edges at the same distance above F. While the closest
 /// points of the two bundles are nearer than `split_gap` x their neighbour distance, the slice is one loop
 /// around the union; the first distance where they are farther apart is found by bisection
@@ -30,7 +30,7 @@
 /// rest splits off first, with its own junction (`split_nested_laterals`); the section then
 /// resumes in a new tube without it, and that lateral's fork is walked as a plain node.
 ///
-/// Boundary selection (seed 003 §2.4.2): the points of a slice are projected onto the slice
+/// Boundary selection: the points of a slice are projected onto the slice
 /// plane and the outer loop is found by the angular walk around the centroid (a Graham scan
 /// that tolerates small concave turns), with orientation from exact-sign cross products
 /// (never acos). The walk is verified (the loop turns monotonically around the centroid and
@@ -88,11 +88,7 @@ struct ContourParams {
   /// in this many of that child's radii instead, so the bundles split once they are apart on
   /// the twigs' scale rather than the particles' (each surface must still clear the other
   /// subtree's cones by half a split gap of neighbour distances); 0 = always the neighbour
-  /// distance. Grown conifer seed 1: 670 of its 685 twig forks split nearer (none farther),
-  /// 6.35 -> 5.18 twig radii above the fork at the median, a visibly smaller web in each
-  /// crotch; bench tree 2,027 -> 1,856 pairs found by the fold repair, none left either way.
-  /// Measuring the surfaces' clearance in twig radii as well split earlier still but folded:
-  /// 7,071 pairs found on the bench tree, 111 left to the fork retry (8 runs, 14.6 s).
+  /// distance (docs/defaults.md: why 2).
   double thin_gap_radii = 2.0;
   /// Above a fork, each child's bundle goes from its place beside its sibling in the fork's
   /// section to its own round section within this distance, relative to the fork's radius

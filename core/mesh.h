@@ -92,15 +92,12 @@ bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p);
 /// inside_closed_mesh for many points at once (the same answers), in one pass over the
 /// triangles: the points are binned by their shadow on a plane across the ray direction, and
 /// each triangle is tested against the points whose shadow lies in its shadow's box. 1 inside,
-/// 0 outside, per point. (On the 3.4 M-triangle bench tree, its thick nodes in 57 ms on 2
-/// threads, BM_ThickNodesInside: 84 ms while cells were found with std::floor, 68 ms with one
-/// cell per point; binning the triangles instead took 0.7 s to build.)
+/// 0 outside, per point (docs/defaults.md: why the points are binned, not the triangles).
 std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points);
 
 /// Float grid: the .glb and .gltf store positions as float32 offsets from an origin kept in
 /// double precision, so a mesh free of self-intersections in double precision may intersect
-/// itself once exported (measured: agraf and boutdenoylum2, particle seed 3, 0 -> 3 pairs
-/// each). The meshing stage therefore puts every vertex on a grid of spacing
+/// itself once exported (seen on two sample skeletons; docs/defaults.md). The meshing stage therefore puts every vertex on a grid of spacing
 /// `float_grid(reach)`, a power of two small enough that every offset of at most `reach`
 /// between two grid points is a float32 (at most 2^24 steps), and the exporter puts its origin
 /// on a grid of `export_grid_spacing` (a coarser power of two): the exported offsets are the

@@ -4,7 +4,7 @@
 /// Randomness is always passed in: a stage takes a `seed` in its Params and derives one
 /// sub-seed per node or branch with `derive_seed(seed, id, ...)`, so results never depend on
 /// thread scheduling and changing one parameter does not reshuffle unrelated randomness
-/// (seed 001 §3.2.1). The generator is xoshiro256** and the distributions are our own, so
+/// (one stream per purpose). The generator is xoshiro256** and the distributions are our own, so
 /// output is bit-identical across compilers and standard libraries (std:: distributions are
 /// implementation-defined).
 

@@ -1,7 +1,7 @@
 // Grower presets as JSON. One field list (visit_params) drives both reading and writing, so
 // the JSON keys are exactly the GrowerParams field names and cannot drift apart. Unknown keys
-// are errors (DESIGN.md, configs/: "a config file only overrides, and an unknown key is an
-// error").
+// are errors, as in every config file: a file only overrides, and a typo must never fall back
+// to a default silently.
 
 #include "grow/presets.h"
 

@@ -1,7 +1,4 @@
-// Seed 003 §2.6: "I create the tree from the root, and add 1 or 2 children with random
-// rotations and random branch lengths; the probability of having 2 children increases with
-// depth; the angle between 2 children is not too small; the radii of the 2 children don't have
-// the same distribution; stop when the branch radius is smaller than a threshold."
+// The simple random grower; random_grower.h states its rules.
 
 #include "grow/random_grower.h"
 

@@ -1,5 +1,5 @@
 #pragma once
-/// The simple seeded random grower of seed 003 §2.6: the built-in default tree.
+/// The simple seeded random grower: the built-in default tree.
 ///
 /// Grows from the root upwards; every node gets one or two children with random rotations
 /// and random lengths. The chance of two children grows with depth, the angle between two

@@ -1,20 +1,20 @@
 // Self-organizing trees and space colonization.
 //
-// Growth follows seed 000 §3 (buds with a perception cone of radius and apex angle, terminal
-// and lateral buds, branching angle β and phyllotaxis φ, inertia μ, occupancy radius, one
-// internode per bud and metamer) and Pałubicki et al. 2009 as summarized in seed 004 §3: the
-// extended Borchert–Honda rule v_m = v·λQ_m / (λQ_m + (1−λ)Q_l), v_l = v·(1−λ)Q_l / (…),
-// pipe-model diameters d^n = d1^n + d2^n (seed 000 eq. 1 with exponent 1.8–2.8, seed 004
-// §3.2), and shadow propagation in a voxel grid, Δs = a·b^(−q) in a pyramid below every new
-// node (seed 004 §3.3). Space colonization (Runions et al. 2007) is the same loop with a full
-// sphere as perception volume, no resource model, and one new internode per node and
-// iteration; seed 000 uses it for roots.
+// Growth follows Clasping Trees §3 (buds with a perception cone of radius and apex angle,
+// terminal and lateral buds, branching angle β and phyllotaxis φ, inertia μ, occupancy radius,
+// one internode per bud and metamer) and Pałubicki et al. 2009 as summarized in Tomasson 2022
+// §3: the extended Borchert–Honda rule v_m = v·λQ_m / (λQ_m + (1−λ)Q_l), v_l = v·(1−λ)Q_l /
+// (…), pipe-model diameters d^n = d1^n + d2^n (Clasping Trees eq. 1 with exponent 1.8–2.8,
+// Tomasson 2022 §3.2), and shadow propagation in a voxel grid, Δs = a·b^(−q) in a pyramid below
+// every new node (Tomasson 2022 §3.3). Space colonization (Runions et al. 2007) is the same
+// loop with a full sphere as perception volume, no resource model, and one new internode per
+// node and iteration; Clasping Trees uses it for roots. docs/growers.md lists the references.
 //
-// Randomness follows seed 001 §3.2.1: every node owns purpose-specific streams derived from
-// a key that depends only on its place in the topology (the parent's key and whether it is a
+// Randomness (core/rng.h): every node owns purpose-specific streams derived from a key that
+// depends only on its place in the topology (the parent's key and whether it is a
 // continuation or a lateral), never on the order in which nodes were created.
 //
-// What the seeds leave open and the strand mesher needs (DESIGN.md, issue 6): a binary tree
+// What the papers leave open and the strand mesher needs (issue 6): a binary tree
 // (one lateral bud per node), bounded bends and branching angles, and edges that are long
 // relative to the radius. The cleanup after growth merges chain nodes on thick branches and
 // prunes thin laterals crowded onto thick axes; both are counted in the stats.
@@ -42,7 +42,7 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-// Stream kinds (seed 001 §3.2.1: one generator per purpose, so adding a purpose later does
+// Stream kinds (one generator per purpose, so adding a purpose later does
 // not shift the numbers of the others).
 constexpr std::uint64_t kTreeKey = 0x7EEE;        // root key
 constexpr std::uint64_t kPointsStream = 0x90175;  // attraction points
@@ -217,7 +217,7 @@ class TreeGrower {
     }
   }
 
-  // ---- shadow propagation (seed 004 §3.3) --------------------------------------------------
+  // ---- shadow propagation (Tomasson 2022 §3.3) ---------------------------------------------
   void init_shadow(const Volume& volume) {
     cell_ = p_.shadow_voxel_size > 0 ? p_.shadow_voxel_size : 2.0 * p_.internode_length;
     const double margin = p_.perception_radius + 2 * cell_;
@@ -609,7 +609,7 @@ class TreeGrower {
     return out;
   }
 
-  /// Pipe model from the tips down: r^n = Σ r_c^n (seed 000 eq. 1; radii instead of
+  /// Pipe model from the tips down: r^n = Σ r_c^n (Clasping Trees eq. 1; radii instead of
   /// diameters, which is the same rule).
   void compute_radii() {
     const double e = p_.pipe_exponent;

@@ -1,6 +1,7 @@
 #pragma once
 /// Procedural trees grown towards attraction points: the self-organizing tree of Pałubicki et
-/// al. 2009 (seed 000 §3, seed 004 §3) and plain space colonization (Runions et al. 2007).
+/// al. 2009 (as in Clasping Trees §3 and Tomasson 2022 §3; docs/growers.md lists the references)
+/// and plain space colonization (Runions et al. 2007).
 ///
 /// Attraction points are scattered in a crown volume (grow/volume.h). Every
 /// iteration each bud perceives the points in its perception volume, each point going to the
@@ -28,7 +29,7 @@
 /// Deterministic: the same parameters give the same skeleton bit for bit, for any thread
 /// count. Every node draws its random numbers from its own stream, derived from the tree seed
 /// and its place in the topology (not its creation order), so changing one parameter does not
-/// reshuffle unrelated randomness (seed 001 §3.2.1).
+/// reshuffle unrelated randomness (core/rng.h).
 
 #include <cstddef>
 #include <cstdint>
@@ -49,7 +50,7 @@ enum class GrowMode {
 };
 
 /// All parameters of grow_tree(). Lengths are absolute metres (the tree grows from the origin,
-/// z up); seed 000 §6.1 gives the ratios that work: perception radius 4–6 × and occupancy
+/// z up); Clasping Trees §6.1 gives the ratios that work: perception radius 4–6 × and occupancy
 /// radius ≈ 1.5–2 × the internode length, 20–80 attraction points per cubic unit.
 struct GrowerParams {
   GrowMode mode = GrowMode::self_organizing;  ///< algorithm; default self_organizing
@@ -81,7 +82,7 @@ struct GrowerParams {
                                  ///< iteration, on average); default 2
   std::uint32_t max_shoot_internodes = 3;  ///< most internodes one bud grows in one iteration (a count); default 3
 
-  // Shadow propagation (self-organizing mode only; seed 004 §3.3).
+  // Shadow propagation (self-organizing mode only; Tomasson 2022 §3.3).
   bool shadow = false;  ///< when true, a bud's light is reduced by the shadow of the nodes above it; default false
   double shadow_voxel_size = 0.0;  ///< edge of a shadow voxel (metres; 0 = 2 × internode_length); default 0
   std::uint32_t shadow_depth = 6;  ///< q_max: voxel layers a node shades below itself (a count); default 6
@@ -98,7 +99,7 @@ struct GrowerParams {
   std::uint32_t max_iterations = 300;  ///< growth iterations at most (a count); default 300
   std::size_t max_nodes = 200'000;     ///< growth stops once this many internodes exist (a count); default 200000
 
-  // Radii (pipe model, seed 000 eq. 1, seed 004 §3.2).
+  // Radii (pipe model, Clasping Trees eq. 1, Tomasson 2022 §3.2).
   double tip_radius = 0.0015;  ///< radius of every branch tip (metres); default 0.0015
   double pipe_exponent = 2.3;  ///< n in d^n = d1^n + d2^n, between 1.8 and 2.8; default 2.3
 

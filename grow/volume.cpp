@@ -1,4 +1,4 @@
-// Crown volumes (seed 000 §5). The seed voxelizes every input mesh and combines the layers
+// Crown volumes (Clasping Trees §5). The paper voxelizes every input mesh and combines the layers
 // with logical or / and-not; we keep the primitives analytic (exact, no resolution to choose)
 // and voxelize only arbitrary meshes, then combine by the same union-minus-obstacles rule.
 // Points are scattered uniformly by rejection in the bounds, which is what "pick a random

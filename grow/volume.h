@@ -1,5 +1,5 @@
 #pragma once
-/// Crown volumes for the growers: where attraction points are scattered (seed 000 §5).
+/// Crown volumes for the growers: where attraction points are scattered (Clasping Trees §5).
 ///
 /// A crown volume is the union of simple shapes (sphere, ellipsoid, box, cylinder, cone or
 /// frustum, or any closed triangle mesh, voxelized) minus the union of obstacle shapes. All
@@ -45,7 +45,7 @@ struct CrownVolume {
   std::vector<VolumeShape> obstacles{};            ///< subtracted from the union (default: none)
   double voxel_size = 0.05;                        ///< voxel edge for mesh shapes (metres); default 0.05
   double shell_thickness = 0.0;                    ///< > 0: only points within this distance of the boundary (metres,
-                                 ///< approximately, for roots on surfaces, seed 000 §5); default 0 = solid
+                                 ///< approximately, for roots on surfaces, Clasping Trees §5); default 0 = solid
 };
 
 /// Analytic inside test of one shape (boundary counts as inside). Mesh shapes are not
@@ -85,13 +85,13 @@ class Volume {
 
 /// `count` points uniformly distributed in the volume (rejection sampling in its bounds).
 /// Point i is drawn from its own stream `derive_seed(seed, kind, i)`, so changing the count
-/// keeps the points that remain (seed 001 §3.2.1); runs in parallel with identical output for
+/// keeps the points that remain (core/rng.h); runs in parallel with identical output for
 /// any thread count. Throws InvalidInputError when the volume is empty (no point found in
 /// 100,000 tries).
 std::vector<dvec3> scatter_points(const Volume& volume, std::size_t count, std::uint64_t seed);
 
 /// The volume of the region in cubic metres, estimated by a seeded Monte Carlo count with
-/// `samples` samples in the bounds (for attraction point densities, seed 000 eq. 11).
+/// `samples` samples in the bounds (for attraction point densities, Clasping Trees eq. 11).
 double estimate_volume(const Volume& volume, std::size_t samples = 200'000, std::uint64_t seed = 1);
 
 }  // namespace sm

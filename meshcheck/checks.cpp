@@ -2,7 +2,7 @@
 // self-intersections and point-in-mesh (checks_cgal.cpp), and fidelity to the skeleton's
 // round cones through a bounding-volume hierarchy.
 //
-// Why these definitions: DESIGN.md promises a closed, manifold, oriented genus-0 surface
+// Why these definitions: strandmesh promises a closed, manifold, oriented genus-0 surface
 // without self-intersections that follows the skeleton's radii. Each count here is one of those
 // promises, measured exactly (integer topology, exact CGAL predicates), so a test or a user
 // can trust a zero. Fidelity compares against the round cone (convex hull of the two end

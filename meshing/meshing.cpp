@@ -1,4 +1,4 @@
-// Meshing: strips, branch fusion, caps, normals and UVs (seed 003 §2.5; DESIGN.md meshing/).
+// Meshing: strips, branch fusion, caps, normals and UVs (Interactive Invigoration, Li et al.).
 
 #include "meshing/meshing.h"
 
@@ -137,7 +137,7 @@ void stitch_open(const std::vector<std::uint32_t>& P, const std::vector<std::uin
   }
 }
 
-/// Branch fusion (seed 003 §2.5.2). `lower` is the loop below the split, `a` and `b` the
+/// Branch fusion. `lower` is the loop below the split, `a` and `b` the
 /// first loops of the two child tubes (all counter-clockwise seen from the tip side; `tangent`
 /// points up the parent branch); `side` says for each lower vertex whose bundle its strand
 /// belongs to (0 = a, 1 = b, 2 = neither; may be empty).

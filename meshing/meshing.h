@@ -1,11 +1,11 @@
 #pragma once
 /// Meshing stage: stitches the contour loops into one closed, consistently oriented surface
-/// (DESIGN.md meshing/, seed 003 §2.5).
+/// (as in Interactive Invigoration, Li et al.).
 ///
-///  - Consecutive loops of a tube are joined by the greedy shortest-diagonal strip (seed 003
-///    §2.5.1), starting at a strand both loops share (or the closest pair), with a guard that
+///  - Consecutive loops of a tube are joined by the greedy shortest-diagonal strip,
+///    starting at a strand both loops share (or the closest pair), with a guard that
 ///    keeps the strip monotone around the branch axis.
-///  - Branch fusion (seed 003 §2.5.2): at a junction the crotch is the closest pair of
+///  - Branch fusion: at a junction the crotch is the closest pair of
 ///    vertices between the two upper loops; the lower loop is cut at the two vertices on
 ///    either side of the crotch, each half is stitched to one upper loop (opened at its crotch
 ///    vertex), and two special triangles on the crotch edge close the gap: a pair of pants

@@ -1,9 +1,10 @@
-// Particles stage (seed 003 §2.3, DESIGN.md particles/).
+// Particles stage, after the particle clouds of "Interactive Invigoration: Volumetric Modeling of
+// Trees with Strands" (Li, Schwarz, Pałubicki, Pirk, Benes).
 //
 // The clouds are built bottom-up. What each node does, and why:
 //
 //  - Sizing. s is a density length: a tip of radius r gets max(min_particles, round((r/s)^2))
-//    particles (DESIGN.md). Every node's cloud is simulated in units of its own length
+//    particles. Every node's cloud is simulated in units of its own length
 //    lambda = r / sqrt(m) (m = its particle count), so all parameters are relative to the
 //    cloud itself; a cloud that is rotated and scaled keeps being a relaxed cloud. That is what
 //    makes chains of single-child nodes nearly free (see "Carry").
@@ -27,7 +28,7 @@
 //    and the (scale- and rotation-invariant) simulation would stop at once: it is skipped. This
 //    is the hint of the issue ("exploit that ... for speed") made exact.
 //
-//  - Fork (seed 003 §2.3.1): each child's cloud is carried into the parent's plane as above
+//  - Fork: each child's cloud is carried into the parent's plane as above
 //    (the rotation part of the projection along the child's direction; the oblique stretch
 //    that the literal projection adds would be undone by the fit below) and placed on its
 //    child's side of the child-to-child direction D12: the disc is cut by a chord
@@ -56,7 +57,7 @@
 //    the candidates farthest from the carried particles take the new strands (they are the
 //    holes of the sparse cloud), then the whole cloud is relaxed.
 //
-//  - Relaxation (seed 003 §2.3.2): particles repel with force kappa (h^2/d - d) for d < h
+//  - Relaxation: particles repel with force kappa (h^2/d - d) for d < h
 //    (kappa = 1/2h: zero at h with the slope of the classic (1 - d/h), but unbounded as d -> 0,
 //    so close pairs always separate first; one division and no square root per pair), move
 //    with momentum `damping` and a velocity cap (the seed found the cap essential for an even

@@ -2,7 +2,7 @@
 /// Particles stage: one 2D particle cloud per skeleton node, computed bottom-up.
 ///
 /// Every branch is a bundle of strands; every node's cross-section holds one particle per
-/// strand passing through it (DESIGN.md particles/, seed 003 §2.3). Tips get a fresh cloud;
+/// strand passing through it (as in Interactive Invigoration, Li et al.). Tips get a fresh cloud;
 /// a node with one child carries the child's cloud into its own frame and fits it to its
 /// radius; a fork places both children's clouds side by side in its plane, each in the part
 /// of the disc on its child's side, and fits the union; new strands start where a carried
@@ -16,7 +16,7 @@
 ///
 /// Units. The spacing s is a density length: a cloud at the nominal density holds one
 /// particle per pi s^2 of cross-section, so a tip of radius r gets (r / s)^2 particles
-/// (DESIGN.md sizing rule). In a relaxed cloud neighbouring particles are then about 1.7 to
+/// In a relaxed cloud neighbouring particles are then about 1.7 to
 /// 1.9 s apart (a hexagonal packing at that density has its neighbours 1.905 s apart); the
 /// field `neighbour_distance` gives the typical value for later stages. Every cloud is
 /// simulated in units of its own length lambda = r / sqrt(count) (= s at the nominal

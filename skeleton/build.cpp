@@ -1,4 +1,4 @@
-// Skeleton validation and sanitizing (DESIGN.md, skeleton/). Real skeletons (QSM, MTG,
+// Skeleton validation and sanitizing. Real skeletons (QSM, MTG,
 // Sapling output; ../shared/skeletons/README.md) need every repair below, so each one is
 // counted and reported rather than silently applied.
 

@@ -13,7 +13,7 @@ dvec3 node_tangent(const Skeleton& skeleton, NodeId n);
 /// Sets `skeleton.frame` for every node: the root gets a deterministic frame around its
 /// tangent (normal as close to the world x axis as possible), every other node the frame of
 /// its parent transported by the minimal rotation onto its own tangent, so 2D coordinates on
-/// consecutive cross-sections do not twist (parallel transport; seed 000 §4.1.2). At a fork
+/// consecutive cross-sections do not twist (parallel transport, as Clasping Trees §4.1.2 does). At a fork
 /// both children start from the parent's frame. Iterative (no recursion over depth).
 void compute_frames(Skeleton& skeleton);
 

@@ -1,6 +1,6 @@
-// Strands stage (seed 003 §2.3.3, DESIGN.md strands/).
+// Strands stage: one curve per strand through its particles (Interactive Invigoration, Li et al.).
 //
-// The seed uses Catmull-Rom splines rather than the paper's B-splines because they
+// We use Catmull-Rom splines rather than the paper's B-splines because they
 // interpolate the particle positions; we take the centripetal variant (alpha = 0.5, Yuksel,
 // Schaefer and Keyser 2011), which has no cusps or self-intersections within a segment, so a
 // strand never loops between two cross-sections. Each segment is stored in Hermite form: its

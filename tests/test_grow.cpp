@@ -226,7 +226,7 @@ TEST(Volume, ScatterIsSeededAndStablePerPoint) {
   const auto c = scatter_points(volume, 1000, 7);
   const auto d = scatter_points(volume, 3000, 8);
   EXPECT_EQ(a, b);
-  // Point i has its own stream: fewer points keep the ones that remain (seed 001 §3.2.1).
+  // Point i has its own stream: fewer points keep the ones that remain (core/rng.h).
   EXPECT_TRUE(std::equal(c.begin(), c.end(), a.begin()));
   EXPECT_NE(a, d);
   tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
@@ -330,7 +330,7 @@ TEST(Grow, SameSeedSameBytesForAnyThreadCount) {
 
 TEST(Grow, RadiusParametersDoNotReshuffleGrowth) {
   // Radii are computed after growth; with the cleanup off, changing them must leave every
-  // position and parent as it was (seed 001 §3.2.1: one parameter, one aspect).
+  // position and parent as it was (core/rng.h: one parameter, one aspect).
   GrowerParams p = small_tree();
   p.min_edge_ratio = 0;
   const RawSkeleton a = grow_tree(p).skeleton;

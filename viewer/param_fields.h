@@ -1,7 +1,7 @@
 #pragma once
 /// The viewer's description of every stage's Params: one `ParamField` per field, pointing into
 /// a PipelineParams, with the help text and a sensible slider range. The Params structs carry
-/// no UI (STYLE.md rule 4); this table is the viewer's side of that contract, and the stage
+/// no UI (docs/codingstyle.md); this table is the viewer's side of that contract, and the stage
 /// panels (viewer/panels.h) draw it generically. Tests check that the table covers every key
 /// of each section of params_to_json.
 

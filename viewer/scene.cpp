@@ -1,5 +1,5 @@
 // Scene building: stage results to coloured batches. Everything is plain CPU work so the
-// viewer's logic is tested without a display (polyscope's mock-backend approach, STYLE.md).
+// viewer's logic is tested without a display (polyscope's mock-backend approach).
 
 #include "viewer/scene.h"
 

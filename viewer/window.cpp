@@ -2,7 +2,7 @@
 //
 // The window is created hidden for screenshots (GLFW_VISIBLE false) and the frame is drawn
 // into an offscreen multisampled framebuffer of the requested size, so the picture does not
-// depend on the X server's screen size; Xvfb with Mesa's llvmpipe renders it (DESIGN.md).
+// depend on the X server's screen size; Xvfb with Mesa's llvmpipe renders it.
 
 #define GL_GLEXT_PROTOTYPES
 #include "viewer/window.h"

@@ -1,6 +1,6 @@
 // strandmesh grow: procedural skeletons from the built-in growers.
 //
-//   strandmesh grow --seed N -o tree.json                   the simple random grower (seed 003 §2.6)
+//   strandmesh grow --seed N -o tree.json                   the simple random grower (grow/random_grower.h)
 //   strandmesh grow --preset NAME|FILE.json [--seed N] -o tree.json   self-organizing / space colonization
 //   strandmesh grow --list-presets
 

@@ -3,12 +3,11 @@
 ///
 /// A grown tree's stages allocate arrays of tens to hundreds of megabytes (positions,
 /// triangles, normals, export buffers). glibc serves each from fresh mmap'd memory, and every
-/// 4 KiB page faults on first touch: measured with `perf` on this project's machine (a
-/// paravirtualised VM), 27% of `strandmesh mesh` on the large preset was page faults. With
-/// glibc's malloc told to back its blocks with transparent huge pages (the tunable
-/// `glibc.malloc.hugetlb=1`, glibc 2.35 or later), the same run took 3.6-4.0 s instead of
-/// 6.7 s, with byte-identical output. The tunable is only read at program start, so the
-/// program re-executes itself once with it set.
+/// 4 KiB page faults on first touch. With glibc's malloc told to back its blocks with
+/// transparent huge pages (the tunable `glibc.malloc.hugetlb=1`, glibc 2.35 or later) far
+/// fewer pages fault, and the output is the same bytes (docs/defaults.md has the figures).
+/// The tunable is only read at program start, so the program re-executes itself once with it
+/// set.
 
 namespace sm {
 
@@ -24,12 +23,11 @@ bool running_with_huge_pages();
 
 /// Call in main() before the pipeline runs. Tells glibc's malloc to keep freed memory for
 /// reuse instead of handing it back to the kernel: no block is served by its own mmap
-/// (M_MMAP_MAX 0) and the heap is not trimmed (M_TRIM_THRESHOLD 2 GiB, the most it takes). Each stage's large
-/// temporaries then reuse pages the previous stage already faulted in, rather than faulting
-/// (and the kernel zeroing) fresh ones. On the large preset (`strandmesh mesh`, 2 threads,
-/// 2-core AMD EPYC VM) minor page faults 31,183 -> 16,355 and wall time 4.1 -> 3.0 s, same
-/// peak memory (0.86 GB) and byte-identical output. Does nothing off glibc, or when the
-/// environment has STRANDMESH_HUGE_PAGES=0 (the switch for all of this file's tuning).
+/// (M_MMAP_MAX 0) and the heap is not trimmed (M_TRIM_THRESHOLD 2 GiB, the most it takes).
+/// Each stage's large temporaries then reuse pages the previous stage already faulted in,
+/// rather than faulting (and the kernel zeroing) fresh ones, at the same peak memory
+/// (docs/defaults.md). Does nothing off glibc, or when the environment has
+/// STRANDMESH_HUGE_PAGES=0 (the switch for all of this file's tuning).
 void keep_freed_memory();
 
 }  // namespace sm
