@@ -9,6 +9,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
 
 namespace sm::batch {
 namespace {
@@ -36,6 +37,7 @@ std::optional<json> manifest_of(const fs::path& path) {
   if (extension_of(path) != "json") return std::nullopt;
   const std::string text = read_file(path);
   if (text.find("\"trees\"") == std::string::npos) return std::nullopt;
+  check_json_nesting(text, path.string());
   json doc = json::parse(text, nullptr, false);
   if (doc.is_discarded() || !doc.is_object() || !doc.contains("trees") || doc.contains("nodes")) return std::nullopt;
   return doc;
@@ -85,7 +87,9 @@ void add_manifest(const fs::path& path, const json& doc, const ReadOptions& defa
     if (const auto c = e.find("config"); c != e.end()) {
       if (c->is_string()) {
         const fs::path cfg = base / c->get<std::string>();
-        json parsed = json::parse(read_file(cfg), nullptr, false);
+        const std::string text = read_file(cfg);
+        check_json_nesting(text, cfg.string());
+        json parsed = json::parse(text, nullptr, false);
         if (parsed.is_discarded() || !parsed.is_object()) {
           throw InvalidInputError(where + ": config " + cfg.string() + " is not a JSON object");
         }
@@ -273,7 +277,14 @@ std::string record_to_json(const TreeRecord& r) {
 std::optional<TreeRecord> read_record(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return std::nullopt;
-  const json j = json::parse(read_file(path), nullptr, false);
+  json j;
+  try {
+    const std::string text = read_file(path);
+    check_json_nesting(text, path.string());
+    j = json::parse(text, nullptr, false);
+  } catch (const Error&) {
+    return std::nullopt;  // unreadable or absurd: not one of our records, the tree is redone
+  }
   if (j.is_discarded() || !j.is_object()) return std::nullopt;
   try {
     TreeRecord r;

@@ -300,6 +300,9 @@ TEST(TreeQsmMat, MalformedFilesNameTheVariable) {
   write_mat(dir / "missing.mat", "QSM", {{"radius", {{0.1}, 1}}});
   EXPECT_NE(error_of([&] { read_skeleton(dir / "missing.mat"); }).find("QSM.cylinder.length is missing"),
             std::string::npos);
+  // A mutated rtwig_QSM.mat (fuzz/fuzz_skeleton_mat.cpp) whose struct libmatio returns without
+  // data: it crashed libmatio's field lookup.
+  EXPECT_NE(error_of([&] { read_skeleton(kData / "fuzz_struct_without_data.mat"); }).find("is missing"), std::string::npos);
   write_file_atomically(dir / "text.mat", "radius,length\n");
   EXPECT_NE(error_of([&] { read_skeleton(dir / "text.mat"); }).find("text.mat: not a MATLAB MAT file"), std::string::npos);
 }

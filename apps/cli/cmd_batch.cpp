@@ -253,6 +253,7 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global) {
       s.outdir = o->outdir;
       if (o->merge) {
         if (!o->inputs.empty()) throw UsageError("batch --merge takes no inputs, only -o OUTDIR");
+        check_output_dir(s.outdir);
         const std::vector<TreeRecord> records = batch::merge_shards(s.outdir, o->title);
         log::info("merged " + counts(records) + " -> " + (s.outdir / "index.html").string());
         return exit_code(records, !o->no_strict);
@@ -267,6 +268,7 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global) {
       s.thumbnail.size = o->thumbnail_size;
       const std::vector<TreeJob> all = batch::list_trees(o->inputs, read_options(o->input_options));
       const std::vector<TreeJob> trees = batch::take_shard(all, shard);
+      check_output_dir(s.outdir);  // before any work: writable, or creatable in a writable folder
       std::error_code ec;
       fs::create_directories(s.outdir, ec);
       if (!fs::is_directory(s.outdir, ec)) throw IoError("cannot create the output directory " + s.outdir.string());
