@@ -240,7 +240,7 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_flag("--no-thumbnails", o->no_thumbnails, "Do not render NAME.png");
     sub.add_option("--thumbnail-size", o->thumbnail_size, "Thumbnail width and height in pixels")
         ->capture_default_str()
-        ->check(CLI::Range(8, 4096));
+        ->check(CLI::Range(8, 1024));
     sub.add_flag("--force", o->force, "Mesh every tree again, even those whose outputs match their input and config");
     sub.add_option("--title", o->title, "Title of index.html")->capture_default_str();
     add_input_options(sub, o->input_options);
