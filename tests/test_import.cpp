@@ -300,9 +300,27 @@ TEST(TreeQsmMat, MalformedFilesNameTheVariable) {
   write_mat(dir / "missing.mat", "QSM", {{"radius", {{0.1}, 1}}});
   EXPECT_NE(error_of([&] { read_skeleton(dir / "missing.mat"); }).find("QSM.cylinder.length is missing"),
             std::string::npos);
-  // A mutated rtwig_QSM.mat (fuzz/fuzz_skeleton_mat.cpp) whose struct libmatio returns without
-  // data: it crashed libmatio's field lookup.
-  EXPECT_NE(error_of([&] { read_skeleton(kData / "fuzz_struct_without_data.mat"); }).find("is missing"), std::string::npos);
+  // A mutated rtwig_QSM.mat (fuzz/fuzz_skeleton_mat.cpp) whose struct libmatio returned without
+  // data (it crashed libmatio's field lookup), and a 371-byte file declaring millions of struct
+  // elements (4 GB and minutes inside libmatio): both refused before libmatio reads them.
+  EXPECT_NE(error_of([&] { read_skeleton(kData / "fuzz_struct_without_data.mat"); })
+                .find("fuzz_struct_without_data.mat: not a valid MAT file at byte 128"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { read_skeleton(kData / "fuzz_huge_struct.mat"); }).find("not a valid MAT file at byte"),
+            std::string::npos);
+  // A struct claiming more fields than its bytes hold, built by hand: the walk names it.
+  write_mat(dir / "ok.mat", "QSM",
+            {{"radius", {{0.1, 0.08}, 1}},
+             {"length", {{1, 1}, 1}},
+             {"start", {{5, 5, 6, 6, 250, 251}, 3}},
+             {"axis", {{0, 0, 0, 0, 1, 1}, 3}},
+             {"parent", {{0, 1}, 1}}});
+  std::string bytes = read_file(dir / "ok.mat");
+  const std::size_t dims = bytes.find(std::string("\x05\0\0\0\x08\0\0\0\x01\0\0\0\x01\0\0\0", 16), 128);
+  ASSERT_NE(dims, std::string::npos);  // the QSM struct's dimensions 1 x 1
+  bytes[dims + 8] = '\x7f';           // 127 x 1 elements
+  write_file_atomically(dir / "huge.mat", bytes);
+  EXPECT_NE(error_of([&] { read_skeleton(dir / "huge.mat"); }).find("127 elements x 1 fields in"), std::string::npos);
   write_file_atomically(dir / "text.mat", "radius,length\n");
   EXPECT_NE(error_of([&] { read_skeleton(dir / "text.mat"); }).find("text.mat: not a MATLAB MAT file"), std::string::npos);
 }

@@ -10,8 +10,10 @@
 #include <matio.h>
 
 #include "core/errors.h"
+#include "core/file_io.h"
 #include "skeleton/import/cylinders.h"
 #include "skeleton/import/formats.h"
+#include "skeleton/import/mat_check.h"
 
 namespace sm {
 namespace {
@@ -142,6 +144,7 @@ CylinderTable table_from(const Array& rad, const Array& len, const Array& sta, c
 
 RawSkeleton read_treeqsm_mat(const std::filesystem::path& path) {
   const std::string name = path.string();
+  check_mat_structure(read_file(path), name);  // libmatio trusts the sizes a file declares
   // Mat_Open reads the header only; a file that is not a MAT file gives null.
   MatFile mat(Mat_Open(name.c_str(), MAT_ACC_RDONLY));
   if (!mat) {
