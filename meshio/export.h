@@ -38,12 +38,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "meshio/placement.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -51,15 +53,31 @@ namespace sm {
 /// Output file formats.
 enum class MeshFormat { glb, gltf, obj, ply };
 
+/// What becomes the origin of the written file (the pivot a DCC tool or engine rotates,
+/// scales and places the tree about).
+enum class Pivot {
+  root,    ///< the base of the trunk (ExportParams::root): the tree stands on the origin
+  center,  ///< the centre of the bounding box
+  origin   ///< the input's own origin: coordinates as given (georeferenced trees keep theirs)
+};
+
 /// Options of the mesh writers.
 struct ExportParams {
-  UpAxis up_axis = UpAxis::z;  ///< up axis of the mesh coordinates (default z); glTF output is y-up
+  UpAxis up_axis = UpAxis::z;          ///< up axis of the mesh coordinates, the input's (default z)
+  std::optional<UpAxis> file_up_axis{};///< up axis written (default: the format's: y for glTF and OBJ, the mesh's for PLY)
+  std::optional<Pivot> pivot{};        ///< the file's origin (default: root for glTF and OBJ, origin for PLY)
+  std::optional<glm::dvec3> root{};    ///< base of the trunk, mesh coordinates in metres (default: bottom centre of the bounds)
+  double scale = 1.0;                  ///< file units per metre, > 0 (default 1; 100 writes centimetres)
   bool normals = true;         ///< write normals: Mesh::normals, else angle-weighted ones (default true)
   bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
   bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
   bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)
-  bool recenter = true;        ///< glTF: positions relative to the bbox centre, kept in the node (default true)
 };
+
+/// The up axis, pivot and scale `params` give a file of `format` for `mesh`: the map from mesh
+/// to file coordinates (meshio/placement.h). The pivot is put on the export grid (core/mesh.h
+/// export_grid_spacing) so that float32 offsets from it stay exact.
+Placement export_placement(const Mesh& mesh, MeshFormat format, const ExportParams& params = {});
 
 /// The vertex buffers an exporter writes: the welded mesh with vertices split at seams.
 /// Every array has #V' entries (#V' >= number of used welded vertices), `indices` has 3 #F.

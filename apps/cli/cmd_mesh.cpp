@@ -93,6 +93,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       Stopwatch export_clock;
       ExportParams ep;
       ep.up_axis = r.skeleton.skeleton.up_axis;
+      ep.root = r.skeleton.skeleton.position[0];
       write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
       const double export_seconds = export_clock.elapsed();
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
