@@ -19,18 +19,20 @@
 ///  throws InvalidInputError), indices as unsigned int. The Khronos glTF Validator reports no
 ///  errors or warnings on these files (one info: TEXCOORD_0 is unused by the untextured
 ///  material); `scripts/validate_gltf.sh` runs it.
-///  glTF is y-up: z-up input (x, y, z) is written as (x, z, -y) (a rotation, so triangles keep
-///  their orientation). Precision: positions are stored relative to an origin (the centre of
-///  the bounding box, in double precision) that becomes the node's translation, so a
-///  georeferenced tree (coordinates of hundreds of metres or more) keeps float32's relative
-///  precision of about 1e-7 of the tree's size instead of the coordinates' size.
+///  Placement (ExportParams: up axis, pivot, scale; meshio/placement.h): the file's up axis is
+///  the format's convention unless asked otherwise (glTF and OBJ y-up, PLY the input's; z-up
+///  (x, y, z) becomes y-up (x, z, -y), a rotation, so triangles keep their orientation); the
+///  pivot becomes the file's origin (root, the base of the trunk, for glTF and OBJ; the input's
+///  origin for PLY). glTF keeps the pivot in double precision in the node's translation and
+///  stores positions as float32 offsets from it, so a georeferenced tree keeps float32's
+///  relative precision of about 1e-7 of the tree's size instead of the coordinates' size. The
+///  placement is recorded in the file and the readers (mesh_io.h) undo it.
 ///  - `.obj`: `v x y z`, `vt u v`, `vn x y z`, `f a/a/a ...` with 1-based indices, numbers
 ///    printed with 9 significant digits (`%.9g`, enough to round-trip float32 and sub-millimetre
 ///    for coordinates below 10 km).
 ///  - `.ply`: binary little endian; vertex x, y, z as double (precision of the input kept),
 ///    nx, ny, nz and s, t as float; face `list uchar uint vertex_indices`.
-///  OBJ and PLY keep the input's axes (no up-axis conversion); the up axis is written into a
-///  comment line.
+///  OBJ and PLY say their up axis, units and pivot in a comment line.
 ///
 /// Errors: an unknown extension throws InvalidInputError naming it and the accepted ones; a
 /// file that cannot be written throws IoError. Files are written atomically (core/file_io.h):

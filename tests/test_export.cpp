@@ -17,6 +17,7 @@
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
+#include "meshio/export_json.h"
 #include "meshio/mesh_io.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"
@@ -307,6 +308,32 @@ TEST(Placement, UpAxisPivotAndScaleOptions) {
   for (const dvec3& p : raw.positions) lo = glm::min(lo, p);
   EXPECT_NEAR(lo.y, 0.0, 1e-6);  // the pivot is on the export grid
   EXPECT_THROW(encode_mesh(m, MeshFormat::obj, {.scale = 0}), InvalidInputError);
+}
+
+TEST(Placement, ConfigSectionAndAttributeNames) {
+  ExportParams p;
+  read_export_json(nlohmann::json::parse(R"({"up_axis": "z", "pivot": "center", "scale": "cm", "attributes": "normal"})"),
+                   "c.json: export", p);
+  EXPECT_EQ(p.file_up_axis, UpAxis::z);
+  EXPECT_EQ(p.pivot, Pivot::center);
+  EXPECT_EQ(p.scale, 100.0);
+  EXPECT_TRUE(p.normals);
+  EXPECT_FALSE(p.uvs);
+  EXPECT_FALSE(p.branch_ids);
+  ExportParams q;
+  read_export_json(export_to_json(p), "x", q);  // round trip
+  EXPECT_EQ(export_to_json(q), export_to_json(p));
+  try {
+    read_export_json(nlohmann::json::parse(R"({"pivott": "root"})"), "c.json: export", p);
+    ADD_FAILURE();
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean \"pivot\""), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"scale": -1})"), "c", p), InvalidInputError);
+  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"up_axis": 3})"), "c", p), InvalidInputError);
+  EXPECT_THROW(set_attributes("normal,brnch_id", p), InvalidInputError);
+  set_attributes("all", p);
+  EXPECT_EQ(attribute_list(p), "normal,uv,branch_id");
 }
 
 TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
