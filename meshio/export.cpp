@@ -78,6 +78,28 @@ void validate_mesh(const Mesh& mesh) {
   };
   check_size(mesh.normals.size(), nv, "normals");
   check_size(mesh.corner_uvs.size(), mesh.triangles.size(), "corner_uvs");
+  // No file gets a non-finite number: a coordinate that is not finite, or that float32 (glTF)
+  // cannot hold, is an error, as are non-finite normals and UVs.
+  constexpr double kFloatSafe = 1e37;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const glm::dvec3& p = mesh.positions[v];
+    if (!(std::abs(p.x) <= kFloatSafe && std::abs(p.y) <= kFloatSafe && std::abs(p.z) <= kFloatSafe)) {
+      throw InvalidInputError("mesh: vertex " + std::to_string(v) + " has a coordinate that is not finite or too large for float32");
+    }
+    if (!mesh.normals.empty()) {
+      const glm::dvec3& n = mesh.normals[v];
+      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+        throw InvalidInputError("mesh: vertex " + std::to_string(v) + " has a non-finite normal");
+      }
+    }
+  }
+  for (std::size_t t = 0; t < mesh.corner_uvs.size(); ++t) {
+    for (const auto& uv : mesh.corner_uvs[t]) {
+      if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) {
+        throw InvalidInputError("mesh: triangle " + std::to_string(t) + " has a non-finite texture coordinate");
+      }
+    }
+  }
   check_size(mesh.triangle_branch.size(), mesh.triangles.size(), "triangle_branch");
 }
 

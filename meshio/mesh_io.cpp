@@ -25,6 +25,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
 
 namespace sm {
 
@@ -99,6 +100,8 @@ class MeshAssembler {
   [[nodiscard]] std::size_t vertex_count() const { return mesh_.positions.size(); }
 
   Mesh finish() {
+    // (An empty file is malformed input, exit 1, not a mesh that fails its checks.)
+    if (mesh_.triangles.empty()) throw InvalidInputError(name_ + ": no triangles (the file holds no mesh)");
     Mesh m = std::move(mesh_);
     if (uvs_complete_ && !m.triangles.empty()) m.corner_uvs = std::move(uvs_);
     if (branch_complete_ && !m.triangles.empty()) m.triangle_branch = std::move(branch_);
@@ -687,6 +690,59 @@ class AccessorReader {
   const std::string& name_;
 };
 
+// External buffers (a .gltf's `uri` naming a file) are read only from the glTF file's own
+// folder or below it, only from regular files within the input size limit: a `uri` of
+// "../../etc/hostname", an absolute path, a symlink leading out, a FIFO (which blocked
+// forever) or a directory (".", read as an endless file) is an error naming the uri.
+struct BufferFolder {
+  std::filesystem::path root;  // canonical folder of the glTF file
+  std::string name;            // the glTF file, for messages
+};
+
+bool buffer_exists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(std::filesystem::symlink_status(path, ec));  // errors are ReadWholeFile's
+}
+
+std::string keep_path(const std::string& path, void*) {
+  return path;  // tinygltf's default expands ~ and $VARIABLES (wordexp): not for file contents
+}
+
+bool read_buffer(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  const auto& folder = *static_cast<const BufferFolder*>(user);
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path real = fs::weakly_canonical(path, ec);
+  const std::string shown = excerpt(fs::path(path).lexically_relative(folder.root).string(), 200);
+  const auto [end, rest] = std::mismatch(folder.root.begin(), folder.root.end(), real.begin(), real.end());
+  if (ec || end != folder.root.end() || rest == real.end()) {
+    *err = "buffer \"" + shown + "\" is outside the folder of the glTF file; external buffers are read only from it";
+    return false;
+  }
+  try {
+    const std::string bytes = read_file(real);
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+  } catch (const IoError& e) {
+    *err = "buffer \"" + shown + "\": " + e.what();
+    return false;
+  }
+}
+
+bool refuse_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  *err = "writing is not supported";
+  return false;
+}
+
+/// The JSON part of a glTF file: all of a .gltf, the first chunk of a .glb (clamped to the file).
+std::string_view gltf_json_part(std::string_view bytes, bool binary) {
+  if (!binary) return bytes;
+  if (bytes.size() < 20) return {};
+  std::uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
+}
+
 glm::dmat4 node_matrix(const tinygltf::Node& node) {
   if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major, as glTF
   glm::dmat4 m(1.0);
@@ -705,8 +761,13 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   const std::string name = source.string();
   if (bytes.size() > std::numeric_limits<unsigned int>::max())
     throw InvalidInputError(name + ": file too large for glTF");
+  // tinygltf parses recursively (extras nested 20,000 deep overflowed the stack).
+  check_json_nesting(gltf_json_part(bytes, binary), name);
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&ignore_image, nullptr);
+  std::error_code ec;
+  BufferFolder folder{std::filesystem::weakly_canonical(std::filesystem::absolute(source).parent_path(), ec), name};
+  loader.SetFsCallbacks({&buffer_exists, &keep_path, &read_buffer, &refuse_write, &folder});
   tinygltf::Model model;
   std::string err, warn;
   const std::string base_dir = source.has_parent_path() ? source.parent_path().string() : std::string(".");

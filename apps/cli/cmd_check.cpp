@@ -18,11 +18,6 @@
 
 namespace sm::cli {
 
-namespace {
-/// Exit code of `check` when the mesh was read but fails at least one check.
-constexpr int kCheckFailed = 4;
-}  // namespace
-
 void add_check_command(CLI::App& app, const GlobalOptions& global) {
   add_command(
       app, "check", "Check a mesh: closed, manifold, oriented, genus, self-intersections, skeleton fidelity",
@@ -49,7 +44,8 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
             ->capture_default_str();
         sub.add_option("--examples", o->examples,
                        "Offending edges, triangle pairs and skeleton nodes listed per kind (a count)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(kNotNegative);
         sub.footer(
             "Exit codes: 0 all checks passed, 4 the mesh fails a check, 1 unreadable or malformed input,\n"
             "            2 usage error.");
@@ -79,7 +75,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
               log::verbose(buf);
             }
           }
-          return report.ok() ? int(kOk) : kCheckFailed;
+          return report.ok() ? int(kOk) : int(kCheckFailed);
         };
       });
 }
