@@ -128,6 +128,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--mesh-every", type=int, default=10, help="skeletons: every Nth goes through `mesh` (0: none)")
     args = ap.parse_args()
+    args.binary = os.path.abspath(args.binary)  # runs happen in their own folders
     exts = {"skeleton": (".json", ".swc"), "mesh": (".glb", ".gltf", ".obj", ".ply")}[args.kind]
     seeds = []
     for s in args.seeds:
