@@ -139,6 +139,10 @@ def main():
     if not seeds:
         sys.exit("no seed files")
     os.makedirs(args.out, exist_ok=True)
+    # A copy, so that rebuilding during the campaign does not pull the binary away under it.
+    copy = os.path.join(args.out, "strandmesh-under-test")
+    shutil.copy2(args.binary, copy)
+    args.binary = copy
     table = collections.Counter()
     findings = 0
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
