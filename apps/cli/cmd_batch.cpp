@@ -132,8 +132,9 @@ TreeRecord run_tree(const TreeJob& job, const Settings& s, bool& resumed) {
                            {"triangles", r.mesh.mesh.triangle_count()}};
     rec.figures["warnings"] = std::move(warning_list);
     release_intermediates(r);
-    ExportParams ep;
+    ExportParams ep = params.output;  // the config's "export" section (docs/export.md)
     ep.up_axis = r.skeleton.skeleton.up_axis;
+    ep.root = r.skeleton.skeleton.position[0];
     write_mesh(r.mesh.mesh, s.outdir / mesh_name, ep);
     rec.mesh = mesh_name;
     rec.status = "ok";
