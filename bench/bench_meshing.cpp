@@ -115,7 +115,7 @@ BENCHMARK(BM_ThickNodesInside)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::k
 /// The whole pipeline on a sample skeleton where the fork retry runs (small_pine: 20 pairs
 /// before, 2 after, 0 after the outer surface; 10 more runs of contours and meshing), against
 /// the same run without it.
-/// Skipped when ../shared/skeletons is absent.
+/// The sample comes from tests/data/skeletons.
 void BM_ForkRetry(benchmark::State& state) {
   const std::filesystem::path path = std::filesystem::path(STRANDMESH_SAMPLE_DIR) / "sapling_small_pine.json";
   if (!std::filesystem::exists(path)) {

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/errors.h"
+#include "core/input_limits.h"
 #include "core/math.h"
 
 namespace sm {
@@ -82,6 +83,7 @@ std::string contours_to_json(const ContourSet& c) {
 
 ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton, const std::string& name,
                               const ParticleField* field) {
+  check_json_nesting(text, name);
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);

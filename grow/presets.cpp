@@ -16,6 +16,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
 
 namespace sm {
 namespace {
@@ -320,6 +321,7 @@ class Writer {
 }  // namespace
 
 GrowPreset parse_grow_preset(std::string_view text, const std::string& name, const std::filesystem::path& base_dir) {
+  check_json_nesting(text, name);
   json j;
   try {
     j = json::parse(text);

@@ -25,6 +25,8 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
+#include "meshio/placement.h"
 
 namespace sm {
 
@@ -99,6 +101,8 @@ class MeshAssembler {
   [[nodiscard]] std::size_t vertex_count() const { return mesh_.positions.size(); }
 
   Mesh finish() {
+    // (An empty file is malformed input, exit 1, not a mesh that fails its checks.)
+    if (mesh_.triangles.empty()) throw InvalidInputError(name_ + ": no triangles (the file holds no mesh)");
     Mesh m = std::move(mesh_);
     if (uvs_complete_ && !m.triangles.empty()) m.corner_uvs = std::move(uvs_);
     if (branch_complete_ && !m.triangles.empty()) m.triangle_branch = std::move(branch_);
@@ -687,6 +691,59 @@ class AccessorReader {
   const std::string& name_;
 };
 
+// External buffers (a .gltf's `uri` naming a file) are read only from the glTF file's own
+// folder or below it, only from regular files within the input size limit: a `uri` of
+// "../../etc/hostname", an absolute path, a symlink leading out, a FIFO (which blocked
+// forever) or a directory (".", read as an endless file) is an error naming the uri.
+struct BufferFolder {
+  std::filesystem::path root;  // canonical folder of the glTF file
+  std::string name;            // the glTF file, for messages
+};
+
+bool buffer_exists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(std::filesystem::symlink_status(path, ec));  // errors are ReadWholeFile's
+}
+
+std::string keep_path(const std::string& path, void*) {
+  return path;  // tinygltf's default expands ~ and $VARIABLES (wordexp): not for file contents
+}
+
+bool read_buffer(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  const auto& folder = *static_cast<const BufferFolder*>(user);
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path real = fs::weakly_canonical(path, ec);
+  const std::string shown = excerpt(fs::path(path).lexically_relative(folder.root).string(), 200);
+  const auto [end, rest] = std::mismatch(folder.root.begin(), folder.root.end(), real.begin(), real.end());
+  if (ec || end != folder.root.end() || rest == real.end()) {
+    *err = "buffer \"" + shown + "\" is outside the folder of the glTF file; external buffers are read only from it";
+    return false;
+  }
+  try {
+    const std::string bytes = read_file(real);
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+  } catch (const IoError& e) {
+    *err = "buffer \"" + shown + "\": " + e.what();
+    return false;
+  }
+}
+
+bool refuse_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  *err = "writing is not supported";
+  return false;
+}
+
+/// The JSON part of a glTF file: all of a .gltf, the first chunk of a .glb (clamped to the file).
+std::string_view gltf_json_part(std::string_view bytes, bool binary) {
+  if (!binary) return bytes;
+  if (bytes.size() < 20) return {};
+  std::uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
+}
+
 glm::dmat4 node_matrix(const tinygltf::Node& node) {
   if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major, as glTF
   glm::dmat4 m(1.0);
@@ -705,8 +762,13 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   const std::string name = source.string();
   if (bytes.size() > std::numeric_limits<unsigned int>::max())
     throw InvalidInputError(name + ": file too large for glTF");
+  // tinygltf parses recursively (extras nested 20,000 deep overflowed the stack).
+  check_json_nesting(gltf_json_part(bytes, binary), name);
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&ignore_image, nullptr);
+  std::error_code ec;
+  BufferFolder folder{std::filesystem::weakly_canonical(std::filesystem::absolute(source).parent_path(), ec), name};
+  loader.SetFsCallbacks({&buffer_exists, &keep_path, &read_buffer, &refuse_write, &folder});
   tinygltf::Model model;
   std::string err, warn;
   const std::string base_dir = source.has_parent_path() ? source.parent_path().string() : std::string(".");
@@ -742,7 +804,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
                                 " is reached twice (the node tree has a cycle or a shared child)");
       visited[static_cast<std::size_t>(n)] = 1;
       const tinygltf::Node& node = model.nodes[static_cast<std::size_t>(n)];
-      const glm::dmat4 m = parent * node_matrix(node);
+      const glm::dmat4 m = params.file_coordinates ? glm::dmat4(1.0) : parent * node_matrix(node);
       if (node.mesh >= 0) instances.emplace_back(node.mesh, m);
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) stack.emplace_back(*it, m);
     }
@@ -750,9 +812,24 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
     for (std::size_t i = 0; i < model.meshes.size(); ++i) instances.emplace_back(static_cast<int>(i), glm::dmat4(1.0));
   }
 
-  // glTF is y-up; the inverse of the writer's (x, y, z) → (x, z, -y).
-  const bool to_z_up = params.up_axis == UpAxis::z;
-  auto axes = [&](const glm::dvec3& p) { return to_z_up ? glm::dvec3(p.x, -p.z, p.y) : p; };
+  // glTF is y-up, unless strandmesh wrote it otherwise (its placement record, which also
+  // gives the units); the node transforms hold the pivot.
+  UpAxis file_up = UpAxis::y;
+  double scale = 1.0;
+  if (model.asset.extras.IsObject() && model.asset.extras.Has("strandmesh")) {
+    const tinygltf::Value& record = model.asset.extras.Get("strandmesh");
+    if (record.IsObject() && record.Has("up_axis") && record.Get("up_axis").IsString() &&
+        record.Get("up_axis").Get<std::string>() == "z") {
+      file_up = UpAxis::z;
+    }
+    if (record.IsObject() && record.Has("scale") && record.Get("scale").IsNumber()) {
+      const double s = record.Get("scale").GetNumberAsDouble();
+      if (s > 0 && std::isfinite(s)) scale = s;
+    }
+  }
+  if (params.file_coordinates) file_up = params.up_axis, scale = 1.0;
+  auto axes = [&](const glm::dvec3& p) { return change_up_axis(p, file_up, params.up_axis); };
+  const double inv_scale = 1.0 / scale;
 
   MeshAssembler out(name);
   const AccessorReader reader(model, name);
@@ -800,7 +877,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
       std::vector<std::uint32_t> welded(nv);
       for (std::size_t i = 0; i < nv; ++i) {
         const glm::dvec4 p = m * glm::dvec4(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
-        welded[i] = out.add_vertex(axes(glm::dvec3(p)), what + " vertex " + std::to_string(i));
+        welded[i] = out.add_vertex(axes(glm::dvec3(p) * inv_scale), what + " vertex " + std::to_string(i));
         if (!nrm.empty())
           out.offer_normal(welded[i], axes(normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2])));
       }
@@ -837,6 +914,16 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   return out.finish();
 }
 
+// Undoes the placement strandmesh recorded in an OBJ or PLY header (meshio/placement.h); a
+// file without the record keeps its coordinates.
+Mesh unplace(Mesh mesh, std::string_view bytes, const MeshReadParams& params) {
+  const std::optional<FilePlacement> fp = find_placement_comment(bytes);
+  if (!fp || params.file_coordinates) return mesh;
+  for (glm::dvec3& p : mesh.positions) p = change_up_axis((p + fp->translation) / fp->scale, fp->up, params.up_axis);
+  for (glm::dvec3& n : mesh.normals) n = change_up_axis(n, fp->up, params.up_axis);
+  return mesh;
+}
+
 }  // namespace
 
 Mesh parse_mesh(std::string_view bytes, MeshFormat format, const std::filesystem::path& source,
@@ -848,9 +935,9 @@ Mesh parse_mesh(std::string_view bytes, MeshFormat format, const std::filesystem
     case MeshFormat::gltf:
       return parse_gltf(bytes, false, source, params);
     case MeshFormat::obj:
-      return parse_obj(bytes, name);
+      return unplace(parse_obj(bytes, name), bytes, params);
     case MeshFormat::ply:
-      return parse_ply(bytes, name);
+      return unplace(parse_ply(bytes, name), bytes, params);
   }
   throw InternalError("parse_mesh: unknown format");
 }

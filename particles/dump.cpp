@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/errors.h"
+#include "core/input_limits.h"
 
 namespace sm {
 namespace {
@@ -75,6 +76,7 @@ std::string particles_to_json(const Skeleton& skeleton, const ParticleField& f) 
 }
 
 ParticleField particles_from_json(const std::string& text) {
+  check_json_nesting(text, "particles dump");
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);

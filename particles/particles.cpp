@@ -127,7 +127,15 @@ void require(bool ok, const std::string& what) {
 
 void validate_params(const ParticleParams& p) {
   require(std::isfinite(p.spacing) && p.spacing >= 0, "spacing must be >= 0 (0 = derived), got " + std::to_string(p.spacing));
-  require(p.min_particles >= 3, "min_particles must be >= 3, got " + std::to_string(p.min_particles));
+  require(p.min_particles >= 3 && p.min_particles <= ParticleParams::kMaxMinParticles,
+          "min_particles must be in [3, " + std::to_string(ParticleParams::kMaxMinParticles) + "], got " +
+              std::to_string(p.min_particles));
+  require(p.root_strands <= ParticleParams::kMaxRootStrands,
+          "root_strands must be at most " + std::to_string(ParticleParams::kMaxRootStrands) + " (0 = derived), got " +
+              std::to_string(p.root_strands));
+  require(p.max_root_strands >= 1 && p.max_root_strands <= ParticleParams::kMaxRootStrands,
+          "max_root_strands must be in [1, " + std::to_string(ParticleParams::kMaxRootStrands) + "], got " +
+              std::to_string(p.max_root_strands));
   require(std::isfinite(p.new_strand_sparsity) && p.new_strand_sparsity >= 1.0,
           "new_strand_sparsity must be >= 1, got " + std::to_string(p.new_strand_sparsity));
   require(std::isfinite(p.wall_margin) && p.wall_margin >= 0 && p.wall_margin < 1.5,

@@ -42,6 +42,11 @@
 namespace sm {
 
 struct ParticleParams {
+  /// Largest root_strands and max_root_strands accepted (a count): 100,000 strands at the
+  /// root is 25 times the default; 1e8 on a 4-node tree grew past 5 GB before.
+  static constexpr std::uint32_t kMaxRootStrands = 100'000;
+  /// Largest min_particles accepted (a count).
+  static constexpr std::uint32_t kMaxMinParticles = 10'000;
   /// Particle spacing s (metres): a cloud at the nominal density holds one particle per
   /// pi s^2 of cross-section. 0 = derived (default): the median tip radius over
   /// sqrt(min_particles), raised when needed so the root carries at most `max_root_strands`.

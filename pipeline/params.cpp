@@ -1,12 +1,15 @@
 // Parameter files: every Params field by name, reading with strict key checks, writing all.
 
 #include <map>
+#include <limits>
 #include <set>
 
 #include <nlohmann/json.hpp>
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
+#include "meshio/export_json.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -124,12 +127,15 @@ struct Reader {
   void operator()(const char* key, I& x) {
     known.insert(key);
     if (auto it = section.find(key); it != section.end()) {
-      if (it->is_number_unsigned()) {
+      // (No wrap-around: a value beyond the field's type is an error, not taken modulo 2^32.)
+      const auto max = static_cast<std::uint64_t>(std::numeric_limits<I>::max());
+      if (it->is_number_unsigned() && it->get<std::uint64_t>() <= max) {
         x = static_cast<I>(it->get<std::uint64_t>());
-      } else if (it->is_number_integer() && it->get<std::int64_t>() >= 0) {
+      } else if (it->is_number_integer() && it->get<std::int64_t>() >= 0 &&
+                 static_cast<std::uint64_t>(it->get<std::int64_t>()) <= max) {
         x = static_cast<I>(it->get<std::int64_t>());
       } else {
-        fail(key, "a non-negative integer", *it);
+        fail(key, ("a non-negative integer up to " + std::to_string(max)).c_str(), *it);
       }
     }
   }
@@ -149,14 +155,14 @@ struct Reader {
     }
   }
   [[noreturn]] void fail(const char* key, const char* what, const json& value) const {
-    throw InvalidInputError(where + "." + key + ": must be " + what + ", not " + value.dump());
+    throw InvalidInputError(where + "." + key + ": must be " + what + ", not " + excerpt(value.dump()));
   }
   void check_unknown() const {
     for (auto it = section.begin(); it != section.end(); ++it) {
       if (!known.count(it.key())) {
         std::string list;
         for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-        throw InvalidInputError(where + ": unknown key \"" + it.key() + "\" (known keys: " + list + ")");
+        throw InvalidInputError(where + ": unknown key \"" + excerpt(it.key()) + "\" (known keys: " + list + ")");
       }
     }
   }
@@ -196,6 +202,7 @@ json write_section(P params) {
 }  // namespace
 
 PipelineParams parse_params_json(std::string_view text, const std::string& name, const PipelineParams& base) {
+  check_json_nesting(text, name);
   json doc;
   try {
     doc = json::parse(text.begin(), text.end());
@@ -207,9 +214,9 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
   static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing", "repair"};
   for (auto it = doc.begin(); it != doc.end(); ++it) {
-    if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description") {
-      throw InvalidInputError(name + ": unknown section \"" + it.key() +
-                              "\" (known: skeleton, particles, strands, contours, meshing, repair, description)");
+    if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description" && it.key() != "export") {
+      throw InvalidInputError(name + ": unknown section \"" + excerpt(it.key()) +
+                              "\" (known: skeleton, particles, strands, contours, meshing, repair, export, description)");
     }
   }
   PipelineParams p = base;
@@ -219,6 +226,8 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   read_section(doc, "contours", name, p.contours);
   read_section(doc, "meshing", name, p.meshing);
   read_section(doc, "repair", name, p.repair);
+  // The writer's options (not a stage): their own reader, meshio/export_json.h.
+  if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
   // Values out of range, named with the file (the stages check them again).
   try {
     validate_params(p.skeleton);
@@ -243,6 +252,7 @@ std::string params_to_json(const PipelineParams& p) {
   doc["contours"] = write_section(p.contours);
   doc["meshing"] = write_section(p.meshing);
   doc["repair"] = write_section(p.repair);
+  doc["export"] = export_to_json(p.output);
   return doc.dump(2) + "\n";
 }
 

@@ -3,7 +3,7 @@
 # --screenshot under xvfb-run (Mesa's software OpenGL): one run of the pipeline on a sample
 # tree is dumped with --dump-stages, then every picture is rendered from that dump.
 #
-#   ./scripts/screenshots.sh [SKELETON]     # default: ../shared/skeletons/sapling_quaking_aspen.json
+#   ./scripts/screenshots.sh [SKELETON]     # default: tests/data/skeletons/sapling_quaking_aspen.json
 #
 # Installs what is missing and builds first (like demo.sh and test.sh); with
 # STRANDMESH_SKIP_BUILD=1 it uses the binaries already in $STRANDMESH_BUILD_DIR (default build/).
@@ -41,7 +41,7 @@ if [ "${1:-}" = "--inside-xvfb" ]; then
   SHOT_SIZE=1200x720 shot viewer_ui mesh,legend "yaw=35,pitch=12,dist=0.9" --ui --select "$FORK"
   # The problems layer needs a tree with problems (the aspen has none): a folded whorl of the
   # small pine (docs/viewer.md).
-  "$VIEW" "$STRANDMESH_ROOT/../shared/skeletons/sapling_small_pine.json" --quiet --screenshot "$OUT/problems.png" \
+  "$VIEW" "$STRANDMESH_ROOT/tests/data/skeletons/sapling_small_pine.json" --quiet --screenshot "$OUT/problems.png" \
     --size 640x400 --layers mesh,problems,legend --camera node=1012,around=3,yaw=0
   printf '  %-24s %7d bytes\n' "problems.png" "$(stat -c %s "$OUT/problems.png")" >&2
   exit 0
@@ -52,7 +52,7 @@ if [ "${STRANDMESH_SKIP_BUILD:-0}" != 1 ]; then
   configure_and_build
 fi
 
-SKELETON="${1:-$STRANDMESH_ROOT/../shared/skeletons/sapling_quaking_aspen.json}"
+SKELETON="${1:-$STRANDMESH_ROOT/tests/data/skeletons/sapling_quaking_aspen.json}"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
 mkdir -p "$OUT"

@@ -216,6 +216,45 @@ WorkTree make_tree(const RawSkeleton& raw, std::uint32_t root,
   return t;
 }
 
+/// Magnitudes a float32 mesh can resolve (SkeletonLimits in build.h), checked on the radii
+/// as the floor will leave them, before any repair.
+void check_magnitudes(const RawSkeleton& raw, double floor) {
+  const std::size_t n = raw.size();
+  dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  std::size_t thinnest = 0, farthest = 0;
+  double reach = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const dvec3& p = raw.position[i];
+    const double r = std::max(raw.radius[i], floor);
+    const double far = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    if (far + r > SkeletonLimits::max_coordinate) {
+      reject(at(raw, i) + ": position (" + fmt(p.x) + ", " + fmt(p.y) + ", " + fmt(p.z) + ") with radius " + fmt(r) +
+             " reaches beyond " + fmt(SkeletonLimits::max_coordinate) +
+             " m from the origin, the limit for coordinates (move the tree near the origin)");
+    }
+    if (far + r > reach) {
+      reach = far + r;
+      farthest = i;
+    }
+    lo = glm::min(lo, p - dvec3(r));
+    hi = glm::max(hi, p + dvec3(r));
+    if (r < std::max(raw.radius[thinnest], floor)) thinnest = i;
+  }
+  const double r_min = std::max(raw.radius[thinnest], floor);
+  if (reach > SkeletonLimits::max_offset_ratio * r_min) {
+    const dvec3& p = raw.position[farthest];
+    reject(at(raw, farthest) + ": position (" + fmt(p.x) + ", " + fmt(p.y) + ", " + fmt(p.z) + ") is more than " +
+           fmt(SkeletonLimits::max_offset_ratio) + " times the thinnest radius (" + fmt(r_min) + " m at " +
+           raw.place(thinnest) + ") from the origin (move the tree near the origin)");
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  if (extent > SkeletonLimits::max_extent_ratio * r_min) {
+    reject(at(raw, thinnest) + ": radius " + fmt(r_min) + " m is too thin for a tree " + fmt(extent) +
+           " m across: the extent may be at most " + fmt(SkeletonLimits::max_extent_ratio) +
+           " times the thinnest radius (raise the radius floor, --radius-floor)");
+  }
+}
+
 double auto_radius_floor(const WorkTree& t) {
   double max_r = 0, min_pos = std::numeric_limits<double>::infinity();
   for (double r : t.radius) {
@@ -247,6 +286,16 @@ void raise_radii(WorkTree& t, double floor, SkeletonReport& rep, const RawSkelet
 
 /// Merges zero-length and too-short edges into the parent, top-down.
 void merge_short_edges(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+  // "Zero length" is relative to the tree's size (plus a few ulps of the coordinates), not to
+  // the distance from the origin: at 1e12 m, real 0.9 m edges were merged as zero-length.
+  dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < t.pos.size(); ++i) {
+    if (t.removed[i]) continue;
+    lo = glm::min(lo, t.pos[i]);
+    hi = glm::max(hi, t.pos[i]);
+  }
+  const double far = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z)});
+  const double zero_tol = 1e-12 * glm::length(hi - lo) + 1e-15 * far;
   std::vector<std::uint32_t> queue{t.root};
   std::vector<std::vector<std::uint32_t>> kept(t.pos.size());
   for (std::size_t k = 0; k < queue.size(); ++k) {
@@ -256,15 +305,16 @@ void merge_short_edges(WorkTree& t, const SkeletonParams& params, SkeletonReport
     for (std::size_t j = 0; j < ch.size(); ++j) {
       const std::uint32_t c = ch[j];
       const double len = glm::length(t.pos[c] - t.pos[v]);
-      const double scale = std::max({std::abs(t.pos[c].x), std::abs(t.pos[c].y), std::abs(t.pos[c].z), 1.0});
-      const double tol = std::max(params.merge_edge_ratio * std::max(t.radius[c], t.radius[v]), 1e-12 * scale);
+      const double tol = std::max(params.merge_edge_ratio * std::max(t.radius[c], t.radius[v]), zero_tol);
       if (len <= tol) {
         t.removed[c] = true;
         ++rep.merged_edges;
         rep.warnings.add("merged_edge",
-                         len <= 1e-12 * scale ? "zero-length edge merged into its parent"
+                         len <= zero_tol ? "zero-length edge merged into its parent"
                                               : "edge shorter than merge_edge_ratio x radius merged into its parent",
-                         raw.place(c < raw.size() ? c : v));
+                         c < raw.size()   ? raw.place(c)
+                         : v < raw.size() ? "inserted node merged into " + raw.place(v)
+                                          : std::string("inserted node"));
         for (std::uint32_t g : t.children[c]) {
           t.parent[g] = v;
           ch.push_back(g);  // examined later in this same loop against v
@@ -880,6 +930,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   rep.timings.add("validate", clock.lap());
 
   rep.radius_floor = params.radius_floor > 0 ? params.radius_floor : auto_radius_floor(t);
+  check_magnitudes(raw, rep.radius_floor);
   raise_radii(t, rep.radius_floor, rep, raw);
   merge_short_edges(t, params, rep, raw);
   fix_thick_children(t, params, rep, raw);

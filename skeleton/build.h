@@ -3,7 +3,8 @@
 ///
 /// Validation comes first and rejects malformed input with an InvalidInputError naming the
 /// node and the rule: no nodes, too many nodes, duplicate ids, negative ids, a missing parent,
-/// several roots or none, cycles, non-finite coordinates or radii, negative radii.
+/// several roots or none, cycles, non-finite coordinates or radii, negative radii, magnitudes
+/// beyond SkeletonLimits.
 ///
 /// Then each repair runs in this order, counted in the report (and as Warnings):
 ///  1. edges shorter than `merge_edge_ratio` × radius (or exactly zero) are merged into the
@@ -24,6 +25,24 @@
 #include "skeleton/skeleton.h"
 
 namespace sm {
+
+/// Magnitudes a skeleton may have (checked before any repair; beyond them the input is
+/// rejected naming the node and the rule). Meshes are written in float32 relative to the
+/// tree's centre (meshio/export.h), whose 24-bit mantissa resolves about 1e-7 of the
+/// tree's size: a tree more than a million times as large as its thinnest branch (after the
+/// radius floor) cannot be meshed at the precision the contours need, and the costs of the
+/// later stages grow with that ratio (an edge of 1e6 m at radius 0.05 ran for hours).
+/// Georeferenced trees (UTM or ECEF coordinates, millions of metres) are fine: the stages
+/// work in double precision, which resolves 1e-7 of the thinnest radius up to a billion
+/// radii from the origin.
+struct SkeletonLimits {
+  /// Largest |x|, |y|, |z| of any node plus its radius (metres): beyond any geographic frame.
+  static constexpr double max_coordinate = 1e8;
+  /// Largest |x|, |y|, |z| of any node plus its radius, over the thinnest radius.
+  static constexpr double max_offset_ratio = 1e9;
+  /// Largest extent (bounding box side, radii included) over the thinnest radius.
+  static constexpr double max_extent_ratio = 1e6;
+};
 
 /// What to do with a child that is thicker than its parent.
 enum class ThickChildPolicy {

@@ -9,6 +9,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
 
 namespace sm {
 namespace {
@@ -47,13 +48,13 @@ std::int64_t get_int(const json& node, const char* key, const std::string& where
     if (std::isfinite(d) && d == std::floor(d) && std::abs(d) < 9e15) return static_cast<std::int64_t>(d);
   }
   throw InvalidInputError(where + ": \"" + key + "\" must be an integer, not " + type_name(*it) +
-                          (it->is_primitive() ? " " + it->dump() : std::string()));
+                          (it->is_primitive() ? " " + excerpt(it->dump()) : std::string()));
 }
 
 double get_number(const json& j, const std::string& what, const std::string& where) {
   if (!j.is_number()) {
     throw InvalidInputError(where + ": " + what + " must be a number, not " + type_name(j) +
-                            (j.is_primitive() ? " " + j.dump() : std::string()));
+                            (j.is_primitive() ? " " + excerpt(j.dump()) : std::string()));
   }
   return j.get<double>();
 }
@@ -66,7 +67,7 @@ UpAxis parse_up_axis(const json& doc, const std::string& name) {
     if (s == "z" || s == "Z") return UpAxis::z;
     if (s == "y" || s == "Y") return UpAxis::y;
   }
-  throw InvalidInputError(name + ": \"up_axis\" must be \"z\" or \"y\", not " + it->dump());
+  throw InvalidInputError(name + ": \"up_axis\" must be \"z\" or \"y\", not " + excerpt(it->dump()));
 }
 
 std::string_view trim(std::string_view s) {
@@ -98,6 +99,7 @@ bool parse_int(std::string_view tok, std::int64_t& out) {
 
 RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) {
   if (trim(text).empty()) throw InvalidInputError(name + ": the file is empty");
+  check_json_nesting(text, name);
   json doc;
   try {
     doc = json::parse(text.begin(), text.end());
@@ -125,7 +127,7 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
   raw.source = name;
   raw.up_axis = parse_up_axis(doc, name);
   if (const auto it = doc.find("sanitized"); it != doc.end()) {
-    if (!it->is_boolean()) throw InvalidInputError(name + ": \"sanitized\" must be true or false, not " + it->dump());
+    if (!it->is_boolean()) throw InvalidInputError(name + ": \"sanitized\" must be true or false, not " + excerpt(it->dump()));
     raw.sanitized = it->get<bool>();
   }
   const std::size_t n = nodes->size();
@@ -203,17 +205,17 @@ RawSkeleton parse_swc(std::string_view text, const std::string& name) {
     std::int64_t id = 0, parent = 0, type = 0;
     double v[4];
     if (!parse_int(tok[0], id))
-      throw InvalidInputError(where + ": id \"" + std::string(tok[0]) + "\" is not an integer");
+      throw InvalidInputError(where + ": id \"" + excerpt(tok[0]) + "\" is not an integer");
     if (!parse_int(tok[1], type))
-      throw InvalidInputError(where + ": type \"" + std::string(tok[1]) + "\" is not an integer");
+      throw InvalidInputError(where + ": type \"" + excerpt(tok[1]) + "\" is not an integer");
     static const char* names[4] = {"x", "y", "z", "radius"};
     for (int a = 0; a < 4; ++a) {
       if (!parse_double(tok[2 + a], v[a])) {
-        throw InvalidInputError(where + ": " + names[a] + " \"" + std::string(tok[2 + a]) + "\" is not a number");
+        throw InvalidInputError(where + ": " + names[a] + " \"" + excerpt(tok[2 + a]) + "\" is not a number");
       }
     }
     if (!parse_int(tok[6], parent)) {
-      throw InvalidInputError(where + ": parent \"" + std::string(tok[6]) + "\" is not an integer");
+      throw InvalidInputError(where + ": parent \"" + excerpt(tok[6]) + "\" is not an integer");
     }
     // SWC marks the root with any negative parent (usually -1).
     if (parent < 0) parent = -1;

@@ -42,7 +42,7 @@ RawSkeleton grown_tree(std::uint64_t seed = 1);
 /// Sanitized versions.
 Skeleton built(const RawSkeleton& raw, const SkeletonParams& params = {});
 
-/// The sample skeletons of ../shared/skeletons (empty when the folder is absent).
+/// The sample skeletons of tests/data/skeletons, sorted by name.
 std::vector<std::filesystem::path> sample_skeletons();
 /// A fresh empty temporary directory for one test.
 std::filesystem::path temp_dir(const std::string& name);

@@ -1,5 +1,5 @@
-// Contours stage: boundary selection on its own, and (with the real particle/strand stages)
-// slicing and split detection on fixtures and samples.
+// Contours stage: boundary selection on its own, and compute_contours called directly on
+// skeletons built in code (tests/fixtures.h), after the real particle and strand stages.
 
 #include <gtest/gtest.h>
 
@@ -10,6 +10,8 @@
 
 #include "contours/contours.h"
 #include "core/rng.h"
+#include "tests/fixtures.h"
+#include "tests/stage_fixtures.h"
 
 namespace sm {
 namespace {
@@ -238,6 +240,200 @@ TEST(Boundary, DegenerateInputs) {
   // All collinear: no valid loop, fewer than 3 vertices (the caller widens it).
   const auto line = boundary_loop({{0, 0}, {1, 1}, {2, 2}, {3, 3}}, 10);
   EXPECT_LT(line.size(), 3u);
+}
+
+// compute_contours on small skeletons built in code.
+
+/// Signed area of loop l in its slice plane (positive: counter-clockwise seen from the tip
+/// side, i.e. looking down the frame's tangent from above).
+double loop_area(const ContourSet& c, std::uint32_t l) {
+  dvec3 centroid(0);
+  for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) centroid += c.point[v];
+  centroid /= double(c.loop_size(l));
+  double a = 0;
+  for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
+    const std::uint32_t w = v + 1 < c.loop_begin[l + 1] ? v + 1 : c.loop_begin[l];
+    a += cross2(c.loop_frame[l].to_local(c.point[v] - centroid), c.loop_frame[l].to_local(c.point[w] - centroid));
+  }
+  return 0.5 * a;
+}
+
+/// What holds for the contours of any tree: consistent arrays, every loop a counter-clockwise
+/// polygon of distinct strands, every loop in exactly one tube, tubes linked by their
+/// junctions, a tip loop at the end of every tube that does not end in a junction, and the
+/// loops of one bundle (plain and tip loops) within their branch's round section. (A split
+/// loop may still hold the rest of a fused section: stacked forks split one by one.)
+void expect_well_formed(const test::UpToContours& u) {
+  const Skeleton& s = u.skeleton;
+  const ContourSet& c = u.contours;
+  const std::size_t L = c.loop_count();
+  ASSERT_GT(L, 0u);
+  ASSERT_EQ(c.loop_begin.size(), L + 1);
+  EXPECT_EQ(c.loop_begin.front(), 0u);
+  ASSERT_EQ(c.loop_begin.back(), c.point.size());
+  ASSERT_EQ(c.strand.size(), c.point.size());
+  ASSERT_EQ(c.loop_node.size(), L);
+  ASSERT_EQ(c.loop_t.size(), L);
+  ASSERT_EQ(c.loop_distance.size(), L);
+  ASSERT_EQ(c.loop_center.size(), L);
+  ASSERT_EQ(c.loop_frame.size(), L);
+  ASSERT_EQ(c.loop_radius.size(), L);
+  EXPECT_EQ(c.stats.loops, L);
+  EXPECT_EQ(c.stats.loop_vertices, c.point.size());
+
+  std::size_t fused = 0;
+  for (std::uint32_t l = 0; l < L; ++l) {
+    SCOPED_TRACE("loop " + std::to_string(l));
+    ASSERT_GE(c.loop_size(l), 3u);
+    EXPECT_GT(loop_area(c, l), 0) << "not counter-clockwise seen from the tip side";
+    std::set<std::uint32_t> strands;
+    for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
+      ASSERT_TRUE(c.strand[v].valid());
+      strands.insert(c.strand[v].value);
+    }
+    EXPECT_EQ(strands.size(), c.loop_size(l)) << "a strand twice in one loop";
+    EXPECT_GE(c.loop_t[l], 0.0);
+    EXPECT_LE(c.loop_t[l], 1.0);
+    fused += c.loop_kind[l] == LoopKind::fused ? 1 : 0;
+    if (c.loop_kind[l] != LoopKind::plain && c.loop_kind[l] != LoopKind::tip) continue;
+    // Strand points lie in their node's particle disk, which reaches a little past the radius.
+    for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
+      EXPECT_LT(glm::length(c.point[v] - c.loop_center[l]), 1.1 * c.loop_radius[l]) << "vertex " << v;
+    }
+  }
+  EXPECT_EQ(fused, c.stats.fused_loops);
+
+  // Tubes: every loop once, bottom to top; each junction ends one tube and starts two.
+  ASSERT_EQ(c.tubes.size(), 1 + 2 * c.junctions.size());
+  EXPECT_EQ(c.tubes[0].start_junction, UINT32_MAX);
+  EXPECT_EQ(c.tubes[0].loops.front(), 0u) << "the root's loop";
+  std::vector<int> seen(L, 0);
+  std::size_t tip_tubes = 0;
+  for (const Tube& t : c.tubes) {
+    ASSERT_FALSE(t.loops.empty());
+    for (std::size_t k = 0; k < t.loops.size(); ++k) {
+      ++seen[t.loops[k]];
+      if (k > 0) {
+        EXPECT_GT(c.loop_distance[t.loops[k]], c.loop_distance[t.loops[k - 1]]);
+      }
+    }
+    if (t.end_junction == UINT32_MAX) {
+      ++tip_tubes;
+      const std::uint32_t last = t.loops.back();
+      EXPECT_EQ(c.loop_kind[last], LoopKind::tip);
+      EXPECT_TRUE(s.is_tip(c.loop_node[last]));
+      EXPECT_EQ(c.loop_t[last], 1.0);
+    }
+  }
+  for (std::uint32_t l = 0; l < L; ++l) EXPECT_EQ(seen[l], 1) << "loop " << l << " in " << seen[l] << " tubes";
+  std::size_t tips = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) tips += s.is_tip(NodeId(i)) ? 1 : 0;
+  EXPECT_EQ(tip_tubes, tips);
+  for (std::uint32_t ji = 0; ji < c.junctions.size(); ++ji) {
+    SCOPED_TRACE("junction " + std::to_string(ji));
+    const Junction& j = c.junctions[ji];
+    EXPECT_TRUE(s.is_fork(j.fork));
+    EXPECT_EQ(c.tubes[j.lower_tube].end_junction, ji);
+    EXPECT_EQ(c.tubes[j.lower_tube].loops.back(), j.lower);
+    ASSERT_EQ(j.lower_side.size(), c.loop_size(j.lower));
+    bool main_side = false, lateral_side = false;
+    for (const std::uint8_t side : j.lower_side) {
+      EXPECT_LE(side, 2);
+      main_side |= side == 0;
+      lateral_side |= side == 1;
+    }
+    EXPECT_TRUE(main_side && lateral_side) << "the lower loop goes around both bundles";
+    EXPECT_GT(j.split_distance, 0);
+    for (int k = 0; k < 2; ++k) {
+      const Tube& up = c.tubes[j.upper_tubes[std::size_t(k)]];
+      EXPECT_EQ(up.start_junction, ji);
+      EXPECT_EQ(up.loops.front(), j.upper[std::size_t(k)]);
+      EXPECT_EQ(c.loop_kind[j.upper[std::size_t(k)]], LoopKind::split);
+      EXPECT_GT(c.loop_distance[j.upper[std::size_t(k)]], c.loop_distance[j.lower]);
+    }
+  }
+}
+
+TEST(Contours, StraightBranchIsOneTubeOfEvenSlices) {
+  // Edges of 0.4 m at radii 0.1 to 0.05 m: the step (0.4 x radius) would give 5 to 10 slices
+  // per edge, capped at max_slices_per_edge; with the root's loop and the tip's, 2 + 5 x cap.
+  for (const std::uint32_t cap : {4u, 2u, 1u}) {
+    SCOPED_TRACE("max_slices_per_edge " + std::to_string(cap));
+    ContourParams p;
+    p.max_slices_per_edge = cap;
+    const auto u = test::up_to_contours(test::straight_branch(6), 1, p);
+    expect_well_formed(u);
+    const ContourSet& c = u.contours;
+    EXPECT_EQ(c.loop_count(), 2 + 5 * cap);
+    ASSERT_EQ(c.tubes.size(), 1u);
+    EXPECT_EQ(c.junctions.size(), 0u);
+    EXPECT_EQ(c.tubes[0].loops.size(), c.loop_count());
+    EXPECT_EQ(c.stats.fused_loops, 0u);
+    EXPECT_EQ(c.stats.forced_splits, 0u);
+    EXPECT_EQ(c.stats.boundary_fallbacks, 0u);
+    for (std::uint32_t n = 1; n < 6; ++n) {
+      const auto on_edge = std::count(c.loop_node.begin(), c.loop_node.end(), NodeId(n));
+      EXPECT_EQ(on_edge, n == 5 ? cap + 1 : cap) << "edge of node " << n;  // node 5 also has the tip loop
+    }
+    // Evenly spaced along the branch, the root's loop at 0 and the tip's at 2 m.
+    EXPECT_EQ(c.loop_distance.front(), 0.0);
+    EXPECT_NEAR(c.loop_distance.back(), 2.0, 1e-12);
+    for (std::uint32_t l = 2; l + 1 < c.loop_count(); ++l) {
+      EXPECT_NEAR(c.loop_distance[l] - c.loop_distance[l - 1], 0.4 / cap, 1e-9) << "loop " << l;
+    }
+    // Every loop is a section of the vertical branch: its plane horizontal, its centre on the axis.
+    for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
+      EXPECT_NEAR(c.loop_frame[l].tangent.z, 1.0, 1e-12);
+      EXPECT_NEAR(glm::length(dvec2(c.loop_center[l])), 0.0, 1e-12);
+      for (std::uint32_t v = c.loop_begin[l]; v < c.loop_begin[l + 1]; ++v) {
+        EXPECT_NEAR(c.point[v].z, c.loop_center[l].z, 1e-12);
+      }
+    }
+  }
+}
+
+TEST(Contours, YForkSplitsIntoTwoTubesAboveItsFork) {
+  const auto u = test::up_to_contours(test::y_fork(35.0));
+  expect_well_formed(u);
+  const Skeleton& s = u.skeleton;
+  const ContourSet& c = u.contours;
+  ASSERT_EQ(c.junctions.size(), 1u);
+  ASSERT_EQ(c.tubes.size(), 3u);
+  const Junction& j = c.junctions[0];
+  // The fork is input node 2 (a collar node may be inserted at the lateral's base).
+  EXPECT_EQ(s.source_id[j.fork.idx()], 2);
+  EXPECT_FALSE(j.forced);
+  EXPECT_EQ(c.stats.forced_splits, 0u);
+  EXPECT_EQ(c.stats.nested_splits, 0u);
+  EXPECT_EQ(c.loop_kind[j.lower], LoopKind::fused);
+  EXPECT_GE(c.stats.fused_loops, 1u);
+  // The bundles part within the children's first edges (0.5 m long).
+  EXPECT_LT(j.split_distance, 0.5);
+  // The trunk's tube ends in the junction; the children's tubes end at the two tips.
+  EXPECT_EQ(c.tubes[0].end_junction, 0u);
+  EXPECT_EQ(j.lower_tube, 0u);
+  for (int k = 0; k < 2; ++k) {
+    const Tube& t = c.tubes[j.upper_tubes[std::size_t(k)]];
+    EXPECT_EQ(t.end_junction, UINT32_MAX);
+    EXPECT_EQ(s.source_id[c.loop_node[t.loops.back()].idx()], k == 0 ? 4 : 6);
+  }
+}
+
+TEST(Contours, SixChildrenGiveFiveJunctionsAndSixTips) {
+  // The hub is binarized into a chain of five forks a tiny step apart; each splits once.
+  const auto u = test::up_to_contours(test::six_children());
+  expect_well_formed(u);
+  EXPECT_EQ(u.contours.junctions.size(), 5u);
+  EXPECT_EQ(u.contours.tubes.size(), 11u);
+}
+
+TEST(Contours, SameInputSameContours) {
+  const auto a = test::up_to_contours(test::trifurcation()), b = test::up_to_contours(test::trifurcation());
+  expect_well_formed(a);
+  EXPECT_EQ(a.contours.loop_begin, b.contours.loop_begin);
+  EXPECT_EQ(a.contours.point, b.contours.point);
+  EXPECT_EQ(a.contours.strand, b.contours.strand);
+  EXPECT_EQ(a.contours.junctions.size(), 2u);
 }
 
 }  // namespace

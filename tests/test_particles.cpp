@@ -248,7 +248,7 @@ TEST(Particles, ForkSidesFollowTheChildrenNotTheSlots) {
 
 TEST(Particles, SampleSkeletonsQuality) {
   const auto files = test::sample_skeletons();
-  if (files.empty()) GTEST_SKIP() << "sample skeletons not found";
+  ASSERT_FALSE(files.empty()) << "tests/data/skeletons is empty";
   for (const auto& file : files) {
     const Skeleton sk = build_skeleton(read_skeleton(file)).skeleton;
     const ParticleParams params;
@@ -545,7 +545,7 @@ TEST(ParticlesSlow, LargeTreeIdenticalForOneAndTwoThreads) {
 
 TEST(ParticlesSlow, SamplesAtFinerSpacings) {
   const auto files = test::sample_skeletons();
-  if (files.empty()) GTEST_SKIP() << "sample skeletons not found";
+  ASSERT_FALSE(files.empty()) << "tests/data/skeletons is empty";
   for (const auto& file : files) {
     const Skeleton sk = build_skeleton(read_skeleton(file)).skeleton;
     for (std::uint32_t root : {1000u, 12000u}) {

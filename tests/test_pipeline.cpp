@@ -43,7 +43,7 @@ MeshCheckReport run_and_check(const RawSkeleton& raw, PipelineResult* out = null
   return rep;
 }
 
-/// The sample skeleton file with this name, if ../shared/skeletons is there.
+/// The sample skeleton file with this name from tests/data/skeletons.
 std::optional<std::filesystem::path> sample_named(const std::string& name) {
   for (const auto& f : test::sample_skeletons()) {
     if (f.filename() == name) return f;
@@ -236,7 +236,7 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   // untangle more of them (49, measured), with every move within the limit and the surface
   // still sound and as faithful.
   const auto file = sample_named("mtg_boutdenoylum2.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams flips_only, with_moves;
   flips_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -269,7 +269,7 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   // collapses (4): each removes one vertex and two triangles, and the surface stays a closed
   // genus-0 2-manifold, as faithful.
   const auto file = sample_named("mtg_boutdenoylum2.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_collapses, collapses_only;
   no_collapses.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -301,7 +301,7 @@ TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
   // closed genus-0 2-manifold, as faithful. No refill carries the surface across a skeleton
   // node (137 of 141 thick nodes inside either way, measured).
   const auto file = sample_named("mtg_boutdenoylum2.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_refills, refills;
   no_refills.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -549,7 +549,7 @@ TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
   // (Seed 2 until the vertices were put on the float grid, which changed which pairs the
   // repair meets: now 0 there, and 2 -> 0 / 9 -> 0 / 7 -> 5 / 13 -> 0 at seeds 1 / 3 / 4 / 5.)
   const auto file = sample_named("mtg_boutdenoylum2.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams params;
   params.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -655,7 +655,7 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   // The retry's and the outer surface's figures match the checks of both meshes and the
   // surface stays sound and as faithful.
   const auto file = sample_named("mtg_boutdenoylum2.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams off, on;
   off.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -698,7 +698,7 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
   // the fused sections got a last loop a fine step below their splits, agraf at seed 2 had
   // such a web at the fork near (-0.256, -0.323, 1.148); its first mesh now needs none.)
   const auto file = sample_named("mtg_agraf.json");
-  if (!file) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   PipelineParams p;
   p.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   p.repair.fold_rounds = 0;
@@ -731,7 +731,7 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
 
 TEST(Pipeline, Samples) {
   const auto files = test::sample_skeletons();
-  if (files.empty()) GTEST_SKIP() << "../shared/skeletons not found";
+  ASSERT_FALSE(files.empty()) << "tests/data/skeletons is empty";
   // Self-intersecting pairs and thick nodes outside: none (particle seeds 1-3 all measured
   // so). Fidelity p95: a regression bound measured with some margin; see the file comment.
   const std::map<std::string, std::tuple<std::size_t, double, std::size_t>> bounds{
@@ -777,11 +777,10 @@ TEST(Pipeline, DeterministicAcrossRuns) {
 TEST(Pipeline, IdenticalForOneAndTwoThreads) {
   // Every stage runs in parallel (particles per subtree, contours per tube, normals per
   // vertex, ...) and must not depend on the schedule: a sample with whorls and forced splits
-  // (or a grown tree without ../shared), meshed on 1 and on 2 threads, bit for bit.
-  RawSkeleton raw = test::grown_tree(5);
-  for (const auto& f : test::sample_skeletons()) {
-    if (f.filename() == "sapling_small_pine.json") raw = read_skeleton(f);
-  }
+  // meshed on 1 and on 2 threads, bit for bit.
+  const auto file = sample_named("sapling_small_pine.json");
+  ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
+  const RawSkeleton raw = read_skeleton(*file);
   auto run_with = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     return run_pipeline(raw, {});

@@ -88,7 +88,7 @@ TEST(Strands, FixturesAndGrownTrees) {
 
 TEST(Strands, SampleSkeletons) {
   const auto files = test::sample_skeletons();
-  if (files.empty()) GTEST_SKIP() << "sample skeletons not found";
+  ASSERT_FALSE(files.empty()) << "tests/data/skeletons is empty";
   for (const auto& file : files) {
     const Skeleton sk = build_skeleton(read_skeleton(file)).skeleton;
     const ParticleField f = compute_particles(sk);

@@ -16,6 +16,7 @@
 #include "contours/dump.h"
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/input_limits.h"
 #include "meshio/mesh_io.h"
 #include "particles/dump.h"
 #include "skeleton/io.h"
@@ -140,7 +141,9 @@ RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& 
   if (std::filesystem::exists(stats_path, ec)) {
     // The dumped run's timings, so the status panel shows what the run cost where it ran.
     try {
-      const auto j = nlohmann::json::parse(read_file(stats_path));
+      const std::string text = read_file(stats_path);
+      check_json_nesting(text, stats_path.string());
+      const auto j = nlohmann::json::parse(text);
       if (j.contains("seconds") && j["seconds"].is_object()) {
         for (const char* st : {"skeleton", "particles", "strands", "contours", "meshing"}) {
           if (j["seconds"].contains(st) && j["seconds"][st].is_number()) {

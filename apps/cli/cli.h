@@ -3,7 +3,8 @@
 /// cmd_<name>.cpp and registers itself with add_<name>_command().
 ///
 /// Exit codes: 0 ok, 1 bad input (malformed file, invalid parameters, unreadable or
-/// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error.
+/// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error,
+/// 4 the mesh fails a check (`check`, `mesh --strict`); `batch`: 5 some trees failed, 6 all did.
 
 #include <functional>
 #include <string>
@@ -15,8 +16,9 @@
 
 namespace sm::cli {
 
-using app::ExitCode;  // apps/common/prologue.h: kOk, kBadInput, kUsage, kInternal
+using app::ExitCode;  // apps/common/prologue.h: kOk, kBadInput, kUsage, kInternal, kCheckFailed
 using app::kBadInput;
+using app::kCheckFailed;
 using app::kInternal;
 using app::kOk;
 using app::kUsage;
@@ -26,6 +28,11 @@ struct GlobalOptions {
   bool quiet = false;
   bool verbose = false;
 };
+
+/// Validator of an unsigned integer option: CLI11 would take "-1" as 2^64 - 1 (or 2^32 - 1).
+inline const CLI::Validator kNotNegative(
+    [](std::string& s) { return s.find('-') == std::string::npos ? std::string() : "must not be negative, got " + s; },
+    "NON-NEGATIVE");
 
 /// The action a subcommand runs once parsing is done; returns the exit code.
 using Action = std::function<int()>;

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli/commands.h"
+#include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
 #include "meshcheck/checks.h"
@@ -48,6 +49,10 @@ void add_bench_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_flag("--check", o->check, "Also check the mesh (closed, manifold, genus, self-intersections, fidelity)");
     sub.add_option("--json", o->json_path, "Write the figures as JSON to this file");
     return [o, &global] {
+      if (!o->json_path.empty()) {
+        if (extension_of(o->json_path) != "json") throw InvalidInputError(o->json_path + ": --json writes JSON; name it .json");
+        check_output_path(o->json_path);
+      }
       RawSkeleton raw;
       std::string name;
       if (!o->skeleton.empty()) {

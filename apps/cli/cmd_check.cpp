@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/input_options.h"
 #include "core/log.h"
 #include "meshcheck/checks.h"
 #include "meshio/mesh_io.h"
@@ -17,11 +18,6 @@
 #include "skeleton/io.h"
 
 namespace sm::cli {
-
-namespace {
-/// Exit code of `check` when the mesh was read but fails at least one check.
-constexpr int kCheckFailed = 4;
-}  // namespace
 
 void add_check_command(CLI::App& app, const GlobalOptions& global) {
   add_command(
@@ -34,12 +30,14 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           bool no_self_intersections = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
           std::size_t examples = MeshCheckParams{}.max_examples;
+          InputOptions input_options;  ///< how to read --skeleton
         };
         auto o = std::make_shared<Opts>();
         sub.add_option("MESH", o->mesh, "Mesh file (.glb, .gltf, .obj or .ply)")->required();
         sub.add_option("--skeleton", o->skeleton,
-                       "Skeleton file (.json or .swc): also measure fidelity to its radii; its up axis is used "
-                       "to read the mesh");
+                       "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg): also measure fidelity to its "
+                       "radii; its up axis is used to read the mesh");
+        add_input_options(sub, o->input_options);
         sub.add_flag("--json", o->json, "Print the report as JSON");
         sub.add_flag("--no-self-intersections", o->no_self_intersections,
                      "Skip the self-intersection test (the slowest check)");
@@ -49,7 +47,8 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
             ->capture_default_str();
         sub.add_option("--examples", o->examples,
                        "Offending edges, triangle pairs and skeleton nodes listed per kind (a count)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(kNotNegative);
         sub.footer(
             "Exit codes: 0 all checks passed, 4 the mesh fails a check, 1 unreadable or malformed input,\n"
             "            2 usage error.");
@@ -62,7 +61,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           // to it), never against our own sanitized copy.
           Skeleton skeleton;
           if (!o->skeleton.empty()) {
-            skeleton = input_skeleton(read_skeleton(o->skeleton));
+            skeleton = input_skeleton(read_skeleton(o->skeleton, read_options(o->input_options)));
             read.up_axis = skeleton.up_axis;
             params.skeleton = &skeleton;
             log::verbose(o->skeleton + ": " + std::to_string(skeleton.size()) + " input nodes");
@@ -81,7 +80,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
               log::verbose(buf);
             }
           }
-          return report.ok() ? int(kOk) : kCheckFailed;
+          return report.ok() ? int(kOk) : int(kCheckFailed);
         };
       });
 }

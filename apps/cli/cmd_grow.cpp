@@ -65,7 +65,8 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
     auto o = std::make_shared<Opts>();
     o->seed_option = sub.add_option("--seed", o->seed,
                                     "Random seed (same seed, same skeleton); with --preset it overrides the preset's")
-                         ->capture_default_str();
+                         ->capture_default_str()
+                         ->check(kNotNegative);
     sub.add_option("--preset", o->preset,
                    "Grow with a preset: a name from configs/grow (see --list-presets) or a path to a .json file");
     sub.add_flag("--list-presets", o->list, "List the grow presets with their node ranges and descriptions");
@@ -73,6 +74,7 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
     return [o, &global] {
       if (o->list) return list_presets();
       if (o->output.empty()) throw UsageError("grow: -o FILE.json is required");
+      check_json_output(o->output, "-o");
       if (o->preset.empty()) {
         RandomGrowParams params;
         params.seed = o->seed;

@@ -27,6 +27,7 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
     add_skeleton_options(sub, o->params);
     add_input_options(sub, o->input_options);
     return [o] {
+      if (!o->export_path.empty()) check_json_output(o->export_path, "--export");
       const SkeletonResult result = load_skeleton(o->input, o->params, read_options(o->input_options));
       if (o->json) {
         const auto& r = result.report;

@@ -5,11 +5,13 @@
 #include <utility>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/export_options.h"
 #include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
+#include "meshcheck/checks.h"
 #include "meshio/export.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
@@ -24,23 +26,32 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       double spacing = 0;
       std::uint32_t root_strands = 0;
       bool print_config = false;
+      bool strict = false;
       SkeletonParams skeleton;
       InputOptions input_options;
+      ExportOptions export_options;
     };
     auto o = std::make_shared<Opts>();
     // Required unless --print-config (checked below, so the config can be printed alone).
     sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg); required");
     sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
-    auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")->capture_default_str();
+    auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")
+                     ->capture_default_str()
+                     ->check(kNotNegative);
     auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
                         ->check(CLI::NonNegativeNumber);
-    auto* root = sub.add_option("--root-strands", o->root_strands, "Choose the spacing so the root has about this many strands");
+    auto* root = sub.add_option("--root-strands", o->root_strands, "Choose the spacing so the root has about this many strands")
+                     ->check(CLI::Range(1.0, double(ParticleParams::kMaxRootStrands)));
     sub.add_option("--dump-stages", o->dump_dir, "Also write every stage's result as JSON into this directory");
     sub.add_option("--stats", o->stats_path, "Write the run's figures (counts, seconds per stage) as JSON");
     sub.add_flag("--print-config", o->print_config, "Print the full parameter set as a config file and exit");
+    sub.add_flag("--strict", o->strict,
+                 "Also run `strandmesh check` on the mesh (against the skeleton) and exit 4 when it fails a check "
+                 "(the outputs are written all the same)");
     add_skeleton_options(sub, o->skeleton);
     add_input_options(sub, o->input_options);
+    add_export_options(sub, o->export_options);
     // Which skeleton options were given explicitly (they override the config file).
     std::vector<CLI::Option*> skeleton_opts;
     for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
@@ -64,6 +75,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (skeleton_opts[4]->count()) params.skeleton.max_child_ratio = cli.max_child_ratio;
       if (skeleton_opts[5]->count()) params.skeleton.max_edge_ratio = cli.max_edge_ratio;
       (void)defaults;
+      apply_export_options(o->export_options, params.output);
       if (o->print_config) {
         std::fputs(params_to_json(params).c_str(), stdout);
         return int(kOk);
@@ -73,7 +85,29 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                    " is required (strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}; see --help)");
         return int(kUsage);
       }
-      (void)mesh_format_from_path(o->output);  // an unknown extension fails before the long run
+      // Every output is checked before the long run (an unknown extension, a missing or
+      // read-only folder, a target that is a directory or device), and all are written
+      // together at the end, or none of them (OutputTransaction).
+      (void)mesh_format_from_path(o->output);
+      if (!o->stats_path.empty() && extension_of(o->stats_path) != "json") {
+        throw InvalidInputError(o->stats_path + ": --stats writes JSON; the file name must end in .json");
+      }
+      struct RemoveCreatedDir {  // a dump folder this run created is removed again on failure (when empty)
+        std::string dir;
+        ~RemoveCreatedDir() {
+          std::error_code ec;
+          if (!dir.empty()) std::filesystem::remove(dir, ec);  // only removes an empty folder
+        }
+      } created;
+      if (!o->dump_dir.empty()) {  // first: it may also receive the mesh or the stats
+        check_output_dir(o->dump_dir);
+        std::error_code ec;
+        if (std::filesystem::create_directories(o->dump_dir, ec)) created.dir = o->dump_dir;
+        if (ec) throw IoError("cannot create directory " + o->dump_dir + ": " + ec.message());
+      }
+      check_output_path(o->output);
+      if (!o->stats_path.empty()) check_output_path(o->stats_path);
+      OutputTransaction outputs;
       const RawSkeleton raw = read_skeleton(o->input, read_options(o->input_options));
       ProgressBar bar(!global.quiet);
       std::mutex m;
@@ -91,11 +125,19 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
       release_intermediates(r);  // their memory goes to the exporter
       Stopwatch export_clock;
-      ExportParams ep;
+      ExportParams ep = params.output;
       ep.up_axis = r.skeleton.skeleton.up_axis;
+      ep.root = r.skeleton.skeleton.position[0];
       write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
       const double export_seconds = export_clock.elapsed();
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
+      if (r.mesh.stats.bad_edges > 0) {
+        log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
+                   " edges not shared by exactly two triangles; please report this skeleton");
+        return int(kInternal);  // nothing written
+      }
+      outputs.commit();
+      created.dir.clear();
       char line[512];
       std::snprintf(line, sizeof line, "%s: %zu nodes, %zu strands, %zu particles => %zu triangles, %zu vertices in %.2f s -> %s",
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
@@ -126,10 +168,14 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
         log::verbose("  outer surface: " + to_text(os) + (os.refused.empty() ? "" : "; not kept: " + os.refused));
       }
-      if (r.mesh.stats.bad_edges > 0) {
-        log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
-                   " edges not shared by exactly two triangles; please report this skeleton");
-        return int(kInternal);
+      if (o->strict) {
+        MeshCheckParams cp;
+        cp.skeleton = &r.skeleton.skeleton;
+        const MeshCheckReport report = check_mesh(r.mesh.mesh, cp);
+        if (!report.ok()) {
+          log::error(o->output + " fails its checks (--strict):\n" + to_text(report));
+          return int(kCheckFailed);
+        }
       }
       return int(kOk);
     };

@@ -54,20 +54,26 @@ void add_particles_command(CLI::App& app, const GlobalOptions&) {
                     ->check(CLI::NonNegativeNumber);
                 sub.add_option("--root-strands", o->particles.root_strands,
                                "Choose s so the root carries about this many strands (0 = derived rule)")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(kNotNegative);
                 sub.add_option("--max-root-strands", o->particles.max_root_strands,
                                "Cap on the root's strands for the derived spacing")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(kNotNegative);
                 sub.add_option("--min-particles", o->particles.min_particles, "Fewest particles in a tip (>= 3)")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(kNotNegative);
                 sub.add_option("--max-steps", o->particles.max_steps, "Relaxation steps per node at most")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(kNotNegative);
                 sub.add_option("--seed", o->particles.seed, "Random seed (tip patterns, new strands)")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(kNotNegative);
                 sub.add_flag("--quality", o->quality,
                              "Also print the quality measures (closest pairs, holes, neighbour losses)");
                 add_skeleton_options(sub, o->skeleton);
                 return [o] {
+                  check_output_dir(o->output);
                   const SkeletonResult loaded = load_skeleton(o->input, o->skeleton);
                   const Skeleton& sk = loaded.skeleton;
                   ProgressBar bar(log::level() != log::Level::quiet);

@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("strandmesh ") + STRANDMESH_VERSION);
   app.footer(
       "Exit codes: 0 ok, 1 bad input (malformed or unreadable file, invalid parameters),\n"
-      "            2 usage error, 3 internal error.\n"
+      "            2 usage error, 3 internal error, 4 the mesh fails a check (check, mesh --strict).\n"
       "Global options --threads N, -q/--quiet, -v/--verbose go before or after the command.\n"
       "Run 'strandmesh COMMAND --help' for the options of a command.");
   GlobalOptions global;

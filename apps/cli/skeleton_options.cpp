@@ -4,13 +4,17 @@
 #include <cstdio>
 #include <map>
 
+#include "core/errors.h"
+#include "core/file_io.h"
 #include "core/log.h"
 #include "skeleton/io.h"
 
 namespace sm::cli {
 
 void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
-  sub.add_option("--max-nodes", p.max_nodes, "Reject skeletons with more nodes than this")->capture_default_str();
+  sub.add_option("--max-nodes", p.max_nodes, "Reject skeletons with more nodes than this")
+      ->capture_default_str()
+      ->check(kNotNegative);
   sub.add_option("--merge-edge-ratio", p.merge_edge_ratio, "Merge edges shorter than this x radius into the parent")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
@@ -33,6 +37,13 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_flag("!--keep-input", p.separate,
                "Keep the input where it is: crossing branches are not swung apart nor hairpins re-attached; the "
                "repair stage fuses crossings where they are (with --thick-child keep, radii as given too)");
+}
+
+void check_json_output(const std::string& path, const char* option) {
+  if (extension_of(path) != "json") {
+    throw InvalidInputError(path + ": " + option + " writes JSON; the file name must end in .json");
+  }
+  check_output_path(path);
 }
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read) {

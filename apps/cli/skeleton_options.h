@@ -14,6 +14,10 @@ namespace sm::cli {
 /// --max-edge-ratio to `sub`, writing into `params`.
 void add_skeleton_options(CLI::App& sub, SkeletonParams& params);
 
+/// Before any work: `path` (given with `option`) must end in .json and be writable
+/// (check_output_path). Throws InvalidInputError or IoError.
+void check_json_output(const std::string& path, const char* option);
+
 /// Reads and sanitizes a skeleton file; logs the repairs as warnings (unless quiet).
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read = {});
 

@@ -12,8 +12,9 @@
 
 namespace sm::app {
 
-/// Exit codes of both programs (strandmesh-view adds 4: no display or no OpenGL 3.3).
-enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3 };
+/// Exit codes of both programs; 4 is strandmesh's failed check (check, mesh --strict) and
+/// strandmesh-view's missing display or OpenGL 3.3.
+enum ExitCode : int { kOk = 0, kBadInput = 1, kUsage = 2, kInternal = 3, kCheckFailed = 4 };
 
 /// First thing in main(): re-executes with huge pages where that helps and keeps freed memory
 /// for reuse (apps/common/huge_pages.h).

@@ -1,0 +1,8 @@
+// Fuzz target: our JSON skeleton format, read and sanitized (skeleton/io.h, skeleton/build.h).
+#include "fuzz/fuzz_reader.h"
+#include "skeleton/build.h"
+#include "skeleton/io.h"
+
+SM_FUZZ_READER(text) {
+  (void)sm::build_skeleton(sm::parse_skeleton_json(text, "fuzz.json"));
+}

@@ -1,0 +1,173 @@
+// Meshing stage: build_mesh called directly on the contours of skeletons built in code
+// (tests/fixtures.h), after the real particle, strand and contour stages.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "meshcheck/checks.h"
+#include "meshing/meshing.h"
+#include "tests/fixtures.h"
+#include "tests/stage_fixtures.h"
+
+namespace sm {
+namespace {
+
+struct Built {
+  test::UpToContours up;
+  MeshResult mesh;
+};
+
+Built mesh_of(const RawSkeleton& raw, std::uint64_t seed = 1) {
+  Built b{test::up_to_contours(raw, seed), {}};
+  b.mesh = build_mesh(b.up.skeleton, b.up.contours);
+  return b;
+}
+
+/// A closed, oriented 2-manifold of genus 0 facing outwards, in one piece, with no degenerate
+/// or crossing triangles and every thick skeleton node inside; F = 2V - 4 (Euler).
+void expect_sound(const Built& b) {
+  const Mesh& m = b.mesh.mesh;
+  MeshCheckParams cp;
+  cp.skeleton = &b.up.skeleton;
+  const MeshCheckReport rep = check_mesh(m, cp);
+  EXPECT_TRUE(rep.closed) << rep.boundary_edges << " boundary edges";
+  EXPECT_TRUE(rep.edge_manifold);
+  EXPECT_TRUE(rep.vertex_manifold);
+  EXPECT_TRUE(rep.oriented);
+  EXPECT_EQ(rep.components, 1u);
+  EXPECT_EQ(rep.genus, 0);
+  EXPECT_EQ(rep.unreferenced_vertices, 0u);
+  EXPECT_EQ(rep.nonfinite_vertices, 0u);
+  EXPECT_EQ(rep.degenerate_triangles, 0u);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_GT(rep.signed_volume, 0);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+  EXPECT_EQ(m.triangle_count(), 2 * m.vertex_count() - 4);
+  EXPECT_EQ(b.mesh.stats.bad_edges, 0u);
+  EXPECT_EQ(b.mesh.triangle_kind.size(), m.triangle_count());
+  EXPECT_EQ(m.normals.size(), m.vertex_count());
+  EXPECT_EQ(m.corner_uvs.size(), m.triangle_count());
+}
+
+/// Where no repair touched the mesh, it is exactly the stitching of its contours: the loop
+/// vertices first (on the float grid), then a ring and an apex per tip, then the base's
+/// centre; a strip has as many triangles as its two loops have vertices, a junction's pants
+/// its three loops' vertices plus 2, a tip's dome three per vertex of its loop, the base one
+/// per vertex of the root's loop.
+void expect_stitched_exactly(const Built& b) {
+  const ContourSet& c = b.up.contours;
+  const Mesh& m = b.mesh.mesh;
+  std::size_t strips = 0, fusion = 0, tip = 0, tip_vertices = 0;
+  for (const Tube& t : c.tubes) {
+    for (std::size_t k = 0; k + 1 < t.loops.size(); ++k) strips += c.loop_size(t.loops[k]) + c.loop_size(t.loops[k + 1]);
+    if (t.end_junction == UINT32_MAX) {
+      tip += 3 * c.loop_size(t.loops.back());
+      tip_vertices += c.loop_size(t.loops.back()) + 1;
+    }
+  }
+  for (const Junction& j : c.junctions) fusion += c.loop_size(j.lower) + c.loop_size(j.upper[0]) + c.loop_size(j.upper[1]) + 2;
+  std::size_t kind[4] = {0, 0, 0, 0};
+  for (const TriangleKind k : b.mesh.triangle_kind) ++kind[static_cast<int>(k)];
+  EXPECT_EQ(kind[static_cast<int>(TriangleKind::strip)], strips);
+  EXPECT_EQ(kind[static_cast<int>(TriangleKind::fusion)], fusion);
+  EXPECT_EQ(kind[static_cast<int>(TriangleKind::tip_cap)], tip);
+  EXPECT_EQ(kind[static_cast<int>(TriangleKind::root_cap)], c.loop_size(0));
+  ASSERT_EQ(m.vertex_count(), c.point.size() + tip_vertices + 1);
+  ASSERT_GT(b.mesh.grid, 0);
+  for (std::size_t v = 0; v < c.point.size(); ++v) {
+    EXPECT_LE(glm::length(m.positions[v] - c.point[v]), b.mesh.grid) << "vertex " << v;
+    EXPECT_EQ(m.vertex_strand[v], c.strand[v]) << "vertex " << v;
+  }
+  EXPECT_EQ(b.mesh.stats.junctions, c.junctions.size());
+  EXPECT_EQ(b.mesh.stats.merged_junctions, 0u);
+}
+
+TEST(BuildMesh, StraightBranchIsAClosedTubeFacingOutwards) {
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE("particle seed " + std::to_string(seed));
+    const Built b = mesh_of(test::straight_branch(6), seed);
+    expect_sound(b);
+    expect_stitched_exactly(b);
+    EXPECT_EQ(b.mesh.stats.tip_caps, 1u);
+    EXPECT_EQ(b.mesh.stats.strips, b.up.contours.loop_count() - 1);
+    // The branch runs up the z axis from 0 to 2 m: strips face away from the axis, the base
+    // faces down, the dome up and out from the tip loop's centre.
+    const Mesh& m = b.mesh.mesh;
+    for (std::size_t f = 0; f < m.triangle_count(); ++f) {
+      const auto& t = m.triangles[f];
+      const glm::dvec3 n = m.face_normal(t), c = (m.positions[t[0]] + m.positions[t[1]] + m.positions[t[2]]) / 3.0;
+      switch (b.mesh.triangle_kind[f]) {
+        case TriangleKind::strip: EXPECT_GT(glm::dot(n, glm::dvec3(c.x, c.y, 0)), 0) << "triangle " << f; break;
+        case TriangleKind::root_cap: EXPECT_LT(n.z, 0) << "triangle " << f; break;
+        case TriangleKind::tip_cap: EXPECT_GT(glm::dot(n, c - glm::dvec3(0, 0, 2)), 0) << "triangle " << f; break;
+        case TriangleKind::fusion: ADD_FAILURE() << "a fusion triangle without a fork"; break;
+      }
+    }
+    // The volume of a polygon tube inscribed in the round cones (16 strands: loops of 5 to
+    // 11 vertices) plus the tip's dome: somewhat less than the cones' 0.0367 m³.
+    MeshCheckParams cp;
+    cp.self_intersections = false;
+    const double cones = std::numbers::pi * 0.4 / 3.0 *
+                         [] {
+                           double s = 0;
+                           for (int i = 0; i < 5; ++i) {
+                             const double r0 = 0.1 - 0.01 * i, r1 = r0 - 0.01;
+                             s += r0 * r0 + r0 * r1 + r1 * r1;
+                           }
+                           return s;
+                         }();
+    const double volume = check_mesh(m, cp).signed_volume;
+    EXPECT_GT(volume, 0.8 * cones);
+    EXPECT_LT(volume, 1.0 * cones);
+  }
+}
+
+TEST(BuildMesh, ForksGetPantsAndEveryTipADome) {
+  struct Case {
+    const char* name;
+    RawSkeleton raw;
+    std::size_t junctions, tips;
+  };
+  const Case cases[] = {{"y_fork", test::y_fork(35.0), 1, 2},
+                        {"trifurcation", test::trifurcation(), 2, 3},
+                        {"thick_child", test::thick_child(), 1, 2},
+                        {"zero_length_edges", test::zero_length_edges(), 1, 2}};
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.name);
+    const Built b = mesh_of(k.raw);
+    expect_sound(b);
+    expect_stitched_exactly(b);
+    EXPECT_EQ(b.up.contours.junctions.size(), k.junctions);
+    EXPECT_EQ(b.mesh.stats.tip_caps, k.tips);
+    // Every triangle belongs to a branch of the skeleton (the id of its first node).
+    const std::vector<std::uint32_t> branch = b.up.skeleton.branch_ids();
+    for (const std::uint32_t id : b.mesh.mesh.triangle_branch) EXPECT_EQ(branch[id], id);
+  }
+}
+
+TEST(BuildMesh, WhorlOfSixChildrenIsClosedGenusZero) {
+  // Five forks a tiny step apart: stacked junctions, the hardest case for the pants.
+  const Built b = mesh_of(test::six_children());
+  expect_sound(b);
+  EXPECT_EQ(b.mesh.stats.tip_caps, 6u);
+  EXPECT_EQ(b.mesh.stats.junctions, 5u);
+  // Each loop vertex is used; the caps add a ring and an apex per tip and the base's centre.
+  std::size_t tip_vertices = 0;
+  for (const Tube& t : b.up.contours.tubes) {
+    if (t.end_junction == UINT32_MAX) tip_vertices += b.up.contours.loop_size(t.loops.back()) + 1;
+  }
+  EXPECT_LE(b.mesh.mesh.vertex_count(), b.up.contours.point.size() + tip_vertices + 1);
+  EXPECT_GE(b.mesh.mesh.vertex_count(), b.up.contours.point.size() / 2);
+}
+
+TEST(BuildMesh, SameContoursSameMesh) {
+  const Built a = mesh_of(test::y_fork(50.0));
+  const MeshResult again = build_mesh(a.up.skeleton, a.up.contours);
+  EXPECT_EQ(again.mesh.positions, a.mesh.mesh.positions);
+  EXPECT_EQ(again.mesh.triangles, a.mesh.mesh.triangles);
+}
+
+}  // namespace
+}  // namespace sm

@@ -1,0 +1,471 @@
+// Reliability and safety (issue 35): every reproducer of the attack campaign as a regression
+// test, and each fault: deep nesting, unbounded reads, magnitudes, output targets that are
+// devices, FIFOs, directories or symlinks, outputs written together, signals, leftovers of
+// killed runs, glTF buffers outside the file's folder, integer options that wrapped around.
+
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "core/errors.h"
+#include "core/file_io.h"
+#include "core/input_limits.h"
+#include "skeleton/build.h"
+#include "skeleton/io.h"
+#include "tests/fixtures.h"
+
+namespace sm {
+namespace {
+
+namespace fs = std::filesystem;
+using test::CmdResult;
+CmdResult run(const std::string& args) { return test::run_cli(args); }
+
+/// `open` + `value` nested `depth` times + `close` ("[[[[1]]]]").
+std::string nested(int depth, const std::string& open = "[", const std::string& close = "]",
+                   const std::string& value = "1") {
+  std::string s;
+  s.reserve(std::size_t(depth) * (open.size() + close.size()) + value.size());
+  for (int i = 0; i < depth; ++i) s += open;
+  s += value;
+  for (int i = 0; i < depth; ++i) s += close;
+  return s;
+}
+
+std::size_t files_in(const fs::path& dir) {
+  std::size_t n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+
+/// A pid that no process has (a child that has exited and been reaped).
+pid_t dead_pid() {
+  const pid_t pid = ::fork();
+  if (pid == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return pid;
+}
+
+const char* kSixNodes =
+    R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.098615},)"
+    R"({"id":1,"parent":0,"position":[-0.069357,0.133994,4.447348],"radius":0.009405},)"
+    R"({"id":2,"parent":1,"position":[0.078677,0.133996,4.556236],"radius":0.006669},)"
+    R"({"id":3,"parent":1,"position":[-0.069679,0.134762,4.450921],"radius":0.009351},)"
+    R"({"id":4,"parent":3,"position":[-0.381188,0.062254,4.720383],"radius":0.00255},)"
+    R"({"id":5,"parent":3,"position":[-0.069753,0.134939,4.451742],"radius":0.009339}]})";
+
+// ---- Readers -------------------------------------------------------------------------------
+
+TEST(Reliability, JsonNestingIsLimitedBeforeParsing) {
+  EXPECT_NO_THROW(check_json_nesting(nested(kMaxJsonDepth), "a.json"));
+  EXPECT_NO_THROW(check_json_nesting("\"" + std::string(1000, '[') + "\"", "a.json"));  // brackets in a string
+  EXPECT_NO_THROW(check_json_nesting(R"(["\"[[[[[[", 1])", "a.json", 2));             // escaped quote
+  try {
+    check_json_nesting("{\n  \"a\": " + nested(kMaxJsonDepth + 1), "a.json");
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("a.json:2:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nested deeper than"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Reliability, NestedValuesAreRejectedWithShortMessages) {
+  // Each of these crashed with a stack overflow (a recursive dump of the rejected value).
+  const std::string deep = nested(100'000);
+  for (const std::string key : {"up_axis", "sanitized"}) {
+    SCOPED_TRACE(key);
+    const std::string text = R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1}],")" + key + "\":" + deep + "}";
+    try {
+      (void)parse_skeleton_json(text, "deep.json");
+      ADD_FAILURE() << "accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_LT(std::string(e.what()).size(), 300u);
+      EXPECT_NE(std::string(e.what()).find("deep.json:1:"), std::string::npos) << e.what();
+    }
+  }
+  // A long rejected value is echoed as an excerpt (a 204 KB message before).
+  const std::string long_axis = R"({"up_axis":")" + std::string(200'000, 'x') + R"(","nodes":[]})";
+  try {
+    (void)parse_skeleton_json(long_axis, "long.json");
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInputError& e) {
+    EXPECT_LT(std::string(e.what()).size(), 300u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("200002 characters"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(excerpt("abc"), "abc");
+  EXPECT_EQ(excerpt(std::string(100, 'a'), 10), "aaaaaaaaaa... (100 characters)");
+  EXPECT_EQ(excerpt("a\nb"), "a?b");
+}
+
+TEST(Reliability, NestedConfigAndGltfExitOne) {
+  const fs::path dir = test::temp_dir("rel_nested");
+  write_file_atomically(dir / "cfg.json", R"({"contours": {"slice_step": )" + nested(100'000) + "}}");
+  write_file_atomically(dir / "tree.json", kSixNodes);
+  const CmdResult cfg = run("mesh " + (dir / "tree.json").string() + " --config " + (dir / "cfg.json").string() +
+                            " -o " + (dir / "t.glb").string());
+  EXPECT_EQ(cfg.code, 1) << cfg.err;
+  EXPECT_NE(cfg.err.find("cfg.json:1:"), std::string::npos) << cfg.err;
+  EXPECT_FALSE(fs::exists(dir / "t.glb"));
+  // tinygltf recursed into extras nested 20,000 deep.
+  const std::string gltf = R"({"asset":{"version":"2.0"},"extras":)" + nested(20'000, "{\"a\":", "}") + "}";
+  write_file_atomically(dir / "deep.gltf", gltf);
+  const CmdResult g = run("check " + (dir / "deep.gltf").string());
+  EXPECT_EQ(g.code, 1) << g.err;
+  EXPECT_NE(g.err.find("nested deeper than"), std::string::npos) << g.err;
+  // The same JSON as a .glb's JSON chunk.
+  std::string glb = "glTF";
+  auto u32 = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  std::string chunk = gltf;
+  while (chunk.size() % 4) chunk += ' ';
+  u32(2);
+  u32(std::uint32_t(12 + 8 + chunk.size()));
+  u32(std::uint32_t(chunk.size()));
+  u32(0x4E4F534A);  // "JSON"
+  glb += chunk;
+  write_file_atomically(dir / "deep.glb", glb);
+  const CmdResult b = run("check " + (dir / "deep.glb").string());
+  EXPECT_EQ(b.code, 1) << b.err;
+  EXPECT_NE(b.err.find("nested deeper than"), std::string::npos) << b.err;
+}
+
+TEST(Reliability, OnlyRegularFilesAreRead) {
+  const fs::path dir = test::temp_dir("rel_read");
+  EXPECT_THROW(read_file(dir), IoError);
+  // A FIFO blocked forever; /dev/zero was read without limit.
+  ASSERT_EQ(::mkfifo((dir / "fifo.json").c_str(), 0600), 0);
+  try {
+    (void)read_file(dir / "fifo.json");
+    ADD_FAILURE() << "read a FIFO";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("a FIFO"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_file("/dev/zero"), IoError);
+  const CmdResult fifo = run("info " + (dir / "fifo.json").string());
+  EXPECT_EQ(fifo.code, 1);
+  EXPECT_NE(fifo.err.find("fifo.json"), std::string::npos) << fifo.err;
+  fs::create_symlink("/dev/zero", dir / "zero.obj");
+  const CmdResult zero = run("check " + (dir / "zero.obj").string());
+  EXPECT_EQ(zero.code, 1);
+  EXPECT_NE(zero.err.find("a device"), std::string::npos) << zero.err;
+  EXPECT_EQ(run("info /dev/zero").code, 1);
+  // The size limit.
+  write_file_atomically(dir / "big.json", std::string(1000, ' '));
+  EXPECT_NO_THROW(read_file(dir / "big.json", 1000));
+  EXPECT_THROW(read_file(dir / "big.json", 999), IoError);
+  // An empty mesh file is malformed input (exit 1), not a mesh failing its checks (4).
+  write_file_atomically(dir / "empty.obj", "");
+  const CmdResult empty = run("check " + (dir / "empty.obj").string());
+  EXPECT_EQ(empty.code, 1) << empty.out << empty.err;
+  EXPECT_NE(empty.err.find("empty.obj"), std::string::npos);
+}
+
+TEST(Reliability, GltfBuffersComeOnlyFromTheFilesFolder) {
+  const fs::path dir = test::temp_dir("rel_uri");
+  fs::create_directories(dir / "models");
+  write_file_atomically(dir / "secret.bin", std::string(36, '\0'));
+  const float triangle[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  write_file_atomically(dir / "models" / "own.bin", std::string(reinterpret_cast<const char*>(triangle), 36));
+  ASSERT_EQ(::mkfifo((dir / "models" / "fifo.bin").c_str(), 0600), 0);
+  fs::create_symlink(dir / "secret.bin", dir / "models" / "link.bin");
+  auto gltf_with = [&](const std::string& name, const std::string& uri) {
+    write_file_atomically(
+        dir / "models" / name,
+        R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":36,"uri":")" + uri +
+            R"("}],"bufferViews":[{"buffer":0,"byteLength":36}],)"
+            R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],)"
+            R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]})");
+    return run("check " + (dir / "models" / name).string());
+  };
+  // Its own folder: read (one open triangle fails the checks: exit 4, not a read error).
+  const CmdResult own = gltf_with("own.gltf", "own.bin");
+  EXPECT_EQ(own.code, 4) << own.err;
+  for (const auto& [name, uri] : {std::pair<std::string, std::string>{"up.gltf", "../secret.bin"},
+                                  {"abs.gltf", (dir / "secret.bin").string()},
+                                  {"etc.gltf", "../../../../../../../../etc/hostname"},
+                                  {"link.gltf", "link.bin"},
+                                  {"fifo.gltf", "fifo.bin"},
+                                  {"dot.gltf", "."}}) {
+    SCOPED_TRACE(name);
+    const CmdResult r = gltf_with(name, uri);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(name), std::string::npos) << r.err;  // names the file
+    EXPECT_EQ(r.err.find("out of memory"), std::string::npos) << r.err;
+  }
+}
+
+// ---- Skeleton validation ---------------------------------------------------------------------
+
+TEST(Reliability, MergeOfAnInsertedNodeNamesAnInputNode) {
+  // A heap-buffer-overflow read in RawSkeleton::place from the second merge pass (and the
+  // warning named a node that was not merged), on the samples sapling_small_pine and mtg_agraf.
+  const SkeletonResult r = build_skeleton(parse_skeleton_json(kSixNodes, "six.json"));
+  EXPECT_GE(r.skeleton.size(), 4u);
+  for (const auto& w : r.report.warnings.list()) {
+    for (const auto& ex : w.examples) {
+      EXPECT_TRUE(ex.find("nodes[") != std::string::npos || ex.find("inserted node") != std::string::npos) << ex;
+    }
+  }
+  const fs::path dir = test::temp_dir("rel_six");
+  write_file_atomically(dir / "six.json", kSixNodes);
+  const CmdResult info = run("info " + (dir / "six.json").string());
+  EXPECT_EQ(info.code, 0) << info.err;
+}
+
+TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
+  struct Case {
+    const char* name;
+    const char* json;
+    const char* says;
+  };
+  const Case cases[] = {
+      // Each of these hung (the first three) or was an internal error (exit 3) or wrote -inf.
+      {"edge_1e6", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1000000.0],"radius":0.05}]})",
+       "nodes[1] (id 1)"},
+      {"root_far", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e7],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
+       "nodes[1] (id 1)"},
+      {"offset_1e9_radii", R"({"nodes":[{"id":0,"parent":-1,"position":[5e7,0,0],"radius":0.01},{"id":1,"parent":0,"position":[5e7,0,1],"radius":0.01}]})",
+       "nodes[0] (id 0)"},
+      {"root_1e200", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e200],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
+       "nodes[0] (id 0)"},
+      {"child_1e100", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1e100],"radius":0.05}]})",
+       "nodes[1] (id 1)"},
+      {"child_1e308", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[1e308,0,0],"radius":0.05}]})",
+       "nodes[1] (id 1)"},
+      {"radius_1e200", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":1e200},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
+       "nodes[0] (id 0)"},
+      {"coords_1e12", R"({"nodes":[{"id":0,"parent":-1,"position":[1e12,0,0],"radius":0.1},{"id":1,"parent":0,"position":[1e12,0,0.9],"radius":0.05}]})",
+       "nodes[0] (id 0)"},
+  };
+  const fs::path dir = test::temp_dir("rel_magnitude");
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    try {
+      (void)build_skeleton(parse_skeleton_json(c.json, c.name));
+      ADD_FAILURE() << "accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.says), std::string::npos) << e.what();
+    }
+    write_file_atomically(dir / (std::string(c.name) + ".json"), c.json);
+    const fs::path out = dir / (std::string(c.name) + ".glb");
+    const CmdResult r = run("mesh " + (dir / (std::string(c.name) + ".json")).string() + " -o " + out.string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  // Just inside the limits: accepted, georeferenced trees (UTM coordinates) included.
+  EXPECT_NO_THROW(build_skeleton(parse_skeleton_json(
+      R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,90000],"radius":0.1}]})")));
+  RawSkeleton utm = test::y_fork();
+  for (auto& p : utm.position) p += dvec3(6.0e5, 5.2e6, 254.0);
+  EXPECT_NO_THROW(build_skeleton(utm));
+}
+
+TEST(Reliability, ZeroLengthToleranceIsRelativeToTheTree) {
+  // Far from the origin (within the limits) the same edges are merged as at the origin (at
+  // 1e12 m, real 0.9 m edges were merged as zero-length).
+  RawSkeleton here = test::y_fork();
+  RawSkeleton there = here;
+  for (auto& p : there.position) p += dvec3(6.0e5, 5.2e6, 254.0);
+  SkeletonParams p;
+  p.merge_edge_ratio = 0;
+  const SkeletonResult a = build_skeleton(here, p);
+  const SkeletonResult b = build_skeleton(there, p);
+  EXPECT_EQ(a.report.merged_edges, b.report.merged_edges);
+  EXPECT_EQ(a.skeleton.size(), b.skeleton.size());
+}
+
+// ---- Options -------------------------------------------------------------------------------
+
+TEST(Reliability, IntegerOptionsDoNotWrapAround) {
+  const fs::path dir = test::temp_dir("rel_options");
+  write_file_atomically(dir / "t.json", kSixNodes);
+  const std::string tree = (dir / "t.json").string();
+  EXPECT_EQ(run("info --max-nodes -1 " + tree).code, 2);
+  EXPECT_EQ(run("mesh --seed -1 " + tree + " -o " + (dir / "a.glb").string()).code, 2);
+  EXPECT_EQ(run("grow --seed -1 -o " + (dir / "g.json").string()).code, 2);
+  EXPECT_EQ(run("mesh --root-strands 100000000 " + tree + " -o " + (dir / "b.glb").string()).code, 2);
+  write_file_atomically(dir / "strands.json", R"({"particles": {"root_strands": 100000000}})");
+  const CmdResult cfg = run("mesh " + tree + " --config " + (dir / "strands.json").string() + " -o " + (dir / "c.glb").string());
+  EXPECT_EQ(cfg.code, 1) << cfg.err;
+  EXPECT_NE(cfg.err.find("root_strands"), std::string::npos) << cfg.err;
+  write_file_atomically(dir / "wrap.json", R"({"particles": {"min_particles": 4294967299}})");  // 2^32 + 3
+  const CmdResult wrap = run("mesh " + tree + " --config " + (dir / "wrap.json").string() + " -o " + (dir / "d.glb").string());
+  EXPECT_EQ(wrap.code, 1) << wrap.err;
+  EXPECT_NE(wrap.err.find("up to 4294967295"), std::string::npos) << wrap.err;
+  for (const char* f : {"a.glb", "b.glb", "c.glb", "d.glb", "g.json"}) EXPECT_FALSE(fs::exists(dir / f)) << f;
+}
+
+// ---- Outputs -------------------------------------------------------------------------------
+
+TEST(Reliability, OutputTargetsThatAreNotFilesAreRefused) {
+  const fs::path dir = test::temp_dir("rel_targets");
+  write_file_atomically(dir / "t.json", kSixNodes);
+  const std::string tree = (dir / "t.json").string();
+  fs::create_directories(dir / "folder.glb");
+  ASSERT_EQ(::mkfifo((dir / "fifo.glb").c_str(), 0600), 0);
+  EXPECT_THROW(check_output_path(dir / "folder.glb"), IoError);
+  EXPECT_THROW(check_output_path(dir / "fifo.glb"), IoError);
+  EXPECT_THROW(write_file_atomically(dir / "fifo.glb", "x"), IoError);
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo.glb"));
+  EXPECT_THROW(check_output_path(dir / "missing" / "x.glb"), IoError);
+  for (const char* target : {"folder.glb", "fifo.glb", "missing/x.glb"}) {
+    SCOPED_TRACE(target);
+    const CmdResult r = run("mesh " + tree + " -o " + (dir / target).string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(target), std::string::npos) << r.err;
+  }
+  EXPECT_TRUE(fs::is_directory(dir / "folder.glb"));
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo.glb"));
+  // A device node (a private copy of /dev/null; needs root, as the attack did): kept as it is.
+  const fs::path dev = dir / "null.glb";
+  if (::mknod(dev.c_str(), S_IFCHR | 0666, ::makedev(1, 3)) == 0) {
+    const CmdResult r = run("mesh " + tree + " -o " + dev.string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("a device"), std::string::npos) << r.err;
+    struct stat st {};
+    ASSERT_EQ(::stat(dev.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISCHR(st.st_mode));
+  }
+  // `grow -o /dev/null` would have replaced the system's /dev/null: the extension is checked
+  // first, and a device is refused whatever its name.
+  const CmdResult grow = run("grow -o /dev/null");
+  EXPECT_EQ(grow.code, 1);
+  EXPECT_NE(grow.err.find(".json"), std::string::npos) << grow.err;
+  EXPECT_THROW(check_output_path("/dev/null"), IoError);
+  // A directory that is not writable (skipped as root, who may write anywhere).
+  fs::create_directories(dir / "ro");
+  fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+  if (::access((dir / "ro").c_str(), W_OK) != 0) {
+    EXPECT_EQ(run("mesh " + tree + " -o " + (dir / "ro" / "t.glb").string()).code, 1);
+  }
+  fs::permissions(dir / "ro", fs::perms::owner_all);
+}
+
+TEST(Reliability, SymlinkTargetsAreFollowedNotReplaced) {
+  const fs::path dir = test::temp_dir("rel_symlink");
+  fs::create_directories(dir / "real");
+  write_file_atomically(dir / "real" / "t.glb", "old");
+  fs::create_symlink(dir / "real" / "t.glb", dir / "link.glb");
+  write_file_atomically(dir / "link.glb", "new");
+  EXPECT_TRUE(fs::is_symlink(dir / "link.glb"));
+  EXPECT_EQ(read_file(dir / "real" / "t.glb"), "new");
+  EXPECT_EQ(files_in(dir / "real"), 1u);  // the temporary file went beside the real target
+  // Through the CLI.
+  write_file_atomically(dir / "t.json", kSixNodes);
+  const CmdResult r = run("-q mesh " + (dir / "t.json").string() + " -o " + (dir / "link.glb").string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::is_symlink(dir / "link.glb"));
+  EXPECT_GT(fs::file_size(dir / "real" / "t.glb"), 100u);
+  // A dangling link and a link to a FIFO are refused, and stay.
+  fs::create_symlink(dir / "nowhere.glb", dir / "dangling.glb");
+  EXPECT_THROW(write_file_atomically(dir / "dangling.glb", "x"), IoError);
+  EXPECT_TRUE(fs::is_symlink(dir / "dangling.glb"));
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  fs::create_symlink(dir / "fifo", dir / "to_fifo.glb");
+  EXPECT_THROW(write_file_atomically(dir / "to_fifo.glb", "x"), IoError);
+  EXPECT_TRUE(fs::is_symlink(dir / "to_fifo.glb"));
+}
+
+TEST(Reliability, AllOutputsOfACommandOrNone) {
+  const fs::path dir = test::temp_dir("rel_together");
+  write_file_atomically(dir / "t.json", kSixNodes);
+  const std::string tree = (dir / "t.json").string();
+  // `--stats missing_dir/s.json` exited 1 but left out.glb written.
+  const CmdResult r = run("mesh " + tree + " -o " + (dir / "out.glb").string() + " --stats " +
+                          (dir / "missing_dir" / "s.json").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("missing_dir"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out.glb"));
+  // A stats file that cannot be a JSON file.
+  EXPECT_EQ(run("mesh " + tree + " -o " + (dir / "out.glb").string() + " --stats " + (dir / "s.txt").string()).code, 1);
+  EXPECT_FALSE(fs::exists(dir / "out.glb"));
+  // With a transaction open, nothing appears before commit(), and nothing at all without it.
+  {
+    OutputTransaction t;
+    write_file_atomically(dir / "a.json", "a");
+    write_file_atomically(dir / "b.json", "b");
+    EXPECT_FALSE(fs::exists(dir / "a.json"));
+  }
+  EXPECT_FALSE(fs::exists(dir / "a.json"));
+  EXPECT_FALSE(fs::exists(dir / "b.json"));
+  {
+    OutputTransaction t;
+    write_file_atomically(dir / "a.json", "a");
+    write_file_atomically(dir / "b.json", "b");
+    t.commit();
+  }
+  EXPECT_EQ(read_file(dir / "a.json"), "a");
+  EXPECT_EQ(read_file(dir / "b.json"), "b");
+  EXPECT_EQ(files_in(dir), 3u);  // t.json, a.json, b.json: no temporary left
+}
+
+TEST(Reliability, TemporaryFilesGoOnSignalsAndLeftoversWithTheNextRun) {
+  const fs::path dir = test::temp_dir("rel_signals");
+  // SIGTERM and SIGINT in the middle of writing: the temporary file is removed, the process
+  // still dies of the signal, the target never appears.
+  for (const int sig : {SIGTERM, SIGINT}) {
+    SCOPED_TRACE(sig);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      try {
+        write_file_atomically(dir / "out.glb", [&](std::ostream& out) {
+          out << "partial";
+          out.flush();
+          std::raise(sig);
+        });
+      } catch (...) {
+      }
+      ::_exit(0);  // not reached: the signal ends the process
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig);
+    EXPECT_EQ(files_in(dir), 0u);
+  }
+  // A run killed outright (SIGKILL) leaves its temporary file: the next write into the same
+  // folder removes it (its process is gone), and keeps a live process's and other files.
+  const std::string stale = ".old.glb.tmp" + std::to_string(dead_pid());
+  const std::string live = ".other.glb.tmp" + std::to_string(::getppid());
+  for (const std::string& f : {stale, live, std::string(".notes.tmp1"), std::string("keep.glb")}) {
+    std::ofstream(dir / f) << "x";  // (not write_file_atomically: that would clean the folder now)
+  }
+  EXPECT_EQ(files_in(dir), 4u);
+  write_file_atomically(dir / "new.glb", "new");
+  EXPECT_FALSE(fs::exists(dir / stale));
+  EXPECT_TRUE(fs::exists(dir / live));
+  EXPECT_TRUE(fs::exists(dir / ".notes.tmp1"));
+  EXPECT_TRUE(fs::exists(dir / "keep.glb"));
+  EXPECT_TRUE(fs::exists(dir / "new.glb"));
+}
+
+TEST(Reliability, InterruptedMeshLeavesNoTemporaryFile) {
+  // The CLI stopped by SIGTERM at some point of its run: whatever it was doing, the folder
+  // then holds no temporary file and no partial mesh.
+  const fs::path dir = test::temp_dir("rel_sigterm");
+  ASSERT_EQ(run("grow --seed 2 -o " + (dir / "t.json").string()).code, 0);
+  for (const char* delay : {"0.2", "0.6", "1.2"}) {
+    SCOPED_TRACE(delay);
+    const std::string cmd = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh -q mesh " + (dir / "t.json").string() +
+                            " -o " + (dir / "out.glb").string() + " --stats " + (dir / "s.json").string() +
+                            " & pid=$!; sleep " + delay + "; kill -TERM $pid; wait $pid";
+    (void)std::system(cmd.c_str());
+    for (const auto& e : fs::directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      EXPECT_EQ(name.find(".tmp"), std::string::npos) << name;
+    }
+    EXPECT_EQ(fs::exists(dir / "out.glb"), fs::exists(dir / "s.json"));  // both or neither
+    fs::remove(dir / "out.glb");
+    fs::remove(dir / "s.json");
+  }
+}
+
+}  // namespace
+}  // namespace sm
