@@ -946,8 +946,8 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
       folded = fold_backward_branches(t, max_offset, rep, raw);
       folded = merge_inner_branches(t, max_offset, rep, raw) || folded;
     }
-    folded = drop_hidden_tips(t, rep, raw) || folded;
     if (params.separate) folded = reattach_hairpins(t, params, rep, raw) || folded;
+    folded = drop_hidden_tips(t, rep, raw) || folded;
     folded = smooth_tight_bends(t, params, rep, raw) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
