@@ -85,6 +85,7 @@ void visit_fields(RepairParams& p, V&& v) {
   v("max_rounds", p.max_rounds);
   v("fold_rounds", p.fold_rounds);
   v("fold_max_move", p.fold_max_move);
+  v("count_pairs_up_to", p.count_pairs_up_to);
 }
 template <class V>
 void visit_fields(MeshParams& p, V&& v) {

@@ -31,9 +31,14 @@ struct RepairParams {
   std::uint32_t fold_rounds = 8;
   /// Largest vertex move of the fold repair, relative to the local skeleton radius.
   double fold_max_move = 0.25;
+  /// Largest mesh (triangles) whose pairs are looked for over the whole mesh; a larger one
+  /// skips the repair stage (a count over 3.5 M triangles takes seconds; the meshing stage's
+  /// fold repair has looked near the junctions). configs/high_detail.json counts every mesh.
+  std::size_t count_pairs_up_to = 300'000;
 };
 
 struct RepairStats {
+  bool counted = false;            ///< the mesh was small enough to look for pairs everywhere
   std::size_t pairs_found = 0;     ///< self-intersecting pairs of the built mesh (whole mesh)
   std::size_t pairs_left = 0;      ///< after the repair (whole mesh)
   std::size_t fold_pairs = 0;       ///< pairs within two rings of each other (folds)
