@@ -115,7 +115,7 @@ class FoldRepair {
         if (!alive(a) || !alive(b) || !intersect(a, b)) continue;  // untangled by an earlier change
         for (int k = 0; k < kMaxFlipsPerPair && flip_one_edge_of(a, b); ++k) {
         }
-        auto crossing = [&] { return alive(a) && alive(b) && intersect(a, b); };
+        auto crossing = [&, a = a, b = b] { return alive(a) && alive(b) && intersect(a, b); };  // (clang 14: no captured bindings)
         for (int k = 0; k < kMaxFlipsPerPair && crossing() && move_one_vertex_of(a, b); ++k) ++stats.moves;
         for (int k = 0; collapse_ && k < kMaxFlipsPerPair && crossing() && collapse_one_edge_of(a, b); ++k)
           ++stats.collapses;

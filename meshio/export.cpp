@@ -22,6 +22,7 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <limits>
@@ -101,12 +102,6 @@ void validate_mesh(const Mesh& mesh) {
     }
   }
   check_size(mesh.triangle_branch.size(), mesh.triangles.size(), "triangle_branch");
-}
-
-// glTF is y-up; a z-up point (x, y, z) becomes (x, z, -y): a rotation by -90° about x, so
-// handedness and triangle orientation are preserved.
-glm::dvec3 to_y_up(const glm::dvec3& p, UpAxis up) {
-  return up == UpAxis::z ? glm::dvec3(p.x, p.z, -p.y) : p;
 }
 
 glm::vec3 unit_float(const glm::dvec3& n) {
@@ -367,7 +362,7 @@ void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t siz
   out << '\n';
 }
 
-PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool binary) {
+PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Placement& place, bool binary) {
   ExportBuffers b = build_export_buffers(mesh, params);
   const std::size_t n = b.positions.size();
   const auto too_big = std::find_if(b.branch.begin(), b.branch.end(), [](std::uint32_t id) { return id > kMaxExactFloatInt; });
@@ -376,20 +371,18 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
                             " exceeds 2^24, the largest id _BRANCH_ID (a float attribute) stores exactly; "
                             "export without branch ids");
   }
-
-  // The origin is kept in double precision in the node translation; the bounding-box centre
-  // makes the largest float offset half the extent, whatever the absolute coordinates are. It
-  // is put on a grid (core/mesh.h export_grid_spacing) so that the meshing stage's positions,
-  // which lie on a finer one, are stored exactly.
-  const auto [lo, hi] = bounds(n, [&](std::size_t i) { return to_y_up(b.positions[i], params.up_axis); });
-  const glm::dvec3 half = 0.5 * (hi - lo);
-  const glm::dvec3 origin = (params.recenter && n > 0)
-                                ? snap_to_grid(0.5 * (lo + hi), export_grid_spacing(std::max({half.x, half.y, half.z})))
-                                : glm::dvec3(0);
+  // Positions are float32 offsets from the pivot, which is kept in double precision in the
+  // node's translation: a georeferenced tree keeps float32's relative precision of its own size.
+  const glm::dvec3 origin = place.translation();
 
   auto model = std::make_shared<tinygltf::Model>();
   model->asset.version = "2.0";
   model->asset.generator = "strandmesh";
+  // The placement record the readers undo (meshio/placement.h).
+  tinygltf::Value::Object record;
+  record["up_axis"] = tinygltf::Value(std::string(place.to == UpAxis::y ? "y" : "z"));
+  record["scale"] = tinygltf::Value(place.scale);
+  model->asset.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh", tinygltf::Value(std::move(record))}});
   model->buffers.emplace_back();
 
   // Lay out the views (POSITION, NORMAL, TEXCOORD_0, _BRANCH_ID, indices), then fill the
@@ -422,13 +415,12 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, bool bin
   // (the writers keep the buffers alive).
   const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
   const ExportBuffers& eb = *shared;
-  const UpAxis up = params.up_axis;
-  auto position = [&eb, up, origin](std::size_t i) { return glm::vec3(to_y_up(eb.positions[i], up) - origin); };
+  auto position = [&eb, place](std::size_t i) { return glm::vec3(place.position(eb.positions[i])); };
   std::vector<ViewData> views;
   views.push_back(view_data<glm::vec3>(pos_at, n, position));
   if (!eb.normals.empty()) {
     views.push_back(view_data<glm::vec3>(
-        normal_at, n, [&eb, up](std::size_t i) { return unit_float(to_y_up(glm::dvec3(eb.normals[i]), up)); }));
+        normal_at, n, [&eb, place](std::size_t i) { return unit_float(place.direction(glm::dvec3(eb.normals[i]))); }));
   }
   if (!eb.uvs.empty()) views.push_back(view_data<glm::vec2>(uv_at, n, [&eb](std::size_t i) { return eb.uvs[i]; }));
   if (!eb.branch.empty()) {
@@ -504,6 +496,32 @@ const char* axis_name(UpAxis a) {
   return a == UpAxis::z ? "z" : "y";
 }
 
+std::string units_text(double scale) {
+  if (scale == 1) return "units: metres";
+  if (scale == 100) return "units: centimetres";
+  if (scale == 1000) return "units: millimetres";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "units: %.9g per metre", scale);
+  return buf;
+}
+
+std::string pivot_text(const Placement& p) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "input point (%.9g, %.9g, %.9g)", p.pivot.x, p.pivot.y, p.pivot.z);
+  return buf;
+}
+
+// Moves the buffers into the file's frame (OBJ and PLY write them as they are).
+void place_buffers(ExportBuffers& b, const Placement& place) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, b.positions.size(), 8192),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        b.positions[i] = place.position(b.positions[i]);
+                        if (!b.normals.empty()) b.normals[i] = glm::vec3(place.direction(glm::dvec3(b.normals[i])));
+                      }
+                    });
+}
+
 // The lines `prefix x y ...` of `dims`-dimensional items [begin, end) of `values`.
 template <class Vec>
 std::string obj_lines(std::string_view prefix, const std::vector<Vec>& values, std::size_t begin, std::size_t end) {
@@ -552,10 +570,12 @@ std::string obj_faces(const ExportBuffers& b, std::size_t begin, std::size_t end
   return text;
 }
 
-PreparedFile prepare_obj(const Mesh& mesh, const ExportParams& params) {
-  auto b = std::make_shared<const ExportBuffers>(build_export_buffers(mesh, params));
-  const std::string header = std::string("# strandmesh\n# up axis ") + axis_name(params.up_axis) +
-                             " (coordinates as in the input, metres)\n";
+PreparedFile prepare_obj(const Mesh& mesh, const ExportParams& params, const Placement& place) {
+  auto b = std::make_shared<ExportBuffers>(build_export_buffers(mesh, params));
+  place_buffers(*b, place);
+  const std::string header = std::string("# strandmesh\n# up axis ") + axis_name(place.to) + ", " +
+                             units_text(place.scale) + ", origin at " + pivot_text(place) + "\n# " +
+                             placement_comment(place) + "\n";
   PreparedFile file;
   file.size_hint = header.size() + b->positions.size() * (2 + 3 * (kMaxNumberChars + 1)) +
                    b->uvs.size() * (3 + 2 * (kMaxNumberChars + 1)) +
@@ -584,12 +604,15 @@ char* put_le(char* p, T value) {
   return p + sizeof(T);
 }
 
-PreparedFile prepare_ply(const Mesh& mesh, const ExportParams& params) {
-  auto b = std::make_shared<const ExportBuffers>(build_export_buffers(mesh, params));
+PreparedFile prepare_ply(const Mesh& mesh, const ExportParams& params, const Placement& place) {
+  auto b = std::make_shared<ExportBuffers>(build_export_buffers(mesh, params));
+  place_buffers(*b, place);
   const bool uv = !b->uvs.empty(), nrm = !b->normals.empty();
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment strandmesh: up axis ";
-  header += axis_name(params.up_axis);
-  header += ", coordinates as in the input (metres)\nelement vertex " + std::to_string(b->positions.size()) + "\n";
+  header += axis_name(place.to);
+  header += std::string(", ") + units_text(place.scale) + ", origin at " + pivot_text(place) + "\ncomment " +
+            placement_comment(place);
+  header += "\nelement vertex " + std::to_string(b->positions.size()) + "\n";
   header += "property double x\nproperty double y\nproperty double z\n";
   if (nrm) header += "property float nx\nproperty float ny\nproperty float nz\n";
   if (uv) header += "property float s\nproperty float t\n";
@@ -636,17 +659,18 @@ PreparedFile prepare_ply(const Mesh& mesh, const ExportParams& params) {
 
 PreparedFile prepare_file(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
   ExportParams p = params;
+  const Placement place = export_placement(mesh, format, params);
   switch (format) {
     case MeshFormat::glb:
-      return prepare_gltf(mesh, p, true);
+      return prepare_gltf(mesh, p, place, true);
     case MeshFormat::gltf:
-      return prepare_gltf(mesh, p, false);
+      return prepare_gltf(mesh, p, place, false);
     case MeshFormat::obj:
       p.branch_ids = false;  // not stored in OBJ: no reason to split at branch boundaries
-      return prepare_obj(mesh, p);
+      return prepare_obj(mesh, p, place);
     case MeshFormat::ply:
       p.branch_ids = false;
-      return prepare_ply(mesh, p);
+      return prepare_ply(mesh, p, place);
   }
   throw InternalError("encode_mesh: unknown format");
 }
@@ -775,6 +799,36 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
     }
   });
   return b;
+}
+
+Placement export_placement(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
+  if (!(params.scale > 0) || !std::isfinite(params.scale)) {
+    throw InvalidInputError("export: scale must be a positive number, not " + std::to_string(params.scale));
+  }
+  Placement place;
+  place.from = params.up_axis;
+  place.to = params.file_up_axis.value_or(format == MeshFormat::ply ? params.up_axis : UpAxis::y);
+  place.scale = params.scale;
+  const Pivot pivot = params.pivot.value_or(format == MeshFormat::ply ? Pivot::origin : Pivot::root);
+  if (pivot == Pivot::origin) return place;
+  // The bounds of the vertices the triangles use (in mesh coordinates).
+  validate_mesh(mesh);
+  const std::size_t nf = mesh.triangles.size();
+  if (nf == 0) return place;
+  const auto [lo, hi] = bounds(3 * nf, [&](std::size_t c) { return mesh.positions[mesh.triangles[c / 3][c % 3]]; });
+  const glm::dvec3 half = 0.5 * (hi - lo);
+  glm::dvec3 at = 0.5 * (lo + hi);
+  if (pivot == Pivot::root) {
+    if (params.root) {
+      at = *params.root;
+    } else {  // the bottom centre of the bounds
+      if (params.up_axis == UpAxis::z) at.z = lo.z; else at.y = lo.y;
+    }
+  }
+  // On the export grid the float32 offsets of the meshing stage's positions are exact; a
+  // pivot far outside the mesh (a root given wrongly) would make them inexact, nothing worse.
+  place.pivot = snap_to_grid(at, export_grid_spacing(std::max({half.x, half.y, half.z})));
+  return place;
 }
 
 MeshFormat mesh_format_from_path(const std::filesystem::path& path) {

@@ -19,18 +19,20 @@
 ///  throws InvalidInputError), indices as unsigned int. The Khronos glTF Validator reports no
 ///  errors or warnings on these files (one info: TEXCOORD_0 is unused by the untextured
 ///  material); `scripts/validate_gltf.sh` runs it.
-///  glTF is y-up: z-up input (x, y, z) is written as (x, z, -y) (a rotation, so triangles keep
-///  their orientation). Precision: positions are stored relative to an origin (the centre of
-///  the bounding box, in double precision) that becomes the node's translation, so a
-///  georeferenced tree (coordinates of hundreds of metres or more) keeps float32's relative
-///  precision of about 1e-7 of the tree's size instead of the coordinates' size.
+///  Placement (ExportParams: up axis, pivot, scale; meshio/placement.h): the file's up axis is
+///  the format's convention unless asked otherwise (glTF and OBJ y-up, PLY the input's; z-up
+///  (x, y, z) becomes y-up (x, z, -y), a rotation, so triangles keep their orientation); the
+///  pivot becomes the file's origin (root, the base of the trunk, for glTF and OBJ; the input's
+///  origin for PLY). glTF keeps the pivot in double precision in the node's translation and
+///  stores positions as float32 offsets from it, so a georeferenced tree keeps float32's
+///  relative precision of about 1e-7 of the tree's size instead of the coordinates' size. The
+///  placement is recorded in the file and the readers (mesh_io.h) undo it.
 ///  - `.obj`: `v x y z`, `vt u v`, `vn x y z`, `f a/a/a ...` with 1-based indices, numbers
 ///    printed with 9 significant digits (`%.9g`, enough to round-trip float32 and sub-millimetre
 ///    for coordinates below 10 km).
 ///  - `.ply`: binary little endian; vertex x, y, z as double (precision of the input kept),
 ///    nx, ny, nz and s, t as float; face `list uchar uint vertex_indices`.
-///  OBJ and PLY keep the input's axes (no up-axis conversion); the up axis is written into a
-///  comment line.
+///  OBJ and PLY say their up axis, units and pivot in a comment line.
 ///
 /// Errors: an unknown extension throws InvalidInputError naming it and the accepted ones; a
 /// file that cannot be written throws IoError. Files are written atomically (core/file_io.h):
@@ -38,12 +40,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "meshio/placement.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -51,15 +55,31 @@ namespace sm {
 /// Output file formats.
 enum class MeshFormat { glb, gltf, obj, ply };
 
+/// What becomes the origin of the written file (the pivot a DCC tool or engine rotates,
+/// scales and places the tree about).
+enum class Pivot {
+  root,    ///< the base of the trunk (ExportParams::root): the tree stands on the origin
+  center,  ///< the centre of the bounding box
+  origin   ///< the input's own origin: coordinates as given (georeferenced trees keep theirs)
+};
+
 /// Options of the mesh writers.
 struct ExportParams {
-  UpAxis up_axis = UpAxis::z;  ///< up axis of the mesh coordinates (default z); glTF output is y-up
+  UpAxis up_axis = UpAxis::z;          ///< up axis of the mesh coordinates, the input's (default z)
+  std::optional<UpAxis> file_up_axis{};///< up axis written (default: the format's: y for glTF and OBJ, the mesh's for PLY)
+  std::optional<Pivot> pivot{};        ///< the file's origin (default: root for glTF and OBJ, origin for PLY)
+  std::optional<glm::dvec3> root{};    ///< base of the trunk, mesh coordinates in metres (default: bottom centre of the bounds)
+  double scale = 1.0;                  ///< file units per metre, > 0 (default 1; 100 writes centimetres)
   bool normals = true;         ///< write normals: Mesh::normals, else angle-weighted ones (default true)
   bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
   bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
   bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)
-  bool recenter = true;        ///< glTF: positions relative to the bbox centre, kept in the node (default true)
 };
+
+/// The up axis, pivot and scale `params` give a file of `format` for `mesh`: the map from mesh
+/// to file coordinates (meshio/placement.h). The pivot is put on the export grid (core/mesh.h
+/// export_grid_spacing) so that float32 offsets from it stay exact.
+Placement export_placement(const Mesh& mesh, MeshFormat format, const ExportParams& params = {});
 
 /// The vertex buffers an exporter writes: the welded mesh with vertices split at seams.
 /// Every array has #V' entries (#V' >= number of used welded vertices), `indices` has 3 #F.

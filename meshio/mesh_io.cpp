@@ -26,6 +26,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/input_limits.h"
+#include "meshio/placement.h"
 
 namespace sm {
 
@@ -803,7 +804,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
                                 " is reached twice (the node tree has a cycle or a shared child)");
       visited[static_cast<std::size_t>(n)] = 1;
       const tinygltf::Node& node = model.nodes[static_cast<std::size_t>(n)];
-      const glm::dmat4 m = parent * node_matrix(node);
+      const glm::dmat4 m = params.file_coordinates ? glm::dmat4(1.0) : parent * node_matrix(node);
       if (node.mesh >= 0) instances.emplace_back(node.mesh, m);
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) stack.emplace_back(*it, m);
     }
@@ -811,9 +812,24 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
     for (std::size_t i = 0; i < model.meshes.size(); ++i) instances.emplace_back(static_cast<int>(i), glm::dmat4(1.0));
   }
 
-  // glTF is y-up; the inverse of the writer's (x, y, z) → (x, z, -y).
-  const bool to_z_up = params.up_axis == UpAxis::z;
-  auto axes = [&](const glm::dvec3& p) { return to_z_up ? glm::dvec3(p.x, -p.z, p.y) : p; };
+  // glTF is y-up, unless strandmesh wrote it otherwise (its placement record, which also
+  // gives the units); the node transforms hold the pivot.
+  UpAxis file_up = UpAxis::y;
+  double scale = 1.0;
+  if (model.asset.extras.IsObject() && model.asset.extras.Has("strandmesh")) {
+    const tinygltf::Value& record = model.asset.extras.Get("strandmesh");
+    if (record.IsObject() && record.Has("up_axis") && record.Get("up_axis").IsString() &&
+        record.Get("up_axis").Get<std::string>() == "z") {
+      file_up = UpAxis::z;
+    }
+    if (record.IsObject() && record.Has("scale") && record.Get("scale").IsNumber()) {
+      const double s = record.Get("scale").GetNumberAsDouble();
+      if (s > 0 && std::isfinite(s)) scale = s;
+    }
+  }
+  if (params.file_coordinates) file_up = params.up_axis, scale = 1.0;
+  auto axes = [&](const glm::dvec3& p) { return change_up_axis(p, file_up, params.up_axis); };
+  const double inv_scale = 1.0 / scale;
 
   MeshAssembler out(name);
   const AccessorReader reader(model, name);
@@ -861,7 +877,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
       std::vector<std::uint32_t> welded(nv);
       for (std::size_t i = 0; i < nv; ++i) {
         const glm::dvec4 p = m * glm::dvec4(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
-        welded[i] = out.add_vertex(axes(glm::dvec3(p)), what + " vertex " + std::to_string(i));
+        welded[i] = out.add_vertex(axes(glm::dvec3(p) * inv_scale), what + " vertex " + std::to_string(i));
         if (!nrm.empty())
           out.offer_normal(welded[i], axes(normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2])));
       }
@@ -898,6 +914,16 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   return out.finish();
 }
 
+// Undoes the placement strandmesh recorded in an OBJ or PLY header (meshio/placement.h); a
+// file without the record keeps its coordinates.
+Mesh unplace(Mesh mesh, std::string_view bytes, const MeshReadParams& params) {
+  const std::optional<FilePlacement> fp = find_placement_comment(bytes);
+  if (!fp || params.file_coordinates) return mesh;
+  for (glm::dvec3& p : mesh.positions) p = change_up_axis((p + fp->translation) / fp->scale, fp->up, params.up_axis);
+  for (glm::dvec3& n : mesh.normals) n = change_up_axis(n, fp->up, params.up_axis);
+  return mesh;
+}
+
 }  // namespace
 
 Mesh parse_mesh(std::string_view bytes, MeshFormat format, const std::filesystem::path& source,
@@ -909,9 +935,9 @@ Mesh parse_mesh(std::string_view bytes, MeshFormat format, const std::filesystem
     case MeshFormat::gltf:
       return parse_gltf(bytes, false, source, params);
     case MeshFormat::obj:
-      return parse_obj(bytes, name);
+      return unplace(parse_obj(bytes, name), bytes, params);
     case MeshFormat::ply:
-      return parse_ply(bytes, name);
+      return unplace(parse_ply(bytes, name), bytes, params);
   }
   throw InternalError("parse_mesh: unknown format");
 }

@@ -8,8 +8,7 @@
 ///    every mesh when there is no scene), with the node transforms applied; POSITION (float),
 ///    NORMAL (float), TEXCOORD_0 (float or normalized unsigned byte/short) and `_BRANCH_ID`
 ///    (float or unsigned byte/short, per vertex; a triangle takes its first corner's id); indices
-///    unsigned byte/short/int or none. glTF is y-up: with `up_axis = z` the result is rotated back
-///    to z-up ((x, y, z) → (x, -z, y)), the inverse of what write_mesh does.
+///    unsigned byte/short/int or none.
 ///  - OBJ: `v` (extra components such as w or colours ignored), `vt`, `vn`, `f` with `v`, `v/vt`,
 ///    `v//vn`, `v/vt/vn` corners and negative (relative) indices; polygons are fan-triangulated;
 ///    other statements (`o`, `g`, `s`, `usemtl`, `mtllib`, `l`, ...) are ignored.
@@ -17,7 +16,10 @@
 ///    type), optional nx, ny, nz and texture coordinates (s/t, u/v, texture_u/texture_v); face
 ///    list `vertex_indices` (or `vertex_index`) fan-triangulated, optional per-corner list
 ///    `texcoord`; other elements and properties are skipped.
-///  OBJ and PLY coordinates are kept as they are (no up-axis conversion).
+///  Placement: the up axis, pivot and units strandmesh recorded in a file it wrote
+///  (meshio/placement.h) are undone, so the result is in metres, in the mesh's original frame,
+///  with up axis `up_axis`; a glTF file without the record is taken as y-up in metres, an OBJ
+///  or PLY file without it is kept as it is (no up-axis conversion).
 ///
 /// Welding: vertices with exactly equal positions (bit for bit, +0 and -0 equal) become one
 /// vertex, in order of first appearance in the file, so a file written with seams split comes
@@ -43,7 +45,8 @@ namespace sm {
 
 /// Options of the mesh readers.
 struct MeshReadParams {
-  UpAxis up_axis = UpAxis::z;  ///< up axis wanted in the result (default z); only glTF (always y-up) is converted
+  UpAxis up_axis = UpAxis::z;    ///< up axis wanted in the result (default z)
+  bool file_coordinates = false;  ///< keep the file's own coordinates: no placement undone, no axes changed (default false)
 };
 
 /// Reads the mesh file at `path`; the format is taken from the extension.

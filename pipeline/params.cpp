@@ -9,6 +9,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/input_limits.h"
+#include "meshio/export_json.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -205,9 +206,9 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
   static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing"};
   for (auto it = doc.begin(); it != doc.end(); ++it) {
-    if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description") {
+    if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description" && it.key() != "export") {
       throw InvalidInputError(name + ": unknown section \"" + excerpt(it.key()) +
-                              "\" (known: skeleton, particles, strands, contours, meshing, description)");
+                              "\" (known: skeleton, particles, strands, contours, meshing, export, description)");
     }
   }
   PipelineParams p = base;
@@ -216,6 +217,8 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   read_section(doc, "strands", name, p.strands);
   read_section(doc, "contours", name, p.contours);
   read_section(doc, "meshing", name, p.meshing);
+  // The writer's options (not a stage): their own reader, meshio/export_json.h.
+  if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
   // Values out of range, named with the file (the stages check them again).
   try {
     validate_params(p.skeleton);
@@ -238,6 +241,7 @@ std::string params_to_json(const PipelineParams& p) {
   doc["strands"] = write_section(p.strands);
   doc["contours"] = write_section(p.contours);
   doc["meshing"] = write_section(p.meshing);
+  doc["export"] = export_to_json(p.output);
   return doc.dump(2) + "\n";
 }
 

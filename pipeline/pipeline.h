@@ -12,6 +12,7 @@
 #include "meshing/meshing.h"
 #include "meshing/near_misses.h"
 #include "meshing/outer_surface.h"
+#include "meshio/export.h"
 #include "particles/particles.h"
 #include "pipeline/fork_retry.h"
 #include "skeleton/build.h"
@@ -26,6 +27,9 @@ struct PipelineParams {
   StrandParams strands;
   ContourParams contours;
   MeshParams meshing;
+  /// How the mesh is written (config section "export"; meshio/export_json.h). Not a stage:
+  /// the pipeline only carries it from the config file to the command that writes.
+  ExportParams output;
 };
 
 /// The stages, in order; `rerun_pipeline` restarts from one of them.

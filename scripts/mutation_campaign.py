@@ -128,6 +128,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--mesh-every", type=int, default=10, help="skeletons: every Nth goes through `mesh` (0: none)")
     args = ap.parse_args()
+    args.binary = os.path.abspath(args.binary)  # runs happen in their own folders
     exts = {"skeleton": (".json", ".swc"), "mesh": (".glb", ".gltf", ".obj", ".ply")}[args.kind]
     seeds = []
     for s in args.seeds:
@@ -138,6 +139,10 @@ def main():
     if not seeds:
         sys.exit("no seed files")
     os.makedirs(args.out, exist_ok=True)
+    # A copy, so that rebuilding during the campaign does not pull the binary away under it.
+    copy = os.path.join(args.out, "strandmesh-under-test")
+    shutil.copy2(args.binary, copy)
+    args.binary = copy
     table = collections.Counter()
     findings = 0
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:

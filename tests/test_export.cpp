@@ -17,6 +17,7 @@
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
+#include "meshio/export_json.h"
 #include "meshio/mesh_io.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"
@@ -233,10 +234,106 @@ TEST(Export, GltfIsYUpAndKeepsTheOrientation) {
   // y-up input is written unchanged.
   const std::string ybytes = encode_mesh(m, MeshFormat::glb, {.up_axis = UpAxis::y, .optimize = false});
   EXPECT_LT(max_position_error(parse_mesh(ybytes, MeshFormat::glb, "t.glb", {.up_axis = UpAxis::y}), m), 1e-6);
-  // OBJ and PLY keep the input axes whatever the up axis.
+  // OBJ and PLY come back in the input's axes whatever they were written with.
   const Mesh obj =
       parse_mesh(encode_mesh(m, MeshFormat::obj, {.up_axis = UpAxis::z, .optimize = false}), MeshFormat::obj, "t.obj");
   EXPECT_LT(max_position_error(obj, m), 1e-6);
+}
+
+// ---------------------------------------------------------------- placement
+
+// A trunk from its base at `root` 1 m up the z axis (and a little sideways), z-up.
+Mesh trunk_at(const dvec3& root) { return test::translated(test::capped_tube({0, 0, 0}, {0.3, 0.2, 1}, 0.1), root); }
+
+Mesh file_coords(const std::string& bytes, MeshFormat f) {
+  return parse_mesh(bytes, f, "t", {.file_coordinates = true});
+}
+
+TEST(Placement, RootLandsAtTheOriginAndUpIsUpInEveryFormat) {
+  const dvec3 root(1, 2, 3);
+  const Mesh m = trunk_at(root);
+  // The tube's bottom cap centre is vertex #V - 2, at the root; its top cap centre, 1 m up.
+  const dvec3 top = m.positions[m.positions.size() - 1] - root;
+  for (const MeshFormat f : {MeshFormat::glb, MeshFormat::gltf, MeshFormat::obj, MeshFormat::ply}) {
+    SCOPED_TRACE(int(f));
+    const std::string bytes = encode_mesh(m, f, {.root = root, .optimize = false});
+    const Mesh raw = file_coords(bytes, f);
+    ASSERT_EQ(raw.positions.size(), m.positions.size());
+    const dvec3 base = raw.positions[m.positions.size() - 2], tip = raw.positions[m.positions.size() - 1];
+    if (f == MeshFormat::ply) {  // PLY: as given, z-up and absolute
+      EXPECT_LT(glm::length(base - root), 1e-12);
+      EXPECT_LT(glm::length(tip - base - top), 1e-12);
+    } else {  // glTF and OBJ: y-up, the root at the origin
+      EXPECT_LT(glm::length(base), 1e-12);
+      EXPECT_LT(glm::length(tip - dvec3(top.x, top.z, -top.y)), 1e-6);
+      EXPECT_NEAR(tip.y, 1.0, 1e-6);  // up is +y
+    }
+    // Read back normally: the original coordinates, and still outward.
+    const Mesh back = parse_mesh(bytes, f, "t");
+    EXPECT_LT(max_position_error(back, m), 1e-6);
+    EXPECT_GT(check_mesh(back).signed_volume, 0);
+  }
+  // glTF keeps the root in the node's translation (y-up): the tree stays where it was.
+  const nlohmann::json gltf = nlohmann::json::parse(encode_mesh(m, MeshFormat::gltf, {.root = root}));
+  EXPECT_EQ(gltf["nodes"][0]["translation"], nlohmann::json::array({1.0, 3.0, -2.0}));
+  EXPECT_EQ(gltf["asset"]["extras"]["strandmesh"]["up_axis"], "y");
+}
+
+TEST(Placement, UpAxisPivotAndScaleOptions) {
+  const dvec3 root(1, 2, 3);
+  const Mesh m = trunk_at(root);
+  const std::size_t base = m.positions.size() - 2, tip = m.positions.size() - 1;
+  // z-up OBJ, root pivot: the input's axes, shifted.
+  Mesh raw = file_coords(encode_mesh(m, MeshFormat::obj, {.file_up_axis = UpAxis::z, .root = root, .optimize = false}),
+                         MeshFormat::obj);
+  EXPECT_LT(glm::length(raw.positions[tip] - (m.positions[tip] - root)), 1e-6);
+  // y-up PLY with the bounding-box centre as pivot: centred, up is +y.
+  raw = file_coords(encode_mesh(m, MeshFormat::ply, {.file_up_axis = UpAxis::y, .pivot = Pivot::center, .optimize = false}),
+                    MeshFormat::ply);
+  dvec3 lo(1e9), hi(-1e9);
+  for (const dvec3& p : raw.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  EXPECT_LT(glm::length(lo + hi), 1e-3);  // snapped to the export grid
+  EXPECT_GT(raw.positions[tip].y, raw.positions[base].y + 0.9);
+  // Centimetres: 100 times the coordinates, read back in metres.
+  for (const MeshFormat f : {MeshFormat::glb, MeshFormat::obj, MeshFormat::ply}) {
+    const std::string bytes = encode_mesh(m, f, {.root = root, .scale = 100, .optimize = false});
+    raw = file_coords(bytes, f);
+    const dvec3 d = raw.positions[tip] - raw.positions[base];
+    EXPECT_NEAR(glm::length(d), 100 * glm::length(m.positions[tip] - m.positions[base]), 1e-3);
+    EXPECT_LT(max_position_error(parse_mesh(bytes, f, "t"), m), 1e-6);
+  }
+  // Without a root, the pivot is the bottom centre of the bounds.
+  raw = file_coords(encode_mesh(m, MeshFormat::obj, {.optimize = false}), MeshFormat::obj);
+  lo = dvec3(1e9);
+  for (const dvec3& p : raw.positions) lo = glm::min(lo, p);
+  EXPECT_NEAR(lo.y, 0.0, 1e-6);  // the pivot is on the export grid
+  EXPECT_THROW(encode_mesh(m, MeshFormat::obj, {.scale = 0}), InvalidInputError);
+}
+
+TEST(Placement, ConfigSectionAndAttributeNames) {
+  ExportParams p;
+  read_export_json(nlohmann::json::parse(R"({"up_axis": "z", "pivot": "center", "scale": "cm", "attributes": "normal"})"),
+                   "c.json: export", p);
+  EXPECT_EQ(p.file_up_axis, UpAxis::z);
+  EXPECT_EQ(p.pivot, Pivot::center);
+  EXPECT_EQ(p.scale, 100.0);
+  EXPECT_TRUE(p.normals);
+  EXPECT_FALSE(p.uvs);
+  EXPECT_FALSE(p.branch_ids);
+  ExportParams q;
+  read_export_json(export_to_json(p), "x", q);  // round trip
+  EXPECT_EQ(export_to_json(q), export_to_json(p));
+  try {
+    read_export_json(nlohmann::json::parse(R"({"pivott": "root"})"), "c.json: export", p);
+    ADD_FAILURE();
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean \"pivot\""), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"scale": -1})"), "c", p), InvalidInputError);
+  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"up_axis": 3})"), "c", p), InvalidInputError);
+  EXPECT_THROW(set_attributes("normal,brnch_id", p), InvalidInputError);
+  set_attributes("all", p);
+  EXPECT_EQ(attribute_list(p), "normal,uv,branch_id");
 }
 
 TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
@@ -254,8 +351,8 @@ TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
   }
   EXPECT_LT(worst, 1e-6);  // float offsets from the box centre: ~1e-8 m here
   EXPECT_TRUE(check_mesh(back).ok());
-  // Without recentering float32 cannot even tell the vertices apart at 5,000 km.
-  const Mesh coarse = parse_mesh(encode_mesh(m, MeshFormat::glb, {.recenter = false}), MeshFormat::glb, "far.glb");
+  // With the input's own origin float32 cannot even tell the vertices apart at 5,000 km.
+  const Mesh coarse = parse_mesh(encode_mesh(m, MeshFormat::glb, {.pivot = Pivot::origin}), MeshFormat::glb, "far.glb");
   EXPECT_LT(coarse.positions.size(), m.positions.size());
 }
 

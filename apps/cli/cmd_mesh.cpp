@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/export_options.h"
 #include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
 #include "core/errors.h"
@@ -28,6 +29,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       bool strict = false;
       SkeletonParams skeleton;
       InputOptions input_options;
+      ExportOptions export_options;
     };
     auto o = std::make_shared<Opts>();
     // Required unless --print-config (checked below, so the config can be printed alone).
@@ -49,6 +51,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                  "(the outputs are written all the same)");
     add_skeleton_options(sub, o->skeleton);
     add_input_options(sub, o->input_options);
+    add_export_options(sub, o->export_options);
     // Which skeleton options were given explicitly (they override the config file).
     std::vector<CLI::Option*> skeleton_opts;
     for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
@@ -72,6 +75,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (skeleton_opts[4]->count()) params.skeleton.max_child_ratio = cli.max_child_ratio;
       if (skeleton_opts[5]->count()) params.skeleton.max_edge_ratio = cli.max_edge_ratio;
       (void)defaults;
+      apply_export_options(o->export_options, params.output);
       if (o->print_config) {
         std::fputs(params_to_json(params).c_str(), stdout);
         return int(kOk);
@@ -121,8 +125,9 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
       release_intermediates(r);  // their memory goes to the exporter
       Stopwatch export_clock;
-      ExportParams ep;
+      ExportParams ep = params.output;
       ep.up_axis = r.skeleton.skeleton.up_axis;
+      ep.root = r.skeleton.skeleton.position[0];
       write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
       const double export_seconds = export_clock.elapsed();
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));

@@ -211,11 +211,11 @@ RawSkeleton parse_cylinder_table(std::string_view text, const std::string& name,
   std::vector<std::string> header_names;
   for (const Cell& c : cells) header_names.push_back(normalize_name(c.text));
   for (const auto& [key, column] : columns) {
-    const auto f = std::find_if(fields().begin(), fields().end(), [&](const Field& x) { return x.key == key; });
+    const auto f = std::find_if(fields().begin(), fields().end(), [&key = key](const Field& x) { return x.key == key; });
     if (f == fields().end()) {
       throw InvalidInputError("--columns: unknown field \"" + key + "\" (fields: " + known_column_fields() + ")");
     }
-    const auto k = std::find_if(cells.begin(), cells.end(), [&](const Cell& c) { return c.text == column; });
+    const auto k = std::find_if(cells.begin(), cells.end(), [&column = column](const Cell& c) { return c.text == column; });
     if (k == cells.end()) {
       throw InvalidInputError(name + ":" + std::to_string(header_line) + ": --columns " + key + "=" + column +
                               ": the header has no column \"" + column + "\"");

@@ -1,0 +1,167 @@
+// The `export` section of config files and the attribute names of the CLI.
+
+#include "meshio/export_json.h"
+
+#include <charconv>
+#include <cmath>
+#include <functional>
+#include <set>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/errors.h"
+#include "core/suggest.h"
+
+namespace sm {
+
+namespace {
+
+using nlohmann::json;
+
+// One optional vertex attribute: its name on the command line and in config files, and its switch.
+struct AttributeName {
+  const char* name;
+  bool ExportParams::*flag;
+};
+const std::vector<AttributeName>& attribute_names() {
+  static const std::vector<AttributeName> names{
+      {"normal", &ExportParams::normals},
+      {"uv", &ExportParams::uvs},
+      {"branch_id", &ExportParams::branch_ids},
+  };
+  return names;
+}
+
+std::vector<std::string> names_of(const std::vector<AttributeName>& a) {
+  std::vector<std::string> out;
+  for (const auto& n : a) out.emplace_back(n.name);
+  return out;
+}
+
+std::string join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) {
+    if (!out.empty()) out += ", ";
+    out += n;
+  }
+  return out;
+}
+
+std::string hint(std::string_view word, const std::vector<std::string>& names) {
+  const std::string best = closest_name(word, names);
+  return best.empty() ? std::string() : " (did you mean \"" + best + "\"?)";
+}
+
+}  // namespace
+
+std::optional<UpAxis> parse_up_axis(std::string_view text) {
+  if (text == "y") return UpAxis::y;
+  if (text == "z") return UpAxis::z;
+  if (text == "auto") return std::nullopt;
+  throw InvalidInputError("up axis must be y, z or auto, not \"" + std::string(text) + "\"");
+}
+
+std::optional<Pivot> parse_pivot(std::string_view text) {
+  if (text == "root") return Pivot::root;
+  if (text == "center" || text == "centre") return Pivot::center;
+  if (text == "origin") return Pivot::origin;
+  if (text == "auto") return std::nullopt;
+  throw InvalidInputError("pivot must be root, center, origin or auto, not \"" + std::string(text) + "\"");
+}
+
+double parse_scale(std::string_view text) {
+  if (text == "m") return 1.0;
+  if (text == "cm") return 100.0;
+  if (text == "mm") return 1000.0;
+  if (text == "in") return 1.0 / 0.0254;
+  if (text == "ft") return 1.0 / 0.3048;
+  double x = 0;
+  const auto r = std::from_chars(text.data(), text.data() + text.size(), x);
+  if (r.ec != std::errc() || r.ptr != text.data() + text.size() || !(x > 0) || !std::isfinite(x)) {
+    throw InvalidInputError("scale must be a positive number of file units per metre or one of m, cm, mm, in, ft, "
+                            "not \"" + std::string(text) + "\"");
+  }
+  return x;
+}
+
+void set_attributes(std::string_view list, ExportParams& params) {
+  const auto& table = attribute_names();
+  std::vector<std::string> words;
+  for (std::size_t i = 0; i <= list.size();) {
+    const std::size_t j = std::min(list.find(',', i), list.size());
+    std::string w(list.substr(i, j - i));
+    while (!w.empty() && w.front() == ' ') w.erase(w.begin());
+    while (!w.empty() && w.back() == ' ') w.pop_back();
+    if (!w.empty()) words.push_back(w);
+    i = j + 1;
+  }
+  for (const auto& a : table) params.*(a.flag) = false;
+  std::vector<std::string> accepted = names_of(table);
+  accepted.insert(accepted.end(), {"all", "none"});
+  for (const std::string& w : words) {
+    if (w == "none") continue;
+    bool found = false;
+    for (const auto& a : table) {
+      if (w == a.name || w == "all") {
+        params.*(a.flag) = true;
+        found = true;
+      }
+    }
+    if (!found) {
+      throw InvalidInputError("unknown attribute \"" + w + "\"" + hint(w, accepted) + "; accepted: " + join(accepted));
+    }
+  }
+}
+
+std::string attribute_list(const ExportParams& params) {
+  std::string out;
+  for (const auto& a : attribute_names()) {
+    if (!(params.*(a.flag))) continue;
+    if (!out.empty()) out += ',';
+    out += a.name;
+  }
+  return out.empty() ? "none" : out;
+}
+
+void read_export_json(const json& section, const std::string& where, ExportParams& p) {
+  if (!section.is_object()) throw InvalidInputError(where + ": must be an object");
+  // key -> reader of its value; the set of keys is the documented one (export_to_json).
+  const std::vector<std::pair<std::string, std::function<void(const json&)>>> keys{
+      {"up_axis", [&](const json& v) { p.file_up_axis = parse_up_axis(v.get<std::string>()); }},
+      {"pivot", [&](const json& v) { p.pivot = parse_pivot(v.get<std::string>()); }},
+      {"scale", [&](const json& v) { p.scale = v.is_string() ? parse_scale(v.get<std::string>()) : parse_scale(v.dump()); }},
+      {"attributes", [&](const json& v) { set_attributes(v.get<std::string>(), p); }},
+      {"optimize", [&](const json& v) { p.optimize = v.get<bool>(); }},
+  };
+  std::vector<std::string> known;
+  for (const auto& [k, f] : keys) known.push_back(k);
+  for (auto it = section.begin(); it != section.end(); ++it) {
+    const auto k = std::find_if(keys.begin(), keys.end(), [&](const auto& e) { return e.first == it.key(); });
+    if (k == keys.end()) {
+      throw InvalidInputError(where + ": unknown key \"" + it.key() + "\"" + hint(it.key(), known) +
+                              " (known keys: " + join(known) + ")");
+    }
+    try {
+      k->second(*it);
+    } catch (const json::exception&) {
+      const json expect = export_to_json(ExportParams{})[k->first];
+      throw InvalidInputError(where + "." + k->first + ": must be a " + expect.type_name() + " (like " +
+                              expect.dump() + "), not " + it->dump());
+    } catch (const InvalidInputError& e) {
+      throw InvalidInputError(where + "." + k->first + ": " + e.what());
+    }
+  }
+}
+
+json export_to_json(const ExportParams& p) {
+  json j;
+  j["up_axis"] = p.file_up_axis ? (*p.file_up_axis == UpAxis::y ? "y" : "z") : "auto";
+  j["pivot"] = !p.pivot ? "auto" : *p.pivot == Pivot::root ? "root" : *p.pivot == Pivot::center ? "center" : "origin";
+  j["scale"] = p.scale;
+  j["attributes"] = attribute_list(p);
+  j["optimize"] = p.optimize;
+  return j;
+}
+
+}  // namespace sm
