@@ -34,7 +34,9 @@ Tree mesh_skeleton(const Skeleton& skeleton, const Options& options) {
                             " edges not shared by exactly two triangles; please report this skeleton");
   }
   Tree tree;
-  tree.up_axis = r.skeleton.skeleton.up_axis;
+  tree.output = params.output;
+  tree.output.up_axis = r.skeleton.skeleton.up_axis;
+  tree.output.root = r.skeleton.skeleton.position[0];
   const sm::Warnings warnings = r.warnings();
   for (const sm::Warning& w : warnings.list()) {
     std::string line = w.message + " (" + std::to_string(w.count) + "x";
@@ -45,10 +47,6 @@ Tree mesh_skeleton(const Skeleton& skeleton, const Options& options) {
   return tree;
 }
 
-void write_mesh(const Tree& tree, const std::filesystem::path& path) {
-  sm::ExportParams params;
-  params.up_axis = tree.up_axis;
-  sm::write_mesh(tree.mesh, path, params);
-}
+void write_mesh(const Tree& tree, const std::filesystem::path& path) { sm::write_mesh(tree.mesh, path, tree.output); }
 
 }  // namespace strandmesh

@@ -22,7 +22,8 @@ TEST(Api, MeshesLikeThePipeline) {
   const PipelineResult r = run_pipeline(skeleton, p);
   EXPECT_EQ(tree.mesh.positions, r.mesh.mesh.positions);
   EXPECT_EQ(tree.mesh.triangles, r.mesh.mesh.triangles);
-  EXPECT_EQ(tree.up_axis, UpAxis::z);
+  EXPECT_EQ(tree.output.up_axis, UpAxis::z);
+  EXPECT_EQ(tree.output.root, r.skeleton.skeleton.position[0]);
   // Another seed, another mesh; the thread count changes nothing.
   const strandmesh::Tree seed1 = strandmesh::mesh_skeleton(skeleton, {.seed = 1});
   EXPECT_NE(seed1.mesh.positions, tree.mesh.positions);
@@ -31,7 +32,7 @@ TEST(Api, MeshesLikeThePipeline) {
 
 TEST(Api, ConfigFileAndProgress) {
   const auto dir = test::temp_dir("api_config");
-  write_file_atomically(dir / "config.json", R"({"meshing": {"tip_dome": 0}})");
+  write_file_atomically(dir / "config.json", R"({"meshing": {"tip_dome": 0}, "export": {"scale": 100}})");
   const strandmesh::Skeleton skeleton = test::straight_branch();
   std::size_t calls = 0;
   const strandmesh::Tree flat = strandmesh::mesh_skeleton(
@@ -41,6 +42,7 @@ TEST(Api, ConfigFileAndProgress) {
                    ++calls;
                  }});
   EXPECT_GT(calls, 0u);
+  EXPECT_EQ(flat.output.scale, 100.0);  // the config's export section goes to write_mesh
   // A flat tip: nothing above the tip node's section (2 m), where the default dome rises.
   double top_flat = 0, top_dome = 0;
   for (const auto& v : flat.mesh.positions) top_flat = std::max(top_flat, v.z);

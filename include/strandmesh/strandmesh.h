@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/mesh.h"
+#include "meshio/export.h"
 #include "skeleton/skeleton.h"
 
 namespace strandmesh {
@@ -57,8 +58,9 @@ struct Options {
 /// A meshed tree.
 struct Tree {
   Mesh mesh;
-  /// The skeleton's up axis; write_mesh turns z-up into glTF's y-up.
-  sm::UpAxis up_axis = sm::UpAxis::z;
+  /// How write_mesh writes it (meshio/export.h: file up axis, pivot, scale, attributes): the
+  /// config's "export" section, with the skeleton's up axis and root.
+  sm::ExportParams output;
   /// What was repaired or left, one line per kind: "message (N×; e.g. node 12, ...)".
   std::vector<std::string> warnings;
 };
@@ -70,8 +72,8 @@ Skeleton read_skeleton(const std::filesystem::path& path);
 /// Meshes the tree: skeleton, particles, strands, contours, meshing and repairs.
 Tree mesh_skeleton(const Skeleton& skeleton, const Options& options = {});
 
-/// Writes the mesh in the format of the path's extension (.glb, .gltf, .obj, .ply; see
-/// meshio/export.h), atomically.
+/// Writes the mesh in the format of the path's extension (.glb, .gltf, .obj, .ply), placed
+/// as `tree.output` says (docs/export.md), atomically.
 void write_mesh(const Tree& tree, const std::filesystem::path& path);
 
 }  // namespace strandmesh
