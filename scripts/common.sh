@@ -10,10 +10,11 @@ BUILD_TYPE="${STRANDMESH_BUILD_TYPE:-Release}"
 STRANDMESH_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libglm-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev libtinygltf-dev
-  nlohmann-json3-dev libcli11-dev libtbb-dev libmeshoptimizer-dev libmatio-dev
+  nlohmann-json3-dev libcli11-dev libtbb-dev libmeshoptimizer-dev libmatio-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libimgui-dev libglfw3-dev libgl-dev libstb-dev
   xvfb xauth libgl1-mesa-dri
+  parallel time
 )
 # Node.js and npm run the Khronos glTF validator (scripts/validate_gltf.sh). Installed only when
 # missing: a machine may already have a newer Node.js whose npm conflicts with Debian's.

@@ -4,7 +4,7 @@
 ///
 /// Exit codes: 0 ok, 1 bad input (malformed file, invalid parameters, unreadable or
 /// unwritable file), 2 usage error (unknown option, missing argument), 3 internal error,
-/// 4 the mesh fails a check (`check`, `mesh --strict`).
+/// 4 the mesh fails a check (`check`, `mesh --strict`); `batch`: 5 some trees failed, 6 all did.
 
 #include <functional>
 #include <string>

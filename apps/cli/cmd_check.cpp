@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/input_options.h"
 #include "core/log.h"
 #include "meshcheck/checks.h"
 #include "meshio/mesh_io.h"
@@ -29,12 +30,14 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           bool no_self_intersections = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
           std::size_t examples = MeshCheckParams{}.max_examples;
+          InputOptions input_options;  ///< how to read --skeleton
         };
         auto o = std::make_shared<Opts>();
         sub.add_option("MESH", o->mesh, "Mesh file (.glb, .gltf, .obj or .ply)")->required();
         sub.add_option("--skeleton", o->skeleton,
-                       "Skeleton file (.json or .swc): also measure fidelity to its radii; its up axis is used "
-                       "to read the mesh");
+                       "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg): also measure fidelity to its "
+                       "radii; its up axis is used to read the mesh");
+        add_input_options(sub, o->input_options);
         sub.add_flag("--json", o->json, "Print the report as JSON");
         sub.add_flag("--no-self-intersections", o->no_self_intersections,
                      "Skip the self-intersection test (the slowest check)");
@@ -56,7 +59,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           MeshReadParams read;
           SkeletonResult skeleton;
           if (!o->skeleton.empty()) {
-            skeleton = build_skeleton(read_skeleton(o->skeleton));
+            skeleton = build_skeleton(read_skeleton(o->skeleton, read_options(o->input_options)));
             read.up_axis = skeleton.skeleton.up_axis;
             params.skeleton = &skeleton.skeleton;
             log::verbose(o->skeleton + ": " + std::to_string(skeleton.skeleton.size()) + " nodes after sanitizing");

@@ -15,6 +15,7 @@ void register_commands(CLI::App& app, const GlobalOptions& global) {
   add_grow_command(app, global);
   add_particles_command(app, global);
   add_mesh_command(app, global);
+  add_batch_command(app, global);
   add_check_command(app, global);
   add_bench_command(app, global);
 }

@@ -28,7 +28,8 @@ using import::normalize_name;
 using import::trim;
 
 constexpr std::size_t kNone = static_cast<std::size_t>(-1);
-constexpr std::int64_t kMaxRange = 1'000'000;  // entities one "<<" range may create
+constexpr std::int64_t kMaxRange = 1'000'000;     // entities one "<<" range may create
+constexpr std::size_t kMaxEntities = 5'000'000;  // in a file (about 100 bytes each; real plants: thousands)
 
 struct Entity {
   std::string symbol;
@@ -180,7 +181,7 @@ class MtgReader {
   }
 
   std::size_t add_entity(std::string symbol, std::int64_t index, std::size_t from, std::size_t line) {
-    if (entities_.size() >= 50'000'000) fail(line, 0, "more than 50 million entities");
+    if (entities_.size() >= kMaxEntities) fail(line, 0, "more than 5 million entities (ranges included)");
     Entity e;
     e.symbol = std::move(symbol);
     e.index = index;

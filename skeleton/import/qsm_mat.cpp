@@ -10,8 +10,10 @@
 #include <matio.h>
 
 #include "core/errors.h"
+#include "core/file_io.h"
 #include "skeleton/import/cylinders.h"
 #include "skeleton/import/formats.h"
+#include "skeleton/import/mat_check.h"
 
 namespace sm {
 namespace {
@@ -24,6 +26,24 @@ struct VarFreer {
 };
 using MatFile = std::unique_ptr<mat_t, MatCloser>;
 using MatVar = std::unique_ptr<matvar_t, VarFreer>;
+
+/// Field `field` of the first element of struct `s`, or null when there is none. libmatio
+/// dereferences a struct's data and field names unchecked, and a damaged file can leave
+/// either null (found by fuzz/fuzz_skeleton_mat.cpp), so they are checked here first.
+matvar_t* field_of(matvar_t* s, const char* field) {
+  if (s == nullptr || s->class_type != MAT_C_STRUCT || s->data == nullptr || s->rank < 1 || s->dims == nullptr) {
+    return nullptr;
+  }
+  std::size_t elements = 1;
+  for (int i = 0; i < s->rank; ++i) elements *= s->dims[i];
+  const unsigned fields = Mat_VarGetNumberOfFields(s);
+  char* const* names = Mat_VarGetStructFieldnames(s);
+  if (elements == 0 || fields == 0 || names == nullptr) return nullptr;
+  for (unsigned i = 0; i < fields; ++i)
+    if (names[i] == nullptr) return nullptr;
+  if (s->nbytes / sizeof(matvar_t*) < std::size_t(fields)) return nullptr;  // fewer field slots than fields
+  return Mat_VarGetStructFieldByName(s, field, 0);
+}
 
 /// A numeric MATLAB array read as doubles (column-major, as MATLAB stores it).
 struct Array {
@@ -124,6 +144,7 @@ CylinderTable table_from(const Array& rad, const Array& len, const Array& sta, c
 
 RawSkeleton read_treeqsm_mat(const std::filesystem::path& path) {
   const std::string name = path.string();
+  check_mat_structure(read_file(path), name);  // libmatio trusts the sizes a file declares
   // Mat_Open reads the header only; a file that is not a MAT file gives null.
   MatFile mat(Mat_Open(name.c_str(), MAT_ACC_RDONLY));
   if (!mat) {
@@ -147,22 +168,22 @@ RawSkeleton read_treeqsm_mat(const std::filesystem::path& path) {
     if (var == "CPar") old_layout = true;
     if (type != MAT_C_STRUCT || !qsm_name.empty()) continue;
     MatVar whole(Mat_VarRead(mat.get(), var.c_str()));
-    if (whole && Mat_VarGetStructFieldByName(whole.get(), "cylinder", 0) != nullptr) qsm_name = var;
+    if (field_of(whole.get(), "cylinder") != nullptr) qsm_name = var;
   }
   if (!qsm_name.empty()) {
     MatVar qsm(Mat_VarRead(mat.get(), qsm_name.c_str()));
     if (!qsm) throw InvalidInputError(name + ": the variable " + qsm_name + " cannot be read");
-    matvar_t* cyl = Mat_VarGetStructFieldByName(qsm.get(), "cylinder", 0);
+    matvar_t* cyl = field_of(qsm.get(), "cylinder");
     if (cyl == nullptr || cyl->class_type != MAT_C_STRUCT) {
       throw InvalidInputError(name + ": " + qsm_name + ".cylinder must be a struct");
     }
     const std::string prefix = qsm_name + ".cylinder.";
     auto field = [&](const char* f, std::size_t cols) {
-      return numeric(Mat_VarGetStructFieldByName(cyl, f, 0), prefix + f, cols, name);
+      return numeric(field_of(cyl, f), prefix + f, cols, name);
     };
     const Array rad = field("radius", 1), len = field("length", 1), sta = field("start", 3), axe = field("axis", 3),
                 par = field("parent", 1);
-    const matvar_t* ext_var = Mat_VarGetStructFieldByName(cyl, "extension", 0);
+    const matvar_t* ext_var = field_of(cyl, "extension");
     const Array ext = ext_var != nullptr ? numeric(ext_var, prefix + "extension", 1, name) : Array{};
     return cylinders_to_skeleton(table_from(rad, len, sta, axe, par, ext_var != nullptr ? &ext : nullptr, prefix, name));
   }

@@ -113,10 +113,10 @@ bool is_number(std::string_view s) {
   return import::parse_number(s, d);
 }
 
-/// Reads the numbers of one data line into a cylinder table.
+/// Reads the numbers of data lines, naming the line, the column and the field in errors.
 class TableReader {
  public:
-  TableReader(const std::string& name, CylinderTable& table) : name_(name), table_(table) {}
+  explicit TableReader(const std::string& name) : name_(name) {}
 
   std::string at(std::size_t line, const Cell& cell, const std::string& column) const {
     return name_ + ":" + std::to_string(line) + ":" + std::to_string(cell.column) + ": " + column;
@@ -136,14 +136,13 @@ class TableReader {
 
  private:
   const std::string& name_;
-  CylinderTable& table_;
 };
 
 /// TreeQSM's cyl_data text: radius, length, start (3), axis (3), parent, extension, ...
 RawSkeleton parse_treeqsm_text(std::string_view text, const std::string& name) {
   CylinderTable t;
   t.source = name;
-  TableReader rd(name, t);
+  TableReader rd(name);
   std::vector<Cell> cells;
   std::size_t row = 0;
   static const char* names[10] = {"radius", "length", "start x", "start y", "start z",
@@ -255,7 +254,7 @@ RawSkeleton parse_cylinder_table(std::string_view text, const std::string& name,
 
   CylinderTable t;
   t.source = name;
-  TableReader rd(name, t);
+  TableReader rd(name);
   std::size_t row = 0;
   const std::size_t width = cells.size();
   const bool has_ext = col[extension].has_value();

@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/input_limits.h"
+
 namespace sm::import {
 
 /// `s` without leading and trailing blanks (space, tab, CR).
@@ -51,11 +53,12 @@ inline std::string normalize_name(std::string_view name) {
   return out;
 }
 
-/// `s` quoted for a message, cut to 40 characters.
+/// `s` quoted for a message, cut to a short excerpt (core/input_limits.h).
 inline std::string quoted(std::string_view s) {
-  std::string out = "\"";
-  for (const char ch : s.substr(0, 40)) out += std::isprint(static_cast<unsigned char>(ch)) ? ch : '?';
-  return out + (s.size() > 40 ? "...\"" : "\"");
+  std::string out(1, '"');  // appended, not "\"" + ...: GCC 12 warns falsely (-Wrestrict) on that
+  out += excerpt(s, 40);
+  out += '"';
+  return out;
 }
 
 /// Calls f(line, line_number) for each line of `text` (1-based; '\n' ends a line, a '\r'

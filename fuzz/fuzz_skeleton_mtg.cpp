@@ -1,0 +1,8 @@
+// Fuzz target: OpenAlea MTG files, read and sanitized (skeleton/import/formats.h, skeleton/build.h).
+#include "fuzz/fuzz_reader.h"
+#include "skeleton/build.h"
+#include "skeleton/import/formats.h"
+
+SM_FUZZ_READER(text) {
+  (void)sm::build_skeleton(sm::parse_mtg(text, "fuzz.mtg"));
+}
