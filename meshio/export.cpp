@@ -213,6 +213,10 @@ ViewData view_data(std::size_t offset, std::size_t count, F f) {
   return v;
 }
 
+// Mantissa bits of quantized, compressed UVs (meshopt's exponential filter, one exponent per
+// value): a relative precision of 2^-14, under 0.004 of a texture tile at v = 50.
+constexpr int kUvMantissaBits = 14;
+
 // Items per chunk when a view is written chunk by chunk (1-2 MB of output).
 constexpr std::size_t kViewChunk = 1 << 17;
 
@@ -341,11 +345,10 @@ nlohmann::json gltf_json(const tinygltf::Model& model, std::size_t size) {
   return json;
 }
 
-// Writes a .gltf file: tinygltf's JSON of `model` (its buffer empty) with buffer 0 embedded
-// as a base64 data URI of `size` bytes made of `views`, encoded as it is written (tinygltf
-// would hold the buffer, its encoding and the whole text in memory at once).
-void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t size, const std::vector<ViewData>& views) {
-  nlohmann::json json = gltf_json(model, size);
+// Writes a .gltf file: the model's JSON (gltf_json) with buffer 0 embedded
+// as a base64 data URI of the bytes of `views`, encoded as it is written (tinygltf would hold
+// the buffer, its encoding and the whole text in memory at once).
+void write_gltf(std::ostream& out, nlohmann::json json, const std::vector<ViewData>& views) {
   constexpr std::string_view kMark = "@strandmesh-buffer@";
   json["buffers"][0]["uri"] = std::string(kMark);
   const std::string text = json.dump(2);
@@ -362,6 +365,157 @@ void write_gltf(std::ostream& out, const tinygltf::Model& model, std::size_t siz
   out << '\n';
 }
 
+// One vertex attribute or the index list as it is stored: its accessor and the bytes of its
+// buffer view (items of `stride` bytes, computed by `data.put`).
+struct Stream {
+  std::string attribute;  // "POSITION", ...; empty for the indices
+  int component_type = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  int type = TINYGLTF_TYPE_SCALAR;
+  bool normalized = false;
+  std::size_t stride = 0;  // bytes per item in the buffer (a multiple of 4 for attributes)
+  ViewData data;           // count, stride and the item writer (offset set when laid out)
+  std::vector<double> min, max;  // accessor bounds (POSITION only)
+  // EXT_meshopt_compression filter applied before the vertex codec when compressing:
+  // OCTAHEDRAL takes `unit(i)` (8-bit octahedral normals), EXPONENTIAL the stream's own floats.
+  enum class Filter { none, octahedral, exponential } filter = Filter::none;
+  std::function<glm::vec3(std::size_t)> unit{};
+};
+
+template <class T, std::size_t N, class F>
+ViewData packed_view(std::size_t count, F f) {
+  ViewData v{0, count, sizeof(std::array<T, N>), {}};
+  v.put = [f = std::move(f)](std::size_t begin, std::size_t end, unsigned char* out) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::array<T, N> value = f(i);
+      std::memcpy(out + (i - begin) * sizeof(value), value.data(), sizeof(value));
+    }
+  };
+  return v;
+}
+
+// The streams of the export buffers `eb` in the file's frame: float or, with `quantize`,
+// KHR_mesh_quantization's 16-bit positions (SHORT, padded to 8 bytes; the node holding the
+// mesh scales them back by `dequant`) and 8-bit normals (BYTE normalized, padded to 4 bytes).
+// Indices are 16-bit when every vertex number fits.
+std::vector<Stream> gltf_streams(const std::shared_ptr<const ExportBuffers>& shared, const Placement& place,
+                                 bool quantize, glm::dvec4& dequant) {
+  const ExportBuffers& eb = *shared;
+  const std::size_t n = eb.positions.size();
+  std::vector<Stream> streams;
+  auto position = [&eb, place](std::size_t i) { return glm::vec3(place.position(eb.positions[i])); };
+  // The validator compares min/max with the stored values exactly.
+  const auto [lo, hi] = bounds(n, [&](std::size_t i) { return glm::dvec3(position(i)); });
+  dequant = glm::dvec4(0, 0, 0, 1);  // translation, scale
+  if (quantize && n > 0) {
+    const glm::dvec3 centre = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
+    const double half = std::max({hi.x - centre.x, hi.y - centre.y, hi.z - centre.z, centre.x - lo.x,
+                                  centre.y - lo.y, centre.z - lo.z});
+    const double step = half > 0 ? half / 32767.0 : 1.0;
+    dequant = glm::dvec4(centre, step);
+    auto q = [&eb, place, centre, step](std::size_t i) {
+      const glm::dvec3 p = glm::round((glm::dvec3(place.position(eb.positions[i])) - centre) / step);
+      const glm::dvec3 c = glm::clamp(p, glm::dvec3(-32767.0), glm::dvec3(32767.0));
+      return std::array<std::int16_t, 4>{static_cast<std::int16_t>(c.x), static_cast<std::int16_t>(c.y),
+                                         static_cast<std::int16_t>(c.z), 0};
+    };
+    Stream s{"POSITION", TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_TYPE_VEC3, false, 8, packed_view<std::int16_t, 4>(n, q), {}, {}};
+    glm::dvec3 qlo(32767.0), qhi(-32767.0);
+    const auto [a, b] = bounds(n, [&](std::size_t i) {
+      const auto v = q(i);
+      return glm::dvec3(v[0], v[1], v[2]);
+    });
+    qlo = a, qhi = b;
+    s.min = {qlo.x, qlo.y, qlo.z};
+    s.max = {qhi.x, qhi.y, qhi.z};
+    streams.push_back(std::move(s));
+  } else {
+    Stream s{"POSITION", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, false, 12, view_data<glm::vec3>(0, n, position), {}, {}};
+    s.min = {lo.x, lo.y, lo.z};
+    s.max = {hi.x, hi.y, hi.z};
+    streams.push_back(std::move(s));
+  }
+  if (!eb.normals.empty()) {
+    auto normal = [&eb, place](std::size_t i) { return unit_float(place.direction(glm::dvec3(eb.normals[i]))); };
+    if (quantize) {
+      streams.push_back({"NORMAL", TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_TYPE_VEC3, true, 4,
+                         packed_view<std::int8_t, 4>(n,
+                                                     [normal](std::size_t i) {
+                                                       const glm::vec3 v = glm::round(normal(i) * 127.0f);
+                                                       return std::array<std::int8_t, 4>{static_cast<std::int8_t>(v.x),
+                                                                                         static_cast<std::int8_t>(v.y),
+                                                                                         static_cast<std::int8_t>(v.z), 0};
+                                                     }),
+                         {}, {}, Stream::Filter::octahedral, normal});
+    } else {
+      streams.push_back({"NORMAL", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, false, 12,
+                         view_data<glm::vec3>(0, n, normal), {}, {}});
+    }
+  }
+  if (!eb.uvs.empty()) {
+    streams.push_back({"TEXCOORD_0", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, false, 8,
+                       view_data<glm::vec2>(0, n, [&eb](std::size_t i) { return eb.uvs[i]; }), {}, {},
+                       quantize ? Stream::Filter::exponential : Stream::Filter::none, {}});
+  }
+  if (!eb.branch.empty()) {
+    streams.push_back({"_BRANCH_ID", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, false, 4,
+                       view_data<float>(0, n, [&eb](std::size_t i) { return static_cast<float>(eb.branch[i]); }), {}, {}});
+  }
+  if (n <= 65536) {
+    streams.push_back({"", TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_SCALAR, false, 2,
+                       view_data<std::uint16_t>(0, eb.indices.size(),
+                                                [&eb](std::size_t i) { return static_cast<std::uint16_t>(eb.indices[i]); }),
+                       {}, {}});
+  } else {
+    streams.push_back({"", TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, false, 4,
+                       view_data<std::uint32_t>(0, eb.indices.size(), [&eb](std::size_t i) { return eb.indices[i]; }),
+                       {}, {}});
+  }
+  return streams;
+}
+
+// The bytes of a stream, whole.
+std::string stream_bytes(const Stream& s) {
+  std::string bytes(s.data.count * s.data.bytes, '\0');
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.data.count, kViewChunk),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      s.data.put(r.begin(), r.end(), reinterpret_cast<unsigned char*>(bytes.data()) + r.begin() * s.data.bytes);
+                    });
+  return bytes;
+}
+
+// EXT_meshopt_compression of one stream: attributes by the vertex codec, indices by the
+// triangle codec (which reads them as unsigned int).
+std::string meshopt_encode(const Stream& s, const std::vector<std::uint32_t>& indices, std::size_t vertices) {
+  std::string out;
+  if (s.attribute.empty()) {
+    out.resize(meshopt_encodeIndexBufferBound(indices.size(), vertices));
+    out.resize(meshopt_encodeIndexBuffer(reinterpret_cast<unsigned char*>(out.data()), out.size(), indices.data(),
+                                         indices.size()));
+  } else {
+    std::string raw = stream_bytes(s);
+    if (s.filter == Stream::Filter::octahedral) {  // 8-bit octahedral: 4 bytes per unit vector
+      std::vector<float> xyzw(4 * s.data.count, 0.0f);
+      for (std::size_t i = 0; i < s.data.count; ++i) {
+        const glm::vec3 u = s.unit(i);
+        std::memcpy(&xyzw[4 * i], &u, sizeof u);
+      }
+      meshopt_encodeFilterOct(raw.data(), s.data.count, 4, 8, xyzw.data());
+    } else if (s.filter == Stream::Filter::exponential) {  // each float with its own exponent
+      const std::vector<float> f = [&] {
+        std::vector<float> v(raw.size() / 4);
+        std::memcpy(v.data(), raw.data(), raw.size());
+        return v;
+      }();
+      meshopt_encodeFilterExp(raw.data(), f.size(), 4, kUvMantissaBits, f.data());
+    }
+    out.resize(meshopt_encodeVertexBufferBound(s.data.count, s.stride));
+    out.resize(meshopt_encodeVertexBuffer(reinterpret_cast<unsigned char*>(out.data()), out.size(), raw.data(),
+                                          s.data.count, s.stride));
+  }
+  if (out.empty() && s.data.count > 0) throw InternalError("meshopt encoding failed");
+  return out;
+}
+
 PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Placement& place, bool binary) {
   ExportBuffers b = build_export_buffers(mesh, params);
   const std::size_t n = b.positions.size();
@@ -371,9 +525,10 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
                             " exceeds 2^24, the largest id _BRANCH_ID (a float attribute) stores exactly; "
                             "export without branch ids");
   }
-  // Positions are float32 offsets from the pivot, which is kept in double precision in the
-  // node's translation: a georeferenced tree keeps float32's relative precision of its own size.
-  const glm::dvec3 origin = place.translation();
+  const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
+  const bool compress = params.compress == Compression::meshopt;
+  glm::dvec4 dequant;
+  std::vector<Stream> streams = gltf_streams(shared, place, params.quantize, dequant);
 
   auto model = std::make_shared<tinygltf::Model>();
   model->asset.version = "2.0";
@@ -385,53 +540,27 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   model->asset.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh", tinygltf::Value(std::move(record))}});
   model->buffers.emplace_back();
 
-  // Lay out the views (POSITION, NORMAL, TEXCOORD_0, _BRANCH_ID, indices), then fill the
-  // buffer in place.
+  // Lay out the views (uncompressed: the layout a meshopt decoder restores), one per stream.
   std::size_t size = 0;
   tinygltf::Primitive prim;
   prim.mode = TINYGLTF_MODE_TRIANGLES;
-  const std::size_t pos_at = add_view(*model, size, n * sizeof(glm::vec3), kGlArrayBuffer);
-  const int pos_acc = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3);
-  prim.attributes["POSITION"] = pos_acc;
-  std::size_t normal_at = 0, uv_at = 0, branch_at = 0;
-  if (!b.normals.empty()) {
-    normal_at = add_view(*model, size, n * sizeof(glm::vec3), kGlArrayBuffer);
-    prim.attributes["NORMAL"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3);
+  for (Stream& st : streams) {
+    const bool index = st.attribute.empty();
+    st.data.offset = add_view(*model, size, st.data.count * st.data.bytes, index ? kGlElementArrayBuffer : kGlArrayBuffer);
+    const std::size_t element = static_cast<std::size_t>(tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(st.component_type)) *
+                                                         tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(st.type)));
+    if (!index && (st.stride != element || compress)) model->bufferViews.back().byteStride = st.stride;
+    const int acc = add_accessor(*model, st.data.count, st.component_type, st.type);
+    model->accessors.back().normalized = st.normalized;
+    model->accessors.back().minValues = st.min;
+    model->accessors.back().maxValues = st.max;
+    if (index) {
+      prim.indices = acc;
+    } else {
+      prim.attributes[st.attribute] = acc;
+    }
   }
-  if (!b.uvs.empty()) {
-    uv_at = add_view(*model, size, n * sizeof(glm::vec2), kGlArrayBuffer);
-    prim.attributes["TEXCOORD_0"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2);
-  }
-  if (!b.branch.empty()) {
-    branch_at = add_view(*model, size, n * sizeof(float), kGlArrayBuffer);
-    prim.attributes["_BRANCH_ID"] = add_accessor(*model, n, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR);
-  }
-  const std::size_t index_at =
-      add_view(*model, size, b.indices.size() * sizeof(std::uint32_t), kGlElementArrayBuffer);
-  prim.indices = add_accessor(*model, b.indices.size(), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR);
   prim.material = 0;
-
-  // The buffer's contents, by view, computed from the export buffers as they are written
-  // (the writers keep the buffers alive).
-  const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
-  const ExportBuffers& eb = *shared;
-  auto position = [&eb, place](std::size_t i) { return glm::vec3(place.position(eb.positions[i])); };
-  std::vector<ViewData> views;
-  views.push_back(view_data<glm::vec3>(pos_at, n, position));
-  if (!eb.normals.empty()) {
-    views.push_back(view_data<glm::vec3>(
-        normal_at, n, [&eb, place](std::size_t i) { return unit_float(place.direction(glm::dvec3(eb.normals[i]))); }));
-  }
-  if (!eb.uvs.empty()) views.push_back(view_data<glm::vec2>(uv_at, n, [&eb](std::size_t i) { return eb.uvs[i]; }));
-  if (!eb.branch.empty()) {
-    views.push_back(view_data<float>(branch_at, n, [&eb](std::size_t i) { return static_cast<float>(eb.branch[i]); }));
-  }
-  views.push_back(view_data<std::uint32_t>(index_at, eb.indices.size(), [&eb](std::size_t i) { return eb.indices[i]; }));
-
-  // The validator compares min/max with the stored float values exactly.
-  const auto [pos_lo, pos_hi] = bounds(n, [&](std::size_t i) { return glm::dvec3(position(i)); });
-  model->accessors[static_cast<std::size_t>(pos_acc)].minValues = {pos_lo.x, pos_lo.y, pos_lo.z};
-  model->accessors[static_cast<std::size_t>(pos_acc)].maxValues = {pos_hi.x, pos_hi.y, pos_hi.z};
 
   tinygltf::Material material;
   material.name = "bark";
@@ -445,34 +574,96 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   gmesh.primitives.push_back(std::move(prim));
   model->meshes.push_back(std::move(gmesh));
 
+  // Node 0 "tree" sits at the pivot (its translation, kept in double precision: positions are
+  // float32 offsets from it). Quantized positions are scaled back by a child node.
+  const glm::dvec3 origin = place.translation();
   tinygltf::Node node;
   node.name = "tree";
-  node.mesh = 0;
   if (origin != glm::dvec3(0)) node.translation = {origin.x, origin.y, origin.z};
-  model->nodes.push_back(std::move(node));
+  if (params.quantize) {
+    node.children.push_back(1);
+    tinygltf::Node inner;
+    inner.name = "tree_mesh";
+    inner.mesh = 0;
+    inner.translation = {dequant.x, dequant.y, dequant.z};
+    inner.scale = {dequant.w, dequant.w, dequant.w};
+    model->nodes.push_back(std::move(node));
+    model->nodes.push_back(std::move(inner));
+    model->extensionsUsed.push_back("KHR_mesh_quantization");
+    model->extensionsRequired.push_back("KHR_mesh_quantization");
+  } else {
+    node.mesh = 0;
+    model->nodes.push_back(std::move(node));
+  }
 
   tinygltf::Scene scene;
   scene.nodes.push_back(0);
   model->scenes.push_back(std::move(scene));
   model->defaultScene = 0;
 
-  // The JSON is a few kilobytes; .gltf embeds the buffer as base64 (4 characters per 3 bytes).
-  constexpr std::size_t kJsonBytes = 1 << 16;
-  PreparedFile file;
-  file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
-  if (binary) {
-    std::string json = gltf_json(*model, size).dump();  // compact, as tinygltf writes a .glb's
-    (void)glb_size(json.size(), size);  // too large fails here, before a file is opened
-    file.write = [shared, json = std::move(json), size, views = std::move(views)](std::ostream& out) {
-      write_glb(out, json, size, views);
-    };
+  std::vector<ViewData> views;
+  for (const Stream& st : streams) views.push_back(st.data);
+  if (!compress) {
+    // The JSON is a few kilobytes; .gltf embeds the buffer as base64 (4 characters per 3 bytes).
+    constexpr std::size_t kJsonBytes = 1 << 16;
+    PreparedFile file;
+    file.size_hint = (binary ? size : (size + 2) / 3 * 4) + kJsonBytes;
+    nlohmann::json json = gltf_json(*model, size);
+    if (binary) {
+      std::string text = json.dump();  // compact, as tinygltf writes a .glb's
+      (void)glb_size(text.size(), size);  // too large fails here, before a file is opened
+      file.write = [shared, text = std::move(text), size, views = std::move(views)](std::ostream& out) {
+        write_glb(out, text, size, views);
+      };
+    } else {
+      file.write = [shared, json = std::move(json), views = std::move(views)](std::ostream& out) {
+        write_gltf(out, json, views);
+      };
+    }
     return file;
   }
-  file.write = [shared, model, size, views = std::move(views)](std::ostream& out) {
-    write_gltf(out, *model, size, views);
-  };
-  return file;
 
+  // EXT_meshopt_compression: buffer 0 holds the encoded views (the GLB's BIN chunk); buffer 1
+  // is the fallback of the decoded size, without data (so the extension is required).
+  auto packed = std::make_shared<std::string>();
+  std::vector<std::pair<std::size_t, std::size_t>> at;  // offset, length in buffer 0
+  for (const Stream& st : streams) {
+    const std::string enc = meshopt_encode(st, shared->indices, n);
+    packed->resize((packed->size() + 3) / 4 * 4, '\0');
+    at.emplace_back(packed->size(), enc.size());
+    packed->append(enc);
+  }
+  nlohmann::json json = gltf_json(*model, packed->size());
+  json["buffers"][1] = {{"byteLength", size}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}};
+  for (std::size_t k = 0; k < streams.size(); ++k) {
+    nlohmann::json& view = json["bufferViews"][k];
+    view["buffer"] = 1;
+    view["extensions"]["EXT_meshopt_compression"] = {
+        {"buffer", 0},
+        {"byteOffset", at[k].first},
+        {"byteLength", at[k].second},
+        {"byteStride", streams[k].stride},
+        {"count", streams[k].data.count},
+        {"mode", streams[k].attribute.empty() ? "TRIANGLES" : "ATTRIBUTES"}};
+    if (streams[k].filter == Stream::Filter::octahedral) view["extensions"]["EXT_meshopt_compression"]["filter"] = "OCTAHEDRAL";
+    if (streams[k].filter == Stream::Filter::exponential) view["extensions"]["EXT_meshopt_compression"]["filter"] = "EXPONENTIAL";
+  }
+  json["extensionsUsed"].push_back("EXT_meshopt_compression");
+  json["extensionsRequired"].push_back("EXT_meshopt_compression");
+  const std::size_t bytes = packed->size();
+  std::vector<ViewData> one{ViewData{0, bytes, 1, [packed](std::size_t begin, std::size_t end, unsigned char* out) {
+                                        std::memcpy(out, packed->data() + begin, end - begin);
+                                      }}};
+  PreparedFile file;
+  file.size_hint = (binary ? bytes : (bytes + 2) / 3 * 4) + (1 << 16);
+  if (binary) {
+    std::string text = json.dump();
+    (void)glb_size(text.size(), bytes);
+    file.write = [text = std::move(text), bytes, one](std::ostream& out) { write_glb(out, text, bytes, one); };
+  } else {
+    file.write = [json = std::move(json), one](std::ostream& out) { write_gltf(out, json, one); };
+  }
+  return file;
 }
 
 // ---------------------------------------------------------------- OBJ

@@ -63,6 +63,12 @@ enum class Pivot {
   origin   ///< the input's own origin: coordinates as given (georeferenced trees keep theirs)
 };
 
+/// glTF buffer compression.
+enum class Compression {
+  none,    ///< plain buffers
+  meshopt  ///< EXT_meshopt_compression (meshoptimizer's vertex and index codecs; three.js MeshoptDecoder)
+};
+
 /// Options of the mesh writers.
 struct ExportParams {
   UpAxis up_axis = UpAxis::z;          ///< up axis of the mesh coordinates, the input's (default z)
@@ -74,6 +80,8 @@ struct ExportParams {
   bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
   bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
   bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)
+  Compression compress = Compression::none;  ///< glTF: buffer compression (default none)
+  bool quantize = false;       ///< glTF: KHR_mesh_quantization, 16-bit positions and 8-bit normals (default false)
 };
 
 /// The up axis, pivot and scale `params` give a file of `format` for `mesh`: the map from mesh

@@ -70,6 +70,12 @@ std::optional<Pivot> parse_pivot(std::string_view text) {
   throw InvalidInputError("pivot must be root, center, origin or auto, not \"" + std::string(text) + "\"");
 }
 
+Compression parse_compression(std::string_view text) {
+  if (text == "meshopt") return Compression::meshopt;
+  if (text == "none") return Compression::none;
+  throw InvalidInputError("compression must be meshopt or none, not \"" + std::string(text) + "\"");
+}
+
 double parse_scale(std::string_view text) {
   if (text == "m") return 1.0;
   if (text == "cm") return 100.0;
@@ -133,6 +139,8 @@ void read_export_json(const json& section, const std::string& where, ExportParam
       {"scale", [&](const json& v) { p.scale = v.is_string() ? parse_scale(v.get<std::string>()) : parse_scale(v.dump()); }},
       {"attributes", [&](const json& v) { set_attributes(v.get<std::string>(), p); }},
       {"optimize", [&](const json& v) { p.optimize = v.get<bool>(); }},
+      {"compress", [&](const json& v) { p.compress = parse_compression(v.get<std::string>()); }},
+      {"quantize", [&](const json& v) { p.quantize = v.get<bool>(); }},
   };
   std::vector<std::string> known;
   for (const auto& [k, f] : keys) known.push_back(k);
@@ -161,6 +169,8 @@ json export_to_json(const ExportParams& p) {
   j["scale"] = p.scale;
   j["attributes"] = attribute_list(p);
   j["optimize"] = p.optimize;
+  j["compress"] = p.compress == Compression::meshopt ? "meshopt" : "none";
+  j["quantize"] = p.quantize;
   return j;
 }
 

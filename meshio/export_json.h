@@ -23,6 +23,8 @@ nlohmann::json export_to_json(const ExportParams& params);
 std::optional<UpAxis> parse_up_axis(std::string_view text);
 /// Parses "root", "center" or "origin" (nullopt for "auto"). Throws InvalidInputError.
 std::optional<Pivot> parse_pivot(std::string_view text);
+/// Parses "meshopt" or "none". Throws InvalidInputError.
+Compression parse_compression(std::string_view text);
 /// File units per metre from a positive number or a unit name (m 1, cm 100, mm 1000, in
 /// 39.37..., ft 3.28...); throws InvalidInputError for anything else.
 double parse_scale(std::string_view text);

@@ -21,6 +21,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include "core/errors.h"
@@ -671,6 +673,14 @@ class AccessorReader {
       }
       case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
         return static_cast<double>(load<std::uint32_t>(p));
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {  // KHR_mesh_quantization
+        const double v = static_cast<std::int8_t>(p[0]);
+        return normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        const double v = load<std::int16_t>(p);
+        return normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
       default:
         return 0;
     }
@@ -744,6 +754,165 @@ std::string_view gltf_json_part(std::string_view bytes, bool binary) {
   return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
 }
 
+// ---------------------------------------------------------------- EXT_meshopt_compression
+
+// A buffer view stored compressed: where its encoded bytes are and how to decode them.
+struct MeshoptView {
+  std::size_t view = 0;              // bufferView index
+  std::size_t count = 0, stride = 0;  // decoded items and bytes per item
+  std::string mode, filter;           // ATTRIBUTES, TRIANGLES or INDICES; NONE, OCTAHEDRAL, ...
+};
+
+// Rewrites a glTF file that uses EXT_meshopt_compression so that tinygltf can load it: every
+// compressed view points at its encoded bytes, and the fallback buffers (which have no data)
+// are dropped. Returns the rewritten file, or "" when it does not use the extension; `views`
+// gets what decode_meshopt_views needs.
+std::string unpack_meshopt_json(std::string_view bytes, bool binary, const std::string& name,
+                                std::vector<MeshoptView>& views) {
+  const std::string_view text = gltf_json_part(bytes, binary);
+  if (text.find("EXT_meshopt_compression") == std::string_view::npos) return {};
+  nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (!doc.is_object() || !doc.contains("bufferViews") || !doc["bufferViews"].is_array() || !doc.contains("buffers") ||
+      !doc["buffers"].is_array()) {
+    return {};  // tinygltf reports what is wrong
+  }
+  auto fail = [&](const std::string& what) -> void { throw InvalidInputError(name + ": EXT_meshopt_compression: " + what); };
+  nlohmann::json& buffers = doc["buffers"];
+  // Old buffer index -> new one, without the fallback buffers.
+  std::vector<long> renumber(buffers.size(), -1);
+  nlohmann::json kept = nlohmann::json::array();
+  for (std::size_t i = 0; i < buffers.size(); ++i) {
+    const nlohmann::json& b = buffers[i];
+    const bool fallback = b.is_object() && b.contains("extensions") && b["extensions"].is_object() &&
+                          b["extensions"].contains("EXT_meshopt_compression") &&
+                          b["extensions"]["EXT_meshopt_compression"].value("fallback", false);
+    if (!fallback) {
+      renumber[i] = static_cast<long>(kept.size());
+      kept.push_back(b);
+    }
+  }
+  auto number = [&](const nlohmann::json& o, const char* key, bool required) -> std::size_t {
+    if (!o.contains(key)) {
+      if (required) fail(std::string("a buffer view's extension has no ") + key);
+      return 0;
+    }
+    if (!o[key].is_number_unsigned()) fail(std::string(key) + " must be a non-negative integer");
+    return o[key].get<std::size_t>();
+  };
+  nlohmann::json& bv = doc["bufferViews"];
+  for (std::size_t v = 0; v < bv.size(); ++v) {
+    nlohmann::json& view = bv[v];
+    if (!view.is_object()) continue;
+    const bool compressed = view.contains("extensions") && view["extensions"].is_object() &&
+                            view["extensions"].contains("EXT_meshopt_compression");
+    if (compressed) {
+      const nlohmann::json e = view["extensions"]["EXT_meshopt_compression"];
+      if (!e.is_object()) fail("the extension of buffer view " + std::to_string(v) + " is not an object");
+      MeshoptView m;
+      m.view = v;
+      m.count = number(e, "count", true);
+      m.stride = number(e, "byteStride", true);
+      m.mode = e.value("mode", std::string());
+      m.filter = e.value("filter", std::string("NONE"));
+      const std::size_t buffer = number(e, "buffer", true);
+      if (buffer >= renumber.size() || renumber[buffer] < 0) fail("buffer view " + std::to_string(v) + " reads a missing buffer");
+      view["buffer"] = renumber[buffer];
+      view["byteOffset"] = number(e, "byteOffset", false);
+      view["byteLength"] = number(e, "byteLength", true);
+      view.erase("byteStride");
+      view.erase("extensions");
+      views.push_back(std::move(m));
+    } else if (view.contains("buffer") && view["buffer"].is_number_unsigned()) {
+      const std::size_t buffer = view["buffer"].get<std::size_t>();
+      if (buffer < renumber.size()) {
+        if (renumber[buffer] < 0) fail("buffer view " + std::to_string(v) + " reads a fallback buffer without data");
+        view["buffer"] = renumber[buffer];
+      }
+    }
+  }
+  doc["buffers"] = kept;
+  for (const char* list : {"extensionsRequired", "extensionsUsed"}) {
+    if (doc.contains(list) && doc[list].is_array()) {
+      nlohmann::json rest = nlohmann::json::array();
+      for (const auto& x : doc[list]) {
+        if (x != "EXT_meshopt_compression") rest.push_back(x);
+      }
+      doc[list] = rest;
+    }
+  }
+  std::string json = doc.dump();
+  if (!binary) return json;
+  json.resize((json.size() + 3) / 4 * 4, ' ');
+  // The GLB container again: header, the new JSON chunk, the rest (the BIN chunk) as it was.
+  std::uint32_t old_json = 0;
+  std::memcpy(&old_json, bytes.data() + 12, 4);
+  const std::size_t rest_at = std::min<std::size_t>(bytes.size(), 20 + std::size_t{old_json});
+  const std::string_view rest = bytes.substr(rest_at);
+  std::string out(bytes.substr(0, 12));
+  const auto put = [&](std::uint32_t x) { out.append(reinterpret_cast<const char*>(&x), 4); };
+  out.resize(8);
+  put(static_cast<std::uint32_t>(12 + 8 + json.size() + rest.size()));
+  put(static_cast<std::uint32_t>(json.size()));
+  put(0x4E4F534Au);  // "JSON"
+  out += json;
+  out.append(rest.data(), rest.size());
+  return out;
+}
+
+// Decodes the views unpack_meshopt_json found into new buffers appended to the model, and
+// points the views at them. The decoded size is bounded (256 times the encoded bytes plus
+// 1 MiB) so that a hostile file cannot ask for unbounded memory.
+void decode_meshopt_views(tinygltf::Model& model, const std::vector<MeshoptView>& views, const std::string& name) {
+  auto fail = [&](std::size_t v, const std::string& what) {
+    throw InvalidInputError(name + ": EXT_meshopt_compression: buffer view " + std::to_string(v) + ": " + what);
+  };
+  for (const MeshoptView& m : views) {
+    if (m.view >= model.bufferViews.size()) fail(m.view, "does not exist");
+    tinygltf::BufferView& view = model.bufferViews[m.view];
+    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size()) fail(m.view, "no buffer");
+    const std::vector<unsigned char>& src = model.buffers[static_cast<std::size_t>(view.buffer)].data;
+    if (view.byteOffset > src.size() || view.byteLength > src.size() - view.byteOffset) {
+      fail(m.view, "encoded bytes exceed the buffer");
+    }
+    const bool attributes = m.mode == "ATTRIBUTES";
+    if (attributes ? (m.stride == 0 || m.stride % 4 != 0 || m.stride > 256) : (m.stride != 2 && m.stride != 4)) {
+      fail(m.view, "byteStride " + std::to_string(m.stride) + " is not valid for mode " + m.mode);
+    }
+    const std::size_t limit = 256 * view.byteLength + (std::size_t{1} << 20);
+    if (m.count > limit / m.stride) fail(m.view, "decodes to more than 256 times its encoded size");
+    std::vector<unsigned char> out(m.count * m.stride);
+    const unsigned char* in = src.data() + view.byteOffset;
+    int rc = -1;
+    if (attributes) {
+      rc = meshopt_decodeVertexBuffer(out.data(), m.count, m.stride, in, view.byteLength);
+    } else if (m.mode == "TRIANGLES") {
+      if (m.count % 3 != 0) fail(m.view, "a TRIANGLES count must be a multiple of 3");
+      rc = meshopt_decodeIndexBuffer(out.data(), m.count, m.stride, in, view.byteLength);
+    } else if (m.mode == "INDICES") {
+      rc = meshopt_decodeIndexSequence(out.data(), m.count, m.stride, in, view.byteLength);
+    } else {
+      fail(m.view, "unknown mode \"" + m.mode + "\"");
+    }
+    if (rc != 0) fail(m.view, "the encoded data is malformed");
+    if (m.filter == "OCTAHEDRAL" && attributes && (m.stride == 4 || m.stride == 8)) {
+      meshopt_decodeFilterOct(out.data(), m.count, m.stride);
+    } else if (m.filter == "QUATERNION" && attributes && m.stride == 8) {
+      meshopt_decodeFilterQuat(out.data(), m.count, m.stride);
+    } else if (m.filter == "EXPONENTIAL" && attributes) {
+      meshopt_decodeFilterExp(out.data(), m.count, m.stride);
+    } else if (m.filter != "NONE") {
+      fail(m.view, "filter " + m.filter + " is unknown or does not fit byteStride " + std::to_string(m.stride));
+    }
+    tinygltf::Buffer decoded;
+    decoded.data = std::move(out);
+    model.buffers.push_back(std::move(decoded));
+    view.buffer = static_cast<int>(model.buffers.size() - 1);
+    view.byteOffset = 0;
+    view.byteLength = m.count * m.stride;
+    view.byteStride = attributes ? m.stride : 0;
+  }
+}
+
 glm::dmat4 node_matrix(const tinygltf::Node& node) {
   if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major, as glTF
   glm::dmat4 m(1.0);
@@ -764,6 +933,9 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
     throw InvalidInputError(name + ": file too large for glTF");
   // tinygltf parses recursively (extras nested 20,000 deep overflowed the stack).
   check_json_nesting(gltf_json_part(bytes, binary), name);
+  std::vector<MeshoptView> meshopt_views;
+  const std::string unpacked = unpack_meshopt_json(bytes, binary, name, meshopt_views);
+  if (!unpacked.empty()) bytes = unpacked;
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&ignore_image, nullptr);
   std::error_code ec;
@@ -782,6 +954,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
     throw InvalidInputError(name + ": not a valid glTF " + (binary ? "binary (.glb)" : "(.gltf)") +
                             " file: " + (err.empty() ? std::string("parse error") : err));
   }
+  decode_meshopt_views(model, meshopt_views, name);
 
   // Which meshes to take, with which transforms: the default scene's nodes (depth-first with
   // an explicit stack; each node at most once, so a cyclic file cannot loop), or every mesh.
@@ -834,7 +1007,8 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   MeshAssembler out(name);
   const AccessorReader reader(model, name);
   constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT, kU8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                kU16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, kU32 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+                kU16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, kU32 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                kI8 = TINYGLTF_COMPONENT_TYPE_BYTE, kI16 = TINYGLTF_COMPONENT_TYPE_SHORT;
   for (const auto& [mesh_index, m] : instances) {
     if (mesh_index < 0 || static_cast<std::size_t>(mesh_index) >= model.meshes.size()) {
       throw InvalidInputError(name + ": mesh " + std::to_string(mesh_index) + " does not exist");
@@ -851,12 +1025,13 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
         return it == prim.attributes.end() ? -1 : it->second;
       };
       if (attr("POSITION") < 0) throw InvalidInputError(name + ": " + what + " has no POSITION attribute");
-      const std::vector<double> pos = reader.read(attr("POSITION"), TINYGLTF_TYPE_VEC3, {kFloat}, what + " POSITION");
+      const std::vector<double> pos =
+          reader.read(attr("POSITION"), TINYGLTF_TYPE_VEC3, {kFloat, kI8, kU8, kI16, kU16}, what + " POSITION");
       const std::size_t nv = pos.size() / 3;
       std::vector<double> nrm, uv, branch;
-      if (attr("NORMAL") >= 0) nrm = reader.read(attr("NORMAL"), TINYGLTF_TYPE_VEC3, {kFloat}, what + " NORMAL");
+      if (attr("NORMAL") >= 0) nrm = reader.read(attr("NORMAL"), TINYGLTF_TYPE_VEC3, {kFloat, kI8, kI16}, what + " NORMAL");
       if (attr("TEXCOORD_0") >= 0)
-        uv = reader.read(attr("TEXCOORD_0"), TINYGLTF_TYPE_VEC2, {kFloat, kU8, kU16}, what + " TEXCOORD_0");
+        uv = reader.read(attr("TEXCOORD_0"), TINYGLTF_TYPE_VEC2, {kFloat, kI8, kU8, kI16, kU16}, what + " TEXCOORD_0");
       if (attr("_BRANCH_ID") >= 0)
         branch = reader.read(attr("_BRANCH_ID"), TINYGLTF_TYPE_SCALAR, {kFloat, kU8, kU16}, what + " _BRANCH_ID");
       if ((!nrm.empty() && nrm.size() != 3 * nv) || (!uv.empty() && uv.size() != 2 * nv) ||

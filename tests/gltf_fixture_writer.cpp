@@ -23,6 +23,11 @@ int main(int argc, char** argv) {
     sm::write_mesh(sm::test::translated(capped_tube({0, 0, 0}, {0, 0.02, 0.3}, 0.005, 12, 6, true, 1),
                                         {512345.678, 5412345.678, 254.0}),
                    dir / "georeferenced.glb");
+    // Compressed and quantized (EXT_meshopt_compression, KHR_mesh_quantization), 16-bit indices.
+    const sm::Mesh tube = capped_tube({0, 0, 0}, {0.2, 0.1, 1.5}, 0.1, 24, 12, true, 5);
+    sm::write_mesh(tube, dir / "tube_meshopt.glb", {.compress = sm::Compression::meshopt});
+    sm::write_mesh(tube, dir / "tube_quantized.glb", {.quantize = true});
+    sm::write_mesh(tube, dir / "tube_quantized_meshopt.gltf", {.compress = sm::Compression::meshopt, .quantize = true});
     // Text glTF with an embedded buffer, y-up input, no UVs or branch ids.
     sm::write_mesh(sm::test::icosphere(3, 0.5), dir / "sphere.gltf", {.up_axis = sm::UpAxis::y});
   } catch (const std::exception& e) {

@@ -336,6 +336,70 @@ TEST(Placement, ConfigSectionAndAttributeNames) {
   EXPECT_EQ(attribute_list(p), "normal,uv,branch_id");
 }
 
+// ---------------------------------------------------------------- compression
+
+// The accessor component type of the primitive's indices in a .gltf text file.
+int index_component_type(const std::string& gltf) {
+  const nlohmann::json j = nlohmann::json::parse(gltf);
+  return j["accessors"][j["meshes"][0]["primitives"][0]["indices"].get<int>()]["componentType"].get<int>();
+}
+
+TEST(Compression, EveryVariantReadsBackWithItsTopology) {
+  const Mesh m = test::translated(test::capped_tube({0, 0, 0}, {0.3, 0.2, 2}, 0.1, 24, 12, true, 5), {10, 20, 30});
+  const std::size_t plain = encode_mesh(m, MeshFormat::glb).size();
+  for (const bool quantize : {false, true}) {
+    for (const Compression c : {Compression::none, Compression::meshopt}) {
+      for (const MeshFormat f : {MeshFormat::glb, MeshFormat::gltf}) {
+        SCOPED_TRACE(std::to_string(quantize) + " " + std::to_string(int(c)) + " " + std::to_string(int(f)));
+        const ExportParams p{.compress = c, .quantize = quantize};
+        const std::string bytes = encode_mesh(m, f, p);
+        EXPECT_EQ(bytes, encode_mesh(m, f, p));  // deterministic
+        const Mesh back = parse_mesh(bytes, f, "t");
+        ASSERT_EQ(back.triangles.size(), m.triangles.size());
+        ASSERT_EQ(back.positions.size(), m.positions.size());  // nothing welded together
+        const MeshCheckReport r = check_mesh(back);
+        EXPECT_TRUE(r.ok()) << to_text(r);
+        // Every position within half a quantization step (2 m tall: 16 bits give 31 µm).
+        double worst = 0;
+        for (const dvec3& q : back.positions) {
+          double best = 1e300;
+          for (const dvec3& x : m.positions) best = std::min(best, glm::length(q - x));
+          worst = std::max(worst, best);
+        }
+        EXPECT_LT(worst, quantize ? 3e-5 : 1e-5);
+        ASSERT_EQ(back.triangle_branch.size(), m.triangles.size());
+        if (c == Compression::meshopt && f == MeshFormat::glb) {
+          EXPECT_LT(bytes.size(), quantize ? plain / 2 : plain);
+        }
+      }
+    }
+  }
+  // 16-bit indices while the vertices fit, 32-bit beyond.
+  EXPECT_EQ(index_component_type(encode_mesh(m, MeshFormat::gltf)), 5123);  // UNSIGNED_SHORT
+  const Mesh big = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 400, 200);
+  ASSERT_GT(big.positions.size(), 65536u);
+  EXPECT_EQ(index_component_type(encode_mesh(big, MeshFormat::gltf, {.uvs = false})), 5125);  // UNSIGNED_INT
+  EXPECT_TRUE(check_mesh(parse_mesh(encode_mesh(big, MeshFormat::glb, {.compress = Compression::meshopt}), MeshFormat::glb, "b")).ok());
+}
+
+TEST(Compression, MalformedMeshoptDataIsAnErrorNotACrash) {
+  const Mesh m = test::capped_tube();
+  std::string bytes = encode_mesh(m, MeshFormat::glb, {.compress = Compression::meshopt});
+  // Flip bytes of the BIN chunk (after the JSON): every result is a mesh or an InvalidInputError.
+  std::uint32_t json = 0;
+  std::memcpy(&json, bytes.data() + 12, 4);
+  for (std::size_t at = 20 + json + 8; at < bytes.size(); at += 7) {
+    std::string bad = bytes;
+    bad[at] = static_cast<char>(bad[at] ^ 0x5A);
+    try {
+      (void)parse_mesh(bad, MeshFormat::glb, "bad.glb");
+    } catch (const InvalidInputError&) {
+    }
+  }
+  std::string cut = bytes.substr(0, bytes.size() - 16);
+  EXPECT_THROW((void)parse_mesh(cut, MeshFormat::glb, "cut.glb"), InvalidInputError);
+}
+
 TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {
   // A 5 mm twig in UTM-like coordinates, z ≈ 254 m.
   const dvec3 far(512345.678, 5412345.678, 254.0);

@@ -22,6 +22,10 @@ void add_export_options(CLI::App& sub, ExportOptions& o) {
                  "(default normal,uv,branch_id)")
       ->group(group);
   sub.add_flag("--no-optimize", o.no_optimize, "Keep the mesher's vertex and triangle order")->group(group);
+  sub.add_option("--compress", o.compress, "glTF buffer compression: meshopt (EXT_meshopt_compression) or none")
+      ->check(CLI::IsMember({"meshopt", "none"}))
+      ->group(group);
+  sub.add_flag("--quantize", o.quantize, "glTF: 16-bit positions, 8-bit normals (KHR_mesh_quantization)")->group(group);
 }
 
 void apply_export_options(const ExportOptions& o, ExportParams& p) {
@@ -30,6 +34,8 @@ void apply_export_options(const ExportOptions& o, ExportParams& p) {
   if (!o.scale.empty()) p.scale = parse_scale(o.scale);
   if (!o.attributes.empty()) set_attributes(o.attributes, p);
   if (o.no_optimize) p.optimize = false;
+  if (!o.compress.empty()) p.compress = parse_compression(o.compress);
+  if (o.quantize) p.quantize = true;
 }
 
 }  // namespace sm::cli

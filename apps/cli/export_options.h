@@ -11,11 +11,11 @@ namespace sm::cli {
 
 /// The export options as given on the command line (empty: not given).
 struct ExportOptions {
-  std::string up_axis, pivot, scale, attributes;
-  bool no_optimize = false;
+  std::string up_axis, pivot, scale, attributes, compress;
+  bool no_optimize = false, quantize = false;
 };
 
-/// Adds --up-axis, --pivot, --scale, --attributes, --no-optimize to `sub`.
+/// Adds --up-axis, --pivot, --scale, --attributes, --no-optimize, --compress, --quantize to `sub`.
 void add_export_options(CLI::App& sub, ExportOptions& options);
 
 /// Applies the options that were given to `params` (the config file's, or the defaults).
