@@ -109,27 +109,23 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (!o->stats_path.empty()) check_output_path(o->stats_path);
       OutputTransaction outputs;
       const RawSkeleton raw = read_skeleton(o->input, read_options(o->input_options));
-      ProgressBar bar(!global.quiet);
+      ProgressBar bar(!global.quiet, OverallProgress::pipeline());
       std::mutex m;
       PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {
         std::lock_guard lock(m);
         bar.update(phase, f);
       });
-      bar.finish();
-      const Warnings warnings = r.warnings();
-      for (const auto& w : warnings.list()) {
-        std::string line = w.message + " (" + std::to_string(w.count) + "x";
-        for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
-        log::warn(line + ")");
-      }
       if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
       release_intermediates(r);  // their memory goes to the exporter
       Stopwatch export_clock;
       ExportParams ep = params.output;
       ep.up_axis = r.skeleton.skeleton.up_axis;
       ep.root = r.skeleton.skeleton.position[0];
-      write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
+      // Streamed: the file is never held whole in memory; the bar goes on through it.
+      write_mesh(r.mesh.mesh, o->output, ep, [&](std::string_view phase, double f) { bar.update(phase, f); });
       const double export_seconds = export_clock.elapsed();
+      bar.finish();
+      print_warnings(r.warnings(), global.verbose, raw.grown ? kExpectedOfGrownTrees : std::set<std::string>{});
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
@@ -143,14 +139,14 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
-      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere) {
+      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere && global.verbose) {
         std::snprintf(line, sizeof line,
                       "note: self-intersections were looked for near the junctions only (%zu triangles, more than "
                       "meshing.count_pairs_up_to = %zu): `strandmesh check` counts them all; a higher limit "
                       "(configs/high_detail.json) has them looked for and repaired everywhere (about 2x the time, up "
                       "to 7x where it repairs)",
                       r.mesh.mesh.triangle_count(), params.meshing.count_pairs_up_to);
-        log::info(line);
+        log::verbose(line);
       }
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
       for (const auto& [stage, phases] : stage_phases(r)) {
