@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <unistd.h>
 
+#include "core/errors.h"
+#include "core/file_io.h"
 #include "core/log.h"
 
 namespace sm::cli {
@@ -93,6 +95,15 @@ void ProgressBar::finish() {
     std::fflush(stderr);
     drawn_ = false;
   }
+}
+
+void write_output(const std::string& path, std::string_view bytes) {
+  if (path != "-") {
+    write_file_atomically(path, bytes);
+    return;
+  }
+  std::fwrite(bytes.data(), 1, bytes.size(), stdout);
+  if (std::fflush(stdout) != 0) throw IoError("cannot write to standard output");
 }
 
 const std::set<std::string> kExpectedOfGrownTrees{"thin_tip"};

@@ -56,6 +56,9 @@ void add_unavailable_command(CLI::App& app, const std::string& name, const std::
 /// `bench` print them under the stage's own line.
 void verbose_phases(const Timings& phases);
 
+/// Writes `bytes` to the file `path` atomically, or to standard output when `path` is "-".
+void write_output(const std::string& path, std::string_view bytes);
+
 /// Warning kinds the built-in growers' trees have on purpose (twig tips thinner than one
 /// particle spacing): for a grown skeleton they are listed only with --verbose.
 extern const std::set<std::string> kExpectedOfGrownTrees;
