@@ -7,6 +7,11 @@ function(strandmesh_warnings target)
     target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow
       -Wnon-virtual-dtor -Wcast-align -Woverloaded-virtual
       -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough)
+    # GCC 12 counts the members a designated initializer leaves at their defaults as missing,
+    # which is what options structs ({.seed = 2}) are for.
+    if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+      target_compile_options(${target} PRIVATE -Wno-missing-field-initializers)
+    endif()
     if(STRANDMESH_WARNINGS_AS_ERRORS)
       target_compile_options(${target} PRIVATE -Werror)
     endif()
@@ -23,9 +28,13 @@ function(strandmesh_library name)
   set(target sm_${name})
   add_library(${target} STATIC ${ARG_SOURCES})
   add_library(sm::${name} ALIAS ${target})
-  target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR})
+  # Installed, the headers keep their folders under include/strandmesh (StrandmeshInstall.cmake).
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/strandmesh>)
   target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
-  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  target_compile_features(${target} PUBLIC cxx_std_20)
+  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON EXPORT_NAME ${name})
   strandmesh_warnings(${target})
 endfunction()
 

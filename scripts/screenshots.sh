@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the README's stage screenshots (docs/images/*.png) with strandmesh-view
+# Regenerates the stage screenshots of docs/viewer.md and the README (docs/images/*.png) with strandmesh-view
 # --screenshot under xvfb-run (Mesa's software OpenGL): one run of the pipeline on a sample
 # tree is dumped with --dump-stages, then every picture is rendered from that dump.
 #
