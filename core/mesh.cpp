@@ -238,9 +238,16 @@ bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p) {
 }
 
 std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points) {
+  const std::vector<int> w = winding_numbers(mesh, points);
+  std::vector<std::uint8_t> inside(w.size());
+  for (std::size_t i = 0; i < w.size(); ++i) inside[i] = w[i] >= 1 ? 1 : 0;
+  return inside;
+}
+
+std::vector<int> winding_numbers(const Mesh& mesh, std::span<const glm::dvec3> points) {
   const std::size_t n = points.size(), nf = mesh.triangles.size();
-  std::vector<std::uint8_t> inside(n, 0);
-  if (n == 0 || nf == 0) return inside;
+  std::vector<int> winding(n, 0);
+  if (n == 0 || nf == 0) return winding;
   const glm::dvec3& d = kRayDirection;
   const glm::dvec3 au = glm::normalize(glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
   const glm::dvec3 av = glm::cross(d, au);
@@ -328,9 +335,9 @@ std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const g
     }
   }
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    inside[i] = ambiguous[i] ? (winding_number(mesh, points[i]) >= 0.5 ? 1 : 0) : (crossings[i] >= 1 ? 1 : 0);
+    winding[i] = ambiguous[i] ? static_cast<int>(std::lround(winding_number(mesh, points[i]))) : crossings[i];
   });
-  return inside;
+  return winding;
 }
 
 double float_grid(double reach) {

@@ -95,6 +95,11 @@ bool inside_closed_mesh(const Mesh& mesh, const glm::dvec3& p);
 /// 0 outside, per point (docs/defaults.md: why the points are binned, not the triangles).
 std::vector<std::uint8_t> inside_closed_mesh(const Mesh& mesh, std::span<const glm::dvec3> points);
 
+/// The winding number of a closed, outward-oriented mesh about each point, by the same ray
+/// crossings as inside_closed_mesh (where ambiguous, the generalized winding number rounded):
+/// 1 inside, 0 outside, 2 inside two overlapping parts, -1 inside a part turned inside out.
+std::vector<int> winding_numbers(const Mesh& mesh, std::span<const glm::dvec3> points);
+
 /// Float grid: the .glb and .gltf store positions as float32 offsets from an origin kept in
 /// double precision, so a mesh free of self-intersections in double precision may intersect
 /// itself once exported (seen on two sample skeletons; docs/defaults.md). The meshing stage therefore puts every vertex on a grid of spacing

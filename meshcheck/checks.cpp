@@ -466,7 +466,6 @@ std::vector<std::string> MeshCheckReport::failures() const {
   if (edge_manifold && misoriented_edges > 0)
     f.push_back(n(misoriented_edges) + " misoriented edges (not consistently oriented)");
   if (components != 1 && triangles > 0) f.push_back(n(components) + " connected components (expected 1)");
-  if (genus && *genus != 0) f.push_back("genus " + std::to_string(*genus) + " (expected 0)");
   if (degenerate_triangles > 0) f.push_back(n(degenerate_triangles) + " degenerate triangles");
   if (self_intersections_checked && self_intersecting_pairs > 0) {
     f.push_back(n(self_intersecting_pairs) + " self-intersecting triangle pairs");
@@ -523,7 +522,8 @@ std::string to_text(const MeshCheckReport& r) {
   line("oriented", yes_no(r.oriented) + " (" + n(r.misoriented_edges) + " misoriented edges)" +
                        pairs(r.misoriented_edge_examples, "-"));
   line("euler characteristic", std::to_string(r.euler_characteristic));
-  line("genus", r.genus ? std::to_string(*r.genus) : std::string("undefined (not a closed oriented manifold)"));
+  line("genus", r.genus ? std::to_string(*r.genus) + (*r.genus > 0 ? " (handles where branches cross and fuse)" : "")
+                       : std::string("undefined (not a closed oriented manifold)"));
   {
     std::string ex;
     for (const auto t : r.degenerate_triangle_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(t);

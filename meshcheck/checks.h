@@ -114,8 +114,8 @@ struct MeshCheckReport {
   std::vector<std::uint32_t> fidelity_outlier_examples;                  ///< vertex indices (beyond the tolerance)
   Timings timings;                                                       ///< seconds per phase
 
-  /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component,
-  /// genus 0, no degenerate triangles, no non-finite vertices, no self-intersections (when
+  /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component
+  /// (any genus: where branches cross, their union has a handle), no degenerate triangles, no non-finite vertices, no self-intersections (when
   /// checked), positive volume, and, when a skeleton was given, fidelity p95 <= tolerance and
   /// every thick node inside.
   [[nodiscard]] bool ok() const;

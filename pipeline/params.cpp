@@ -35,7 +35,8 @@ void visit_fields(SkeletonParams& p, V&& v) {
   v("max_lateral_angle", p.max_lateral_angle);
   v("max_turn_back", p.max_turn_back);
   v("tight_bend_ratio", p.tight_bend_ratio);
-  v("separate_branches", p.separate_branches);
+  v("separate", p.separate);
+  v("max_node_move", p.max_node_move);
   v("branch_clearance", p.branch_clearance);
 }
 template <class V>
@@ -77,6 +78,14 @@ void visit_fields(ContourParams& p, V&& v) {
   v("split_bisection_steps", p.split_bisection_steps);
   v("concave_turn_degrees", p.concave_turn_degrees);
   v("fallback_max_edge", p.fallback_max_edge);
+}
+template <class V>
+void visit_fields(RepairParams& p, V&& v) {
+  v("self_union", p.self_union);
+  v("max_rounds", p.max_rounds);
+  v("fold_rounds", p.fold_rounds);
+  v("fold_max_move", p.fold_max_move);
+  v("count_pairs_up_to", p.count_pairs_up_to);
 }
 template <class V>
 void visit_fields(MeshParams& p, V&& v) {
@@ -204,11 +213,11 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
     throw InvalidInputError(name + ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
-  static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing"};
+  static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing", "repair"};
   for (auto it = doc.begin(); it != doc.end(); ++it) {
     if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description" && it.key() != "export") {
       throw InvalidInputError(name + ": unknown section \"" + excerpt(it.key()) +
-                              "\" (known: skeleton, particles, strands, contours, meshing, export, description)");
+                              "\" (known: skeleton, particles, strands, contours, meshing, repair, export, description)");
     }
   }
   PipelineParams p = base;
@@ -217,6 +226,7 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   read_section(doc, "strands", name, p.strands);
   read_section(doc, "contours", name, p.contours);
   read_section(doc, "meshing", name, p.meshing);
+  read_section(doc, "repair", name, p.repair);
   // The writer's options (not a stage): their own reader, meshio/export_json.h.
   if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
   // Values out of range, named with the file (the stages check them again).
@@ -224,6 +234,7 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
     validate_params(p.skeleton);
     validate_params(p.contours);
     validate_params(p.meshing);
+    validate_params(p.repair);
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(name + ": " + e.what());
   }
@@ -241,6 +252,7 @@ std::string params_to_json(const PipelineParams& p) {
   doc["strands"] = write_section(p.strands);
   doc["contours"] = write_section(p.contours);
   doc["meshing"] = write_section(p.meshing);
+  doc["repair"] = write_section(p.repair);
   doc["export"] = export_to_json(p.output);
   return doc.dump(2) + "\n";
 }

@@ -30,6 +30,7 @@ Warnings PipelineResult::warnings() const {
   w.merge(strands.stats.warnings);
   w.merge(contours.stats.warnings);
   w.merge(mesh.stats.warnings);
+  w.merge(repair.warnings);
   return w;
 }
 
@@ -77,6 +78,7 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   // Parameters out of range fail before any stage runs (the particle stage checks its own).
   validate_params(p.contours);
   validate_params(p.meshing);
+  validate_params(p.repair);
   Stopwatch clock;
   auto timed = [&](Stage s, auto&& fn) {
     if (from > s) return;
@@ -113,6 +115,10 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   report("outer surface", 0);
   r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, nodes_outside);
   r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
+  // The repair stage: what the fork retry and the outer surface left is fused by the union.
+  report("repair", 0);
+  r.repair = repair_mesh(r.mesh, r.skeleton.skeleton, p.repair);
+  r.timings.add("repair", r.repair.timings.total());
   warn_self_intersections_left(r);
   warn_thick_nodes_outside(r);
 }
@@ -151,6 +157,21 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"moved_vertices", r.mesh.stats.fold_moves},
                  {"collapsed_edges", r.mesh.stats.fold_collapses},
                  {"refilled_disks", r.mesh.stats.fold_refills}}},
+               {"repair",
+                {{"pairs_counted", r.repair.counted},
+                 {"pairs_found", r.repair.pairs_found},
+                 {"pairs_left", r.repair.pairs_left},
+                 {"fold_pairs", r.repair.fold_pairs},
+                 {"fold_changes", r.repair.fold_changes},
+                 {"rounds", r.repair.rounds},
+                 {"cut_triangles", r.repair.cut_triangles},
+                 {"dropped_triangles", r.repair.dropped_triangles},
+                 {"new_vertices", r.repair.new_vertices},
+                 {"split_vertices", r.repair.split_vertices},
+                 {"inner_shells", r.repair.inner_shells},
+                 {"lumps", r.repair.lumps},
+                 {"problem", r.repair.problem},
+                 {"seconds", r.repair.timings.total()}}},
                {"fork_retry",
                 {{"pairs_counted", r.fork_retry.counted},
                  {"pairs_counted_everywhere", r.mesh.crossings_counted && r.mesh.crossings_everywhere},

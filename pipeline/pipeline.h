@@ -15,6 +15,7 @@
 #include "meshio/export.h"
 #include "particles/particles.h"
 #include "pipeline/fork_retry.h"
+#include "repair/repair.h"
 #include "skeleton/build.h"
 #include "strands/strands.h"
 
@@ -27,6 +28,7 @@ struct PipelineParams {
   StrandParams strands;
   ContourParams contours;
   MeshParams meshing;
+  RepairParams repair;
   /// How the mesh is written (config section "export"; meshio/export_json.h). Not a stage:
   /// the pipeline only carries it from the config file to the command that writes.
   ExportParams output;
@@ -51,6 +53,8 @@ struct PipelineResult {
   StrandSet strands;
   ContourSet contours;
   MeshResult mesh;
+  /// The repair stage's figures (it edits `mesh` in place).
+  RepairStats repair;
   /// The fork retry's figures (MeshParams::fork_retry).
   ForkRetryStats fork_retry;
   /// The near misses' figures (MeshParams::cover_near_misses), after the fork retry.

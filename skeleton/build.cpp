@@ -534,7 +534,10 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     // stay compact, their forks a merge tolerance apart. (`hub` covers every input node: the
     // tree only grows.)
     const bool whorl = v < raw.size() && !hub[v];
-    const double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
+    // Without `separate` the chain stays short of the main child, which is not moved: where it
+    // is near, the forks crowd closer than the merge tolerance.
+    double step = std::max({whorl ? params.binarize_step_ratio * t.radius[v] : 0.0, min_step, 1e-9});
+    if (!params.separate) step = std::min(step, dist / double(k - 1));
     ch = {sorted[1]};
     std::uint32_t prev = v;
     for (std::size_t j = 1; j + 1 < k; ++j) {
@@ -549,7 +552,7 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
     t.children[prev] = {main, sorted[k - 1]};
     t.parent[main] = prev;
     t.parent[sorted[k - 1]] = prev;
-    if (dist <= step * double(k - 2) + min_step) {
+    if (params.separate && dist <= step * double(k - 2) + min_step) {
       // The main child sits inside the chain: move it just beyond the last chain node.
       const dvec3 delta = origin + dir * (step * double(k - 2) + 1.5 * std::max(min_step, step)) - t.pos[main];
       t.pos[main] += delta;
@@ -570,7 +573,7 @@ void binarize(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, co
 /// hair from v (under half its own radius: a whorl hub whose laterals leave from a chain of
 /// nodes millimetres apart on the axis) is folded. (sapling_small_pine, particle seeds 1/2/3:
 /// self-intersecting pairs 900/798/694 -> 214/174/205; the other samples within their noise.)
-bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
+bool merge_inner_branches(WorkTree& t, double max_move, SkeletonReport& rep, const RawSkeleton& raw) {
   const std::size_t before = rep.merged_inner;
   const double cos_along = std::cos(kInnerNearForkDegrees * std::numbers::pi / 180.0);
   std::vector<std::uint32_t> queue = t.bfs();
@@ -589,7 +592,7 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
           if (glm::dot(ay, ay) <= glm::dot(ax, ax)) continue;  // y's edge must be the longer
           const auto e = t.project(x, v, y);
           if (e.t >= 0.98 || e.t <= 0.0) continue;
-          if (e.offset >= 0.5 * e.radius) continue;
+          if (e.offset >= max_move * e.radius) continue;
           if (e.t * e.length <= 1.5 * t.radius[v]) {
             // Within the fork's sphere: only a hub along y or a hair from v (see above).
             const bool along = glm::dot(normalize_or(ax, dvec3(0)), normalize_or(ay, dvec3(0))) > cos_along;
@@ -613,7 +616,7 @@ bool merge_inner_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& r
 /// whorl hubs that way: a child of v lying inside the round cone of parent(v) -> v, well
 /// below v): a node M is inserted on that edge at the child's projection and takes the
 /// child's children. Repeated until nothing changes.
-bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) {
+bool fold_backward_branches(WorkTree& t, double max_move, SkeletonReport& rep, const RawSkeleton& raw) {
   const std::size_t before = rep.merged_inner;
   std::vector<std::uint32_t> queue = t.bfs();
   for (std::size_t q = 0; q < queue.size(); ++q) {
@@ -628,7 +631,7 @@ bool fold_backward_branches(WorkTree& t, SkeletonReport& rep, const RawSkeleton&
       for (const std::uint32_t x : ch) {
         const auto e = t.project(x, p, v);
         if (e.t <= 0.02 || e.t >= 0.98 || (1.0 - e.t) * e.length <= 1.5 * t.radius[v]) continue;
-        if (e.offset >= 0.5 * e.radius) continue;
+        if (e.offset >= max_move * e.radius) continue;
         const std::uint32_t m = t.insert_above(v, e.foot, e.radius);
         t.fold_into(x, m);
         ++rep.merged_inner;
@@ -845,6 +848,55 @@ void raise_steep_laterals(WorkTree& t, const SkeletonParams& params, SkeletonRep
 
 }  // namespace
 
+namespace {
+
+/// How far sanitizing moved the input's nodes (those kept, by source id) and how many it
+/// dropped; warns of any move beyond max_node_move (made by the opt-in `separate`).
+void measure_moves(const RawSkeleton& raw, const std::unordered_map<std::int64_t, std::uint32_t>& index_of,
+                   const Skeleton& s, SkeletonReport& rep) {
+  std::vector<std::uint8_t> kept(raw.size(), 0);
+  std::vector<double> radii;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.source_id[i] < 0) continue;
+    const auto it = index_of.find(s.source_id[i]);
+    if (it == index_of.end() || kept[it->second]) continue;
+    kept[it->second] = 1;
+    const double d = glm::length(s.position[i] - raw.position[it->second]);
+    const double r = std::max(raw.radius[it->second], rep.radius_floor);
+    rep.max_move = std::max(rep.max_move, d);
+    radii.push_back(d / r);
+  }
+  std::sort(radii.begin(), radii.end());
+  if (!radii.empty()) {
+    rep.max_move_radii = radii.back();
+    rep.p95_move_radii = radii[std::min(radii.size() - 1, static_cast<std::size_t>(0.95 * double(radii.size())))];
+  }
+  rep.dropped_nodes = raw.size() - static_cast<std::size_t>(std::count(kept.begin(), kept.end(), 1));
+}
+
+}  // namespace
+
+Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
+  std::unordered_map<std::int64_t, std::uint32_t> index_of;
+  const std::uint32_t root = validate(raw, params, index_of);
+  const WorkTree t = make_tree(raw, root, index_of);
+  const double floor = params.radius_floor > 0 ? params.radius_floor : auto_radius_floor(t);
+  Skeleton s;
+  s.up_axis = raw.up_axis;
+  const std::size_t n = raw.size();
+  s.position = raw.position;
+  s.radius.resize(n);
+  s.parent.resize(n);
+  s.children.resize(n);
+  s.frame.resize(n);
+  s.source_id = raw.id;
+  for (std::size_t i = 0; i < n; ++i) {
+    s.radius[i] = std::max(raw.radius[i], floor);
+    if (t.parent[i] != kNone) s.parent[i] = NodeId(t.parent[i]);
+  }
+  return s;
+}
+
 void validate_params(const SkeletonParams& p) {
   const ParamChecker check{"skeleton"};
   check.non_negative(p.merge_edge_ratio, "merge_edge_ratio");
@@ -862,6 +914,7 @@ void validate_params(const SkeletonParams& p) {
   check.within(p.max_turn_back, 0, 180, "max_turn_back");
   check.non_negative(p.tight_bend_ratio, "tight_bend_ratio");
   check.non_negative(p.branch_clearance, "branch_clearance");
+  check.within(p.max_node_move, 0, 1, "max_node_move");
 }
 
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
@@ -883,10 +936,17 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   fix_thick_children(t, params, rep, raw);
   // A skeleton this stage wrote already has its geometric refinements (RawSkeleton::sanitized).
   const bool refine = !raw.sanitized;
-  if (refine && params.merge_inner_branches) {
-    bool folded = fold_backward_branches(t, rep, raw);
-    folded = merge_inner_branches(t, rep, raw) || folded;
-    folded = reattach_hairpins(t, params, rep, raw) || folded;
+  if (refine) {
+    // Edits that keep every input node within max_node_move of its place, then the shape edits
+    // that are opt-in (SkeletonParams::separate).
+    bool folded = false;
+    if (params.merge_inner_branches) {
+      // (With `separate`, nodes up to half the edge's radius off its axis fold in, as before.)
+      const double max_offset = params.separate ? 0.5 : params.max_node_move;
+      folded = fold_backward_branches(t, max_offset, rep, raw);
+      folded = merge_inner_branches(t, max_offset, rep, raw) || folded;
+    }
+    if (params.separate) folded = reattach_hairpins(t, params, rep, raw) || folded;
     folded = drop_hidden_tips(t, rep, raw) || folded;
     folded = smooth_tight_bends(t, params, rep, raw) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
@@ -897,9 +957,8 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
   if (refine) {
     raise_steep_laterals(t, params, rep);
     // Again once the upturned lateral bases are in: on a short twig one can itself be a tight
-    // bend. (Only here, the samples x seeds 1-3 had 184 pairs rather than 203, but more thick
-    // nodes outside: boutdenoylum2 5 rather than 2.) Before the collars, which go on the
-    // final edges (so sanitizing the result again adds none).
+    // bend. Before the collars, which go on the final edges (so sanitizing the result again
+    // adds none).
     smooth_tight_bends(t, params, rep, raw);
   }
   add_collars(t, params, rep);
@@ -918,7 +977,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.emplace_back(*it, id);
   }
   // add_node fills child slots in visiting order, which is main first (pushed last above).
-  if (refine && params.separate_branches) {
+  if (refine && params.separate) {
     SeparateParams sp;
     sp.clearance = params.branch_clearance;
     const SeparateReport sep = separate_branches(s, sp);
@@ -942,6 +1001,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
                              sep.unresolved);
     }
   }
+  measure_moves(raw, index_of, s, rep);
   compute_frames(s);
   rep.output_nodes = s.size();
   validate_binary_skeleton(s);

@@ -62,6 +62,8 @@ struct SkeletonParams {
   double radius_floor = 0.0;
   /// A child may be at most this many times as thick as its parent before the policy applies.
   double max_child_ratio = 1.0;
+  /// keep leaves radii as the input gives them (measured trees have children thicker than
+  /// their parent at most nodes).
   ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
   /// Edges longer than this many times the local radius are split into equal parts;
   /// 0 disables resampling (default); otherwise at least 1.
@@ -128,9 +130,15 @@ struct SkeletonParams {
   /// twigs with edges of one or two radii and turns of 70-130 degrees, where the surface
   /// folded. A repair, part of the refinements; 0 keeps every node.
   double tight_bend_ratio = 0.5;
-  /// Swing apart branches whose round cones intersect away from their common fork (no mesh
-  /// can be free of self-intersections and genus 0 otherwise).
-  bool separate_branches = true;
+  /// Opt-in shape edits that move the user's branches: swing apart branches whose round cones
+  /// intersect away from their common fork (branch_clearance), re-attach hairpins
+  /// (max_turn_back). Off: crossing branches stay where they are and the repair stage meshes
+  /// their union (the input-faithful mode, `strandmesh mesh --keep-input`).
+  bool separate = true;
+  /// Largest distance any sanitizing step may move an input node, relative to its radius
+  /// (merging a node into a sibling's or parent's edge that it lies inside); larger moves are
+  /// made only by the opt-in `separate`.
+  double max_node_move = 0.25;
   /// Gap the separation leaves between two such branches, relative to the sum of their radii.
   double branch_clearance = 0.15;
 };
@@ -155,6 +163,10 @@ struct SkeletonReport {
   std::size_t branch_collisions = 0;      ///< pairs of branches that ran into each other
   std::size_t unresolved_collisions = 0;  ///< of those, pairs still touching after separation
   double max_separation = 0;              ///< largest distance a node was moved to separate (metres)
+  std::size_t dropped_nodes = 0;          ///< input nodes with no node of the result (merged or removed)
+  double max_move = 0;                    ///< largest distance an input node kept was moved (metres)
+  double max_move_radii = 0;              ///< the largest move relative to that node's radius
+  double p95_move_radii = 0;              ///< 95th percentile of the moves relative to radius
   double radius_floor = 0;                ///< the floor used (metres)
   Warnings warnings;                      ///< one counted warning per kind of repair
   Timings timings;
@@ -173,6 +185,12 @@ void validate_params(const SkeletonParams& params);
 /// Validates and sanitizes `raw` into a binary framed skeleton.
 /// Throws InvalidInputError (naming node and rule) on malformed input.
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params = {});
+
+/// The skeleton exactly as the file gives it, for measuring a mesh against the input:
+/// validated (throws like build_skeleton), radii below the radius floor raised to it, nothing
+/// else changed. Nodes keep input order and any number of children: only `position`,
+/// `radius`, `parent` and `source_id` are filled (not a stage input).
+Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params = {});
 
 /// Checks the invariants documented on Skeleton; throws InternalError on the first breach.
 /// Cheap (linear); used by tests and as a guard before later stages.

@@ -206,6 +206,10 @@ TEST(Pipeline, FoldRepairUntanglesJunctions) {
   // still closed, manifold and genus 0, and far fewer self-intersecting pairs (52 -> 6,
   // measured; the whole repair, with moves, collapses and refills, leaves none).
   PipelineParams off, flips_only;
+  off.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  off.repair.fold_rounds = 0;
+  flips_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  flips_only.repair.fold_rounds = 0;
   off.meshing.fork_retry = flips_only.meshing.fork_retry = false;  // the stitched crotches as they are
   off.meshing.fold_repair_rounds = 0;
   flips_only.meshing.fold_repair_max_move = 0;
@@ -235,6 +239,10 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams flips_only, with_moves;
+  flips_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  flips_only.repair.fold_rounds = 0;
+  with_moves.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  with_moves.repair.fold_rounds = 0;
   flips_only.meshing.fork_retry = with_moves.meshing.fork_retry = false;
   flips_only.meshing.fold_repair_max_move = 0;
   flips_only.meshing.fold_repair_collapses = with_moves.meshing.fold_repair_collapses = false;
@@ -264,6 +272,10 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_collapses, collapses_only;
+  no_collapses.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  no_collapses.repair.fold_rounds = 0;
+  collapses_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  collapses_only.repair.fold_rounds = 0;
   no_collapses.meshing.fork_retry = collapses_only.meshing.fork_retry = false;
   no_collapses.meshing.fold_repair_collapses = false;
   no_collapses.meshing.fold_repair_refills = collapses_only.meshing.fold_repair_refills = false;
@@ -292,6 +304,10 @@ TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams no_refills, refills;
+  no_refills.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  no_refills.repair.fold_rounds = 0;
+  refills.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  refills.repair.fold_rounds = 0;
   no_refills.meshing.fold_repair_refills = false;
   no_refills.meshing.fork_retry = refills.meshing.fork_retry = false;
   PipelineResult a, b;
@@ -536,6 +552,8 @@ TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams params;
+  params.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  params.repair.fold_rounds = 0;
   params.particles.seed = 3;
   params.meshing.fork_retry = false;
   auto pairs = [&](bool variants) {
@@ -640,6 +658,10 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
   PipelineParams off, on;
+  off.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  off.repair.fold_rounds = 0;
+  on.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  on.repair.fold_rounds = 0;
   off.meshing.fork_retry = false;
   off.meshing.cover_near_misses = false;
   PipelineResult a, b;
@@ -678,6 +700,8 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
   const auto file = sample_named("mtg_agraf.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   PipelineParams p;
+  p.repair.self_union = false;  // the earlier repairs alone, not the repair stage
+  p.repair.fold_rounds = 0;
   p.particles.seed = 4;
   PipelineResult r;
   const MeshCheckReport rep = run_and_check(read_skeleton(*file), &r, p);

@@ -385,10 +385,11 @@ TEST(Skeleton, CrossingBranchesAreSwungApart) {
   raw.add(4, 1, dvec3(0.6, 0, 2.0), 0.03);     // rising lateral
   raw.add(5, 2, dvec3(0.8, 0.02, 1.5), 0.03);  // flat lateral, crossed near x = 0.3
   SkeletonParams p;
-  p.separate_branches = false;
+  p.separate = false;
   const Skeleton kept = build_skeleton(raw, p).skeleton;
   EXPECT_FALSE(find_collisions(kept).empty());
-  const auto r = build_skeleton(raw);
+  p.separate = true;
+  const auto r = build_skeleton(raw, p);
   EXPECT_GT(r.report.branch_collisions, 0u);
   EXPECT_EQ(r.report.unresolved_collisions, 0u);
   EXPECT_GT(r.report.max_separation, 0.0);
@@ -404,7 +405,7 @@ TEST(Skeleton, HubsAreClustered) {
   // near-linear in the twigs.
   const RawSkeleton raw = test::star(1000);
   SkeletonParams p;
-  p.separate_branches = false;
+  p.separate = false;
   // Tips in all the nodes' subtrees, summed; and the tip count.
   auto carried = [](const Skeleton& s) {
     std::vector<std::size_t> tips(s.size(), 0);

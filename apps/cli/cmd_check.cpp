@@ -57,12 +57,14 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
                                  .fidelity_tolerance = o->tolerance,
                                  .max_examples = o->examples};
           MeshReadParams read;
-          SkeletonResult skeleton;
+          // Measured against the skeleton as the file gives it (radii below the floor raised
+          // to it), never against our own sanitized copy.
+          Skeleton skeleton;
           if (!o->skeleton.empty()) {
-            skeleton = build_skeleton(read_skeleton(o->skeleton, read_options(o->input_options)));
-            read.up_axis = skeleton.skeleton.up_axis;
-            params.skeleton = &skeleton.skeleton;
-            log::verbose(o->skeleton + ": " + std::to_string(skeleton.skeleton.size()) + " nodes after sanitizing");
+            skeleton = input_skeleton(read_skeleton(o->skeleton, read_options(o->input_options)));
+            read.up_axis = skeleton.up_axis;
+            params.skeleton = &skeleton;
+            log::verbose(o->skeleton + ": " + std::to_string(skeleton.size()) + " input nodes");
           }
           const Mesh mesh = read_mesh(o->mesh, read);
           const MeshCheckReport report = check_mesh(mesh, params);

@@ -34,7 +34,9 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  sub.add_flag("!--no-separate", p.separate_branches, "Do not swing apart branches that run into each other");
+  sub.add_flag("!--keep-input", p.separate,
+               "Keep the input where it is: crossing branches are not swung apart nor hairpins re-attached; the "
+               "repair stage fuses crossings where they are (with --thick-child keep, radii as given too)");
 }
 
 void check_json_output(const std::string& path, const char* option) {

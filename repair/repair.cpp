@@ -1,0 +1,201 @@
+// Repair stage (see repair.h).
+
+#include "repair/repair.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <algorithm>
+#include <numeric>
+
+#include "core/errors.h"
+#include "core/union_find.h"
+#include "meshcheck/intersections.h"
+#include "meshing/fold_repair.h"
+#include "repair/self_union.h"
+
+namespace sm {
+
+namespace {
+
+/// Drops the triangles the fold repair removed (left as (u, u, u)) and the vertices no
+/// triangle uses any more, keeping the order of the rest.
+void drop_degenerate(MeshResult& r) {
+  Mesh& m = r.mesh;
+  const bool kinds = r.triangle_kind.size() == m.triangles.size(), uvs = m.corner_uvs.size() == m.triangles.size(),
+             branches = m.triangle_branch.size() == m.triangles.size();
+  std::size_t w = 0;
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    const auto& t = m.triangles[f];
+    if (t[0] == t[1] && t[1] == t[2]) continue;
+    m.triangles[w] = t;
+    if (kinds) r.triangle_kind[w] = r.triangle_kind[f];
+    if (uvs) m.corner_uvs[w] = m.corner_uvs[f];
+    if (branches) m.triangle_branch[w] = m.triangle_branch[f];
+    ++w;
+  }
+  m.triangles.resize(w);
+  if (kinds) r.triangle_kind.resize(w);
+  if (uvs) m.corner_uvs.resize(w);
+  if (branches) m.triangle_branch.resize(w);
+  const std::size_t nv = m.positions.size();
+  std::vector<std::uint32_t> renumber(nv, UINT32_MAX);
+  for (const auto& t : m.triangles) {
+    for (const std::uint32_t v : t) renumber[v] = 0;
+  }
+  std::uint32_t used = 0;
+  const bool nodes = m.vertex_node.size() == nv, strands = m.vertex_strand.size() == nv, normals = m.normals.size() == nv;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (renumber[v] == UINT32_MAX) continue;
+    renumber[v] = used;
+    m.positions[used] = m.positions[v];
+    if (nodes) m.vertex_node[used] = m.vertex_node[v];
+    if (strands) m.vertex_strand[used] = m.vertex_strand[v];
+    if (normals) m.normals[used] = m.normals[v];
+    ++used;
+  }
+  m.positions.resize(used);
+  if (nodes) m.vertex_node.resize(used);
+  if (strands) m.vertex_strand.resize(used);
+  if (normals) m.normals.resize(used);
+  for (auto& t : m.triangles) {
+    for (auto& v : t) v = renumber[v];
+  }
+}
+
+/// Connected parts of the mesh (through shared vertices).
+std::size_t components(const Mesh& m) {
+  UnionFind parts(m.positions.size());
+  std::vector<std::uint8_t> used(m.positions.size(), 0);
+  for (const auto& t : m.triangles) {
+    parts.unite(t[0], t[1]);
+    parts.unite(t[1], t[2]);
+    used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  }
+  std::size_t n = 0;
+  for (std::uint32_t v = 0; v < used.size(); ++v) n += used[v] && parts.find(v) == v;
+  return n;
+}
+
+}  // namespace
+
+void validate_params(const RepairParams& p) {
+  const ParamChecker check{"repair"};
+  check.within(double(p.max_rounds), 0, 100, "max_rounds");
+  check.within(double(p.fold_rounds), 0, 1000, "fold_rounds");
+  check.within(p.fold_max_move, 0, 1, "fold_max_move");
+}
+
+RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairParams& params) {
+  validate_params(params);
+  RepairStats st;
+  Stopwatch clock;
+  Mesh& mesh = r.mesh;
+  auto all_pairs = [&] {
+    std::vector<std::uint32_t> all(mesh.triangles.size());
+    std::iota(all.begin(), all.end(), 0u);
+    return TriangleIntersections(mesh).pairs(all);
+  };
+  if (mesh.triangles.size() > params.count_pairs_up_to) return st;
+  st.counted = true;
+  std::vector<std::array<std::uint32_t, 2>> pairs = all_pairs();
+  st.pairs_found = pairs.size();
+  if (std::getenv("SM_DEBUG_UNION")) {
+    std::size_t adj[4] = {0, 0, 0, 0};
+    for (const auto& [a, b] : pairs) {
+      int sh = 0;
+      for (auto x : mesh.triangles[a]) for (auto y : mesh.triangles[b]) sh += x == y;
+      ++adj[std::min(sh, 3)];
+    }
+    std::fprintf(stderr, "pairs sharing 0/1/2 vertices: %zu %zu %zu\n", adj[0], adj[1], adj[2]);
+  }
+  st.timings.add("find_pairs", clock.lap());
+  // Folds first: pairs of triangles within two rings of each other are creases of one sheet
+  // (a tight crotch, a zigzag), which flips, moves and collapses untangle in place; a cut line
+  // of the union would end inside them.
+  if (params.fold_rounds > 0 && !pairs.empty()) {
+    const VertexCorners vc = vertex_corners(mesh);
+    std::vector<std::uint8_t> suspect(mesh.triangles.size(), 0);
+    std::vector<std::uint32_t> near;
+    auto ring = [&](std::uint32_t f, std::vector<std::uint32_t>& out) {
+      for (const std::uint32_t v : mesh.triangles[f]) {
+        for (std::uint32_t k = vc.begin[v]; k < vc.begin[v + 1]; ++k) out.push_back(vc.corner[k] / 3);
+      }
+    };
+    std::size_t folds = 0;
+    for (const auto& [f, g] : pairs) {
+      near.clear();
+      ring(f, near);
+      const std::size_t first = near.size();
+      for (std::size_t k = 0; k < first; ++k) ring(near[k], near);
+      if (std::find(near.begin(), near.end(), g) == near.end()) continue;
+      ++folds;
+      suspect[f] = suspect[g] = 1;
+    }
+    if (folds > 0) {
+      std::vector<double> max_move(mesh.positions.size(), 0.0);
+      for (std::size_t v = 0; v < max_move.size() && mesh.vertex_node.size() == max_move.size(); ++v) {
+        const NodeId n = mesh.vertex_node[v];
+        if (n.valid()) max_move[v] = params.fold_max_move * skeleton.radius[n.idx()];
+      }
+      FoldRepairOptions options;
+      options.max_rounds = static_cast<int>(params.fold_rounds);
+      options.keep_side = skeleton.position;
+      options.grid = r.grid;
+      const FoldRepairStats fr = repair_folds(mesh, suspect, max_move, options);
+      st.fold_pairs = folds;
+      st.fold_changes = fr.flips + fr.moves + fr.collapses + fr.refills;
+      drop_degenerate(r);
+      st.timings.add("folds", clock.lap());
+      pairs = all_pairs();
+      st.timings.add("find_pairs", clock.lap());
+    }
+  }
+  std::vector<std::uint32_t> origin;
+  // A round is kept only when the mesh stays a closed, oriented 2-manifold and has fewer
+  // pairs than before; otherwise the mesh goes back to what it was and the repair stops.
+  while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
+    ++st.rounds;
+    MeshResult before = r;
+    const SelfUnionStats u = self_union(mesh, pairs, r.grid, skeleton.position, origin);
+    if (!u.problem.empty()) {
+      st.problem = u.problem;
+      break;
+    }
+    std::vector<std::array<std::uint32_t, 2>> after;
+    const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh));
+    const std::size_t parts = components(mesh), parts_before = components(before.mesh);
+    if (open == 0 && parts <= parts_before) after = all_pairs();
+    st.timings.add("self_union", clock.lap());
+    if (open > 0 || parts > parts_before || after.size() >= pairs.size()) {
+      st.problem = open > 0 ? "the union left " + std::to_string(open) + " unpaired half-edges"
+                   : parts > parts_before
+                       ? "the union split the mesh into " + std::to_string(parts) + " parts"
+                       : "the union left " + std::to_string(after.size()) + " pairs of " + std::to_string(pairs.size());
+      r = std::move(before);
+      break;
+    }
+    st.cut_triangles += u.cut_triangles;
+    st.dropped_triangles += u.dropped_triangles;
+    st.new_vertices += u.new_vertices;
+    st.split_vertices += u.split_vertices;
+    st.inner_shells += u.inner_shells;
+    st.lumps += u.lumps;
+    if (!r.triangle_kind.empty()) {
+      std::vector<TriangleKind> kind(origin.size());
+      for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];
+      r.triangle_kind = std::move(kind);
+    }
+    pairs = std::move(after);
+  }
+  st.pairs_left = pairs.size();
+  r.stats.vertices = mesh.vertex_count();
+  r.stats.triangles = mesh.triangle_count();
+  if (!st.problem.empty()) st.warnings.add("self_union_refused", "the self-union was refused: " + st.problem);
+  if (st.pairs_left > 0) {
+    st.warnings.add_count("self_intersections_left", "self-intersecting triangle pairs left after the repair",
+                          st.pairs_left);
+  }
+  return st;
+}
+
+}  // namespace sm

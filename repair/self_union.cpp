@@ -1,0 +1,716 @@
+// Self-union of a closed surface (see self_union.h). Kept in its own translation unit: CGAL's
+// corefinement headers are the slowest of the project to compile.
+
+#include "repair/self_union.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <exception>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <tuple>
+
+// CGAL's assertions stay on here even in release builds: a configuration the refinement cannot
+// handle then throws (and the mesh is left as it was) instead of crashing.
+#define CGAL_DEBUG 1
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/corefinement.h>
+#include <CGAL/Surface_mesh.h>
+
+#include "core/union_find.h"
+
+namespace sm {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using VertexIndex = SurfaceMesh::Vertex_index;
+using FaceIndex = SurfaceMesh::Face_index;
+using OriginMap = SurfaceMesh::Property_map<FaceIndex, std::uint32_t>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+constexpr std::uint32_t kNone = UINT32_MAX;
+// Verdicts on a patch or triangle: inside the union (dropped), on its boundary facing out
+// (kept) or facing in (a part turned inside out: kept, flipped).
+constexpr std::uint8_t kDrop = 0, kKeep = 1, kFlip = 2;
+
+// Hands a triangle's input index on to the triangles it is cut into.
+struct OriginVisitor : PMP::Corefinement::Default_visitor<SurfaceMesh> {
+  explicit OriginVisitor(OriginMap map) : origin(map) {}
+  void before_subface_creations(FaceIndex f_old, SurfaceMesh&) { current = origin[f_old]; }
+  void after_subface_created(FaceIndex f_new, SurfaceMesh&) { origin[f_new] = current; }
+  OriginMap origin;
+  std::uint32_t current = kNone;
+};
+
+/// The triangle of `mesh` holding the half-edge a -> b, or kNone.
+std::uint32_t triangle_with_edge(const Mesh& mesh, const VertexCorners& vc, std::uint32_t a, std::uint32_t b) {
+  for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
+    const std::uint32_t c = vc.corner[k], f = c / 3;
+    if (mesh.triangles[f][(c % 3 + 1) % 3] == b) return f;
+  }
+  return kNone;
+}
+
+/// Gives each vertex whose triangles form several fans a copy per fan (appended), drawn a
+/// hundredth of the way to the centroid of the fan's other vertices; returns the count split.
+/// Triangles at a vertex belong to one fan where they share an edge that no other triangle
+/// uses; at an edge of four or more (two solids of the union touching along it), each
+/// triangle is paired with its neighbour around the edge across the solid between them, so
+/// that the solids come apart.
+std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand) {
+  const VertexCorners vc = vertex_corners(mesh);
+  std::size_t split = 0;
+  const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    const std::uint32_t b = vc.begin[v], e = vc.begin[v + 1], n = e - b;
+    if (n < 2) continue;
+    UnionFind fans(n);
+    // Corners by the vertex after v (edge v -> x leaving) and before it (edge x -> v arriving).
+    auto next_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 1) % 3]; };
+    auto prev_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 2) % 3]; };
+    std::map<std::uint32_t, std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>> around;  // x -> (leaving, arriving)
+    for (std::uint32_t i = 0; i < n; ++i) {
+      around[next_of(i)].first.push_back(i);
+      around[prev_of(i)].second.push_back(i);
+    }
+    for (const auto& [x, sides] : around) {
+      const auto& [leaving, arriving] = sides;
+      if (leaving.size() == 1 && arriving.size() == 1) {
+        fans.unite(leaving[0], arriving[0]);
+        continue;
+      }
+      if (leaving.empty() || arriving.empty()) continue;
+      // Around the axis v -> x, a triangle leaving v towards x faces the way the angle grows;
+      // one arriving from x faces back. The solid between two neighbours around the axis lies
+      // behind both: an arriving triangle and the next one counter-clockwise, a leaving one.
+      const glm::dvec3 o = mesh.positions[v], axis = glm::normalize(mesh.positions[x] - o);
+      const glm::dvec3 r0 = glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+      const glm::dvec3 r1 = glm::cross(axis, r0);
+      std::vector<std::tuple<double, int, std::uint32_t>> ring;  // angle, leaving?, corner
+      auto third = [&](std::uint32_t i) {
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        for (const std::uint32_t w : t) {
+          if (w != v && w != x) return mesh.positions[w];
+        }
+        return o;
+      };
+      for (const std::uint32_t i : leaving) {
+        const glm::dvec3 d = third(i) - o;
+        ring.emplace_back(std::atan2(glm::dot(d, r1), glm::dot(d, r0)), 1, i);
+      }
+      for (const std::uint32_t i : arriving) {
+        const glm::dvec3 d = third(i) - o;
+        ring.emplace_back(std::atan2(glm::dot(d, r1), glm::dot(d, r0)), 0, i);
+      }
+      std::sort(ring.begin(), ring.end());
+      for (std::size_t k = 0; k < ring.size(); ++k) {
+        const auto& [a0, leave0, i0] = ring[k];
+        const auto& [a1, leave1, i1] = ring[(k + 1) % ring.size()];
+        if (!leave0 && leave1) fans.unite(i0, i1);
+      }
+    }
+    std::vector<std::uint32_t> roots;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (fans.find(i) == i) roots.push_back(i);
+    }
+    if (roots.size() < 2) continue;
+    ++split;
+    // Every fan gets its own copy (v itself is left unused).
+    for (const std::uint32_t root : roots) {
+      glm::dvec3 sum(0.0);
+      double count = 0;
+      for (std::uint32_t i = 0; i < n; ++i) {
+        if (fans.find(i) != root) continue;
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        sum += mesh.positions[t[(c % 3 + 1) % 3]] + mesh.positions[t[(c % 3 + 2) % 3]];
+        count += 2;
+      }
+      const auto copy = static_cast<std::uint32_t>(mesh.positions.size());
+      const glm::dvec3 p = mesh.positions[v];
+      mesh.positions.push_back(p + 0.01 * (sum / count - p));
+      if (node) node->push_back((*node)[v]);
+      if (strand) strand->push_back(StrandId{});
+      for (std::uint32_t i = 0; i < n; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        if (fans.find(i) == root) mesh.triangles[c / 3][c % 3] = copy;
+      }
+    }
+  }
+  return split;
+}
+
+/// Barycentric coordinates of p in triangle (a, b, c), by the projection onto its plane.
+glm::dvec3 barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
+  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
+  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1);
+  const double den = d00 * d11 - d01 * d01;
+  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
+  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
+  return {1.0 - v - w, v, w};
+}
+
+
+/// One attempt at the union of a set of pairs: refine their triangles, judge the patches.
+class Attempt {
+ public:
+  Attempt(const Mesh& mesh, const VertexCorners& vc) : mesh_(mesh), vc_(vc), nf_(uint32_t(mesh.triangles.size())) {}
+
+  /// Refines the triangles of `pairs` and judges every patch. False with `problem` set when
+  /// CGAL fails; otherwise `bad` lists the cut triangles (mesh indices) whose patches could not
+  /// be judged consistently (empty: the union can be assembled).
+  bool run(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  /// The mesh with the union in place (after run() left `bad` empty).
+  void assemble(Mesh& out, std::vector<std::uint32_t>& origin, double grid, SelfUnionStats& st) const;
+
+  std::string problem;
+  std::vector<std::uint32_t> bad;
+  std::size_t patches = 0, cut_triangles = 0;
+
+ private:
+  struct Piece {
+    std::array<std::uint32_t, 3> v;  // refined vertex indices
+    std::uint32_t origin, patch;
+  };
+  void choose(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  bool refine();
+  void judge();
+  [[nodiscard]] std::uint32_t mesh_vertex(std::uint32_t r) const { return r < n_sub_ ? mesh_vertex_of_sub_[r] : kNone; }
+
+  const Mesh& mesh_;
+  const VertexCorners& vc_;
+  std::uint32_t nf_;
+  std::vector<std::uint32_t> local_, cut_;  // cut triangles: mesh index <-> local index
+  std::vector<std::uint32_t> mesh_vertex_of_sub_;
+  std::uint32_t n_sub_ = 0;
+  std::vector<Piece> pieces_;
+  std::vector<glm::dvec3> refined_pos_;
+  std::vector<std::uint8_t> dangling_;  // per patch: a cut line ends inside it
+  std::vector<std::uint8_t> keep_;      // per patch: kDrop, kKeep or kFlip
+  std::vector<std::uint8_t> uncut_;     // per mesh triangle: its verdict where uncut
+};
+
+// The cut triangles: those of the pairs, and where they meet at a vertex in several fans (not
+// a manifold there), every triangle at that vertex, until they form one fan at each vertex:
+// copies of a vertex would be points where the mesh touches itself, which the refinement
+// cannot cut.
+void Attempt::choose(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  std::vector<std::uint8_t> chosen(nf_, 0);
+  std::vector<std::uint32_t> check;
+  auto pick = [&](std::uint32_t f) {
+    if (chosen[f]) return;
+    chosen[f] = 1;
+    for (const std::uint32_t v : mesh_.triangles[f]) check.push_back(v);
+  };
+  for (const auto& [a, b] : pairs) {
+    pick(a);
+    pick(b);
+  }
+  while (!check.empty()) {
+    std::vector<std::uint32_t> vertices;
+    vertices.swap(check);
+    std::sort(vertices.begin(), vertices.end());
+    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    for (const std::uint32_t v : vertices) {
+      // One fan: at most one chosen triangle whose edge leaving v has no chosen neighbour.
+      std::uint32_t open = 0, count = 0;
+      for (std::uint32_t k = vc_.begin[v]; k < vc_.begin[v + 1]; ++k) {
+        const std::uint32_t c = vc_.corner[k];
+        if (!chosen[c / 3]) continue;
+        ++count;
+        const std::uint32_t next = mesh_.triangles[c / 3][(c % 3 + 1) % 3];
+        const std::uint32_t g = triangle_with_edge(mesh_, vc_, next, v);
+        if (g == kNone || !chosen[g]) ++open;
+      }
+      if (open <= 1 || count == vc_.begin[v + 1] - vc_.begin[v]) continue;
+      for (std::uint32_t k = vc_.begin[v]; k < vc_.begin[v + 1]; ++k) pick(vc_.corner[k] / 3);
+    }
+  }
+  local_.assign(nf_, kNone);
+  cut_.clear();
+  for (std::uint32_t f = 0; f < nf_; ++f) {
+    if (chosen[f]) {
+      local_[f] = static_cast<std::uint32_t>(cut_.size());
+      cut_.push_back(f);
+    }
+  }
+  cut_triangles = cut_.size();
+}
+
+// CGAL's autorefinement of the cut triangles (a surface mesh of their own), with the cut
+// lines marked; pieces, their patches, and the patches a cut line ends in.
+bool Attempt::refine() {
+  std::vector<std::uint32_t> sub_of_vertex(mesh_.positions.size(), kNone);
+  mesh_vertex_of_sub_.clear();
+  SurfaceMesh sm;
+  std::array<VertexIndex, 3> corner;
+  for (const std::uint32_t f : cut_) {
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      std::uint32_t& s = sub_of_vertex[mesh_.triangles[f][k]];
+      if (s == kNone) {
+        s = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
+        mesh_vertex_of_sub_.push_back(mesh_.triangles[f][k]);
+        const glm::dvec3& p = mesh_.positions[mesh_.triangles[f][k]];
+        sm.add_vertex(Point(p.x, p.y, p.z));
+      }
+    }
+  }
+  n_sub_ = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
+  OriginMap origin = sm.add_property_map<FaceIndex, std::uint32_t>("f:origin", kNone).first;
+  for (const std::uint32_t f : cut_) {
+    for (std::uint32_t k = 0; k < 3; ++k) corner[k] = VertexIndex(sub_of_vertex[mesh_.triangles[f][k]]);
+    const FaceIndex face = sm.add_face(corner[0], corner[1], corner[2]);
+    if (face == SurfaceMesh::null_face()) {
+      problem = "the cut triangles do not form a manifold";
+      return false;
+    }
+    origin[face] = f;
+  }
+  auto cut_edge = sm.add_property_map<SurfaceMesh::Edge_index, bool>("e:cut", false).first;
+  try {
+    PMP::experimental::autorefine(sm,
+                                  CGAL::parameters::visitor(OriginVisitor(origin)).edge_is_constrained_map(cut_edge));
+  } catch (const std::exception& e) {  // a CGAL precondition or an unexpected configuration
+    problem = std::string("CGAL's autorefinement failed: ") + e.what();
+    return false;
+  }
+  auto patch_map = sm.add_property_map<FaceIndex, std::size_t>("f:patch", 0).first;
+  patches = PMP::connected_components(sm, patch_map, CGAL::parameters::edge_is_constrained_map(cut_edge));
+  // A cut line that ends inside the surface (a fold at a vertex) leaves the same patch on
+  // both sides of it: such a patch has no single winding number in front.
+  dangling_.assign(patches, 0);
+  for (const auto e : sm.edges()) {
+    if (!cut_edge[e]) continue;
+    const auto h = sm.halfedge(e);
+    const FaceIndex f = sm.face(h), g = sm.face(sm.opposite(h));
+    if (f != SurfaceMesh::null_face() && g != SurfaceMesh::null_face() && patch_map[f] == patch_map[g])
+      dangling_[patch_map[f]] = 1;
+  }
+  pieces_.clear();
+  pieces_.reserve(sm.number_of_faces());
+  for (const FaceIndex f : sm.faces()) {
+    Piece p{};
+    std::size_t k = 0;
+    for (const VertexIndex v : CGAL::vertices_around_face(sm.halfedge(f), sm)) {
+      if (k == 3) break;
+      p.v[k++] = static_cast<std::uint32_t>(v.idx());
+    }
+    if (k != 3 || origin[f] == kNone) {
+      problem = "the autorefinement made a face that is not a triangle of a known origin";
+      return false;
+    }
+    p.origin = origin[f];
+    p.patch = static_cast<std::uint32_t>(patch_map[f]);
+    pieces_.push_back(p);
+  }
+  refined_pos_.resize(sm.num_vertices());
+  for (const VertexIndex v : sm.vertices()) {
+    const Point& q = sm.point(v);
+    refined_pos_[v.idx()] = glm::dvec3(q.x(), q.y(), q.z());
+  }
+  return true;
+}
+
+// Winding numbers: a point just in front of and one just behind the roundest piece of every
+// patch, and of the roundest uncut triangle joined to patches, tested all at once by ray
+// crossings against the whole surface. Patches joined through uncut triangles (no cut line
+// between them) bound the same region and must agree; where they do not, or a cut line ends
+// inside a patch, the cut triangles of those patches are `bad`.
+void Attempt::judge() {
+  // Elements 0..patches-1 are patches, then the mesh's triangles.
+  const auto np = static_cast<std::uint32_t>(patches);
+  UnionFind group(np + nf_);
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> patch_on_edge;  // directed mesh edge
+  for (const Piece& p : pieces_) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = mesh_vertex(p.v[k]), b = mesh_vertex(p.v[(k + 1) % 3]);
+      if (a != kNone && b != kNone) patch_on_edge[{a, b}] = p.patch;
+    }
+  }
+  std::vector<std::uint8_t> bad_patch(dangling_);
+  for (std::uint32_t f = 0; f < nf_; ++f) {
+    if (local_[f] != kNone) continue;
+    const auto& t = mesh_.triangles[f];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      const std::uint32_t g = triangle_with_edge(mesh_, vc_, b, a);
+      if (g == kNone) continue;
+      if (local_[g] == kNone) {
+        group.unite(np + f, np + g);
+      } else if (const auto it = patch_on_edge.find({b, a}); it != patch_on_edge.end()) {
+        group.unite(np + f, it->second);
+      } else {  // the edge was cut: a cut line along an uncut triangle's side
+        for (const Piece& p : pieces_) {
+          if (p.origin == g) bad_patch[p.patch] = 1;
+        }
+      }
+    }
+  }
+  // Probes: per patch, then per group with uncut triangles (its roundest uncut one).
+  std::vector<std::pair<double, std::uint32_t>> best_piece(np, {-1.0, 0});
+  auto inradius = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    const double perimeter = glm::distance(a, b) + glm::distance(b, c) + glm::distance(c, a);
+    return perimeter > 0 ? glm::length(glm::cross(b - a, c - a)) / perimeter : 0.0;
+  };
+  for (std::uint32_t i = 0; i < pieces_.size(); ++i) {
+    const auto& v = pieces_[i].v;
+    const double r = inradius(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]]);
+    if (r > best_piece[pieces_[i].patch].first) best_piece[pieces_[i].patch] = {r, i};
+  }
+  std::vector<std::uint8_t> has_patch(np + nf_, 0);
+  for (std::uint32_t k = 0; k < np; ++k) has_patch[group.find(k)] = 1;
+  std::vector<std::pair<double, std::uint32_t>> best_uncut(np, {-1.0, kNone});  // by group root (a patch)
+  for (std::uint32_t f = 0; f < nf_; ++f) {
+    if (local_[f] != kNone) continue;
+    const std::uint32_t root = group.find(np + f);
+    if (!has_patch[root]) continue;
+    const auto& t = mesh_.triangles[f];
+    const double r = inradius(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+    if (r > best_uncut[root].first) best_uncut[root] = {r, f};
+  }
+  std::vector<glm::dvec3> probe;
+  auto add_probe = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, double r) {
+    const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+    const glm::dvec3 centre = (a + b + c) / 3.0, d = 0.01 * r * n;
+    probe.push_back(centre + d);
+    probe.push_back(centre - d);
+  };
+  for (std::uint32_t k = 0; k < np; ++k) {
+    const auto& [r, i] = best_piece[k];
+    const auto& v = pieces_[i].v;
+    if (r > 0) {
+      add_probe(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]], r);
+    } else {
+      probe.insert(probe.end(), 2, glm::dvec3(0.0));
+    }
+  }
+  for (std::uint32_t k = 0; k < np; ++k) {
+    const auto& [r, f] = best_uncut[k];
+    if (f == kNone || !(r > 0)) continue;
+    const auto& t = mesh_.triangles[f];
+    add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], r);
+  }
+  const std::vector<int> winding = winding_numbers(mesh_, probe);
+  // Kept where exactly one side is outside (winding number 0), facing it: a side turned
+  // inside out (-1 in front, 0 behind) is flipped rather than dropped, which would cut the
+  // branch it belongs to off the tree.
+  auto judge_sides = [&](std::size_t i) -> std::uint8_t {
+    const int front = winding[i], back = winding[i + 1];
+    if (front == 0 && back != 0) return kKeep;
+    if (front != 0 && back == 0) return kFlip;
+    return kDrop;
+  };
+  // A group's verdict: its uncut triangle's where it has one (the best placed probe), else its
+  // roundest patch's. Every patch whose own probe is well placed must agree.
+  std::vector<double> verdict_r(np, -1.0);
+  std::vector<std::uint8_t> verdict(np, kKeep);
+  std::size_t q = 2 * np;
+  for (std::uint32_t k = 0; k < np; ++k) {
+    const auto& [r, f] = best_uncut[k];
+    if (f == kNone || !(r > 0)) continue;
+    verdict[k] = judge_sides(q);
+    verdict_r[k] = std::numeric_limits<double>::infinity();
+    q += 2;
+  }
+  for (std::uint32_t k = 0; k < np; ++k) {
+    const std::uint32_t root = group.find(k);
+    if (best_piece[k].first > 0 && best_piece[k].first > verdict_r[root]) {
+      verdict_r[root] = best_piece[k].first;
+      verdict[root] = judge_sides(2 * k);
+    }
+  }
+  keep_.assign(np, kKeep);
+  for (std::uint32_t k = 0; k < np; ++k) {
+    const std::uint32_t root = group.find(k);
+    keep_[k] = verdict[root];
+    // Slivers' probes sit too near other sheets to be trusted: only round pieces vote.
+    const std::uint8_t own = judge_sides(2 * k);
+    if (best_piece[k].first > 1e-3 * verdict_r[root] && own != keep_[k]) bad_patch[root] = 1;
+  }
+  for (std::uint32_t k = 0; k < np; ++k) {
+    if (bad_patch[k]) bad_patch[group.find(k)] = 1;
+  }
+  bad.clear();
+  for (const Piece& p : pieces_) {
+    if (bad_patch[group.find(p.patch)]) bad.push_back(p.origin);
+  }
+  std::sort(bad.begin(), bad.end());
+  bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
+  uncut_.assign(nf_, kKeep);
+  for (std::uint32_t f = 0; f < nf_; ++f) {
+    if (local_[f] == kNone && has_patch[group.find(np + f)]) uncut_[f] = verdict[group.find(np + f)];
+  }
+}
+
+bool Attempt::run(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  choose(pairs);
+  if (!refine()) return false;
+  judge();
+  return true;
+}
+
+void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double grid, SelfUnionStats& st) const {
+  const Mesh& mesh = mesh_;
+  const std::uint32_t nf = nf_;
+  // The new vertices: refined vertices that are not mesh vertices, welded by position (the
+  // refinement makes one per side of a cut line).
+  std::vector<std::uint32_t> out_vertex(refined_pos_.size(), kNone);
+  std::map<std::tuple<double, double, double>, std::uint32_t> at;
+  const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
+  std::vector<glm::dvec3> new_pos;
+  std::vector<std::uint32_t> new_origin;  // a cut triangle the new vertex lies on
+  for (const Piece& p : pieces_) {
+    if (keep_[p.patch] == kDrop) continue;
+    for (const std::uint32_t r : p.v) {
+      if (out_vertex[r] != kNone) continue;
+      if (r < n_sub_) {
+        out_vertex[r] = mesh_vertex_of_sub_[r];
+        continue;
+      }
+      glm::dvec3 q = refined_pos_[r];
+      if (grid > 0) q = snap_to_grid(q, grid);
+      const auto [it, fresh] = at.try_emplace({q.x, q.y, q.z}, nv + static_cast<std::uint32_t>(new_pos.size()));
+      if (fresh) {
+        new_pos.push_back(q);
+        new_origin.push_back(p.origin);
+      }
+      out_vertex[r] = it->second;
+    }
+  }
+  st.new_vertices = new_pos.size();
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    st.dropped_triangles += uncut_[f] == kDrop;
+    st.flipped_triangles += uncut_[f] == kFlip;
+  }
+
+  // Uncut triangles not dropped, in order, then the kept pieces.
+  out.positions = mesh.positions;
+  out.positions.insert(out.positions.end(), new_pos.begin(), new_pos.end());
+  const bool uvs = mesh.corner_uvs.size() == nf, branches = mesh.triangle_branch.size() == nf;
+  origin_of.clear();
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (local_[f] != kNone || uncut_[f] == kDrop) continue;
+    const auto& t = mesh.triangles[f];
+    const bool flip = uncut_[f] == kFlip;
+    out.triangles.push_back(flip ? Mesh::Triangle{t[0], t[2], t[1]} : t);
+    origin_of.push_back(f);
+    if (uvs) {
+      const auto& uv = mesh.corner_uvs[f];
+      out.corner_uvs.push_back(flip ? std::array<glm::vec2, 3>{uv[0], uv[2], uv[1]} : uv);
+    }
+  }
+  for (const Piece& piece : pieces_) {
+    if (keep_[piece.patch] == kDrop) continue;
+    Piece p = piece;
+    if (keep_[p.patch] == kFlip) std::swap(p.v[1], p.v[2]);
+    const Mesh::Triangle t{out_vertex[p.v[0]], out_vertex[p.v[1]], out_vertex[p.v[2]]};
+    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;  // welded or snapped flat
+    out.triangles.push_back(t);
+    origin_of.push_back(p.origin);
+    if (uvs) {
+      const auto& o = mesh.triangles[p.origin];
+      const auto& ouv = mesh.corner_uvs[p.origin];
+      std::array<glm::vec2, 3> uv{};
+      for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 w = barycentric(mesh.positions[o[0]], mesh.positions[o[1]], mesh.positions[o[2]],
+                                         refined_pos_[p.v[k]]);
+        uv[k] = glm::vec2(w.x * glm::dvec2(ouv[0]) + w.y * glm::dvec2(ouv[1]) + w.z * glm::dvec2(ouv[2]));
+      }
+      out.corner_uvs.push_back(uv);
+    }
+  }
+  if (branches) {
+    out.triangle_branch.reserve(origin_of.size());
+    for (const std::uint32_t o : origin_of) out.triangle_branch.push_back(mesh.triangle_branch[o]);
+  }
+  if (mesh.vertex_node.size() == nv) {
+    out.vertex_node = mesh.vertex_node;
+    for (std::size_t k = 0; k < new_pos.size(); ++k) {
+      const auto& o = mesh.triangles[new_origin[k]];
+      int best = 0;
+      for (int c = 1; c < 3; ++c) {
+        if (glm::distance(mesh.positions[o[c]], new_pos[k]) < glm::distance(mesh.positions[o[best]], new_pos[k]))
+          best = c;
+      }
+      out.vertex_node.push_back(mesh.vertex_node[o[best]]);
+    }
+  }
+  if (mesh.vertex_strand.size() == nv) {
+    out.vertex_strand = mesh.vertex_strand;
+    out.vertex_strand.resize(nv + new_pos.size(), StrandId{});
+  }
+}
+
+}  // namespace
+
+SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
+                          std::span<const glm::dvec3> anchors, std::vector<std::uint32_t>& origin_out) {
+  SelfUnionStats st;
+  st.pairs = pairs.size();
+  const auto nf = static_cast<std::uint32_t>(mesh.triangles.size());
+  origin_out.resize(nf);
+  std::iota(origin_out.begin(), origin_out.end(), 0u);
+  if (pairs.empty()) return st;
+  const VertexCorners vc = vertex_corners(mesh);
+
+  // Attempts: pairs whose patches could not be judged are left out, with every pair joined
+  // to them (sharing a triangle or a vertex), and the rest is tried again.
+  std::vector<std::array<std::uint32_t, 2>> active = pairs;
+  std::vector<std::uint8_t> excluded(mesh.positions.size(), 0);  // per vertex
+  Attempt attempt(mesh, vc);
+  constexpr int kAttempts = 4;
+  bool ready = false;
+  for (int k = 0; k < kAttempts && !active.empty(); ++k) {
+    if (!attempt.run(active)) {
+      st.problem = attempt.problem;
+      return st;
+    }
+    if (attempt.bad.empty()) {
+      ready = true;
+      break;
+    }
+    // Leave out the bad triangles' clusters: every pair with a vertex on a bad triangle,
+    // repeated until no pair left in touches a vertex left out.
+    for (const std::uint32_t f : attempt.bad) {
+      for (const std::uint32_t v : mesh.triangles[f]) excluded[v] = 1;
+    }
+    for (bool grew = true; grew;) {
+      grew = false;
+      std::vector<std::array<std::uint32_t, 2>> still;
+      for (const auto& pr : active) {
+        bool touches = false;
+        for (const std::uint32_t f : pr) {
+          for (const std::uint32_t v : mesh.triangles[f]) touches = touches || excluded[v];
+        }
+        if (!touches) {
+          still.push_back(pr);
+          continue;
+        }
+        for (const std::uint32_t f : pr) {
+          for (const std::uint32_t v : mesh.triangles[f]) {
+            grew = grew || !excluded[v];
+            excluded[v] = 1;
+          }
+        }
+      }
+      active.swap(still);
+    }
+  }
+  st.patches = attempt.patches;
+  st.cut_triangles = attempt.cut_triangles;
+  st.left_out = pairs.size() - active.size();
+  if (!ready) {
+    st.problem = active.empty() ? "no crossing could be judged" : "crossings still misjudged after " +
+                                                                      std::to_string(kAttempts) + " attempts";
+    return st;
+  }
+  Mesh out;
+  std::vector<std::uint32_t> origin_of;
+  attempt.assemble(out, origin_of, grid, st);
+  const bool uvs = !out.corner_uvs.empty(), branches = !out.triangle_branch.empty();
+  std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
+  std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
+  st.split_vertices = split_pinches(out, node, strand);
+
+  // Components (through shared vertices) other than the largest: inner shells (a void
+  // enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out,
+  // come apart from the tube it folded) go; a part that holds a skeleton node stays.
+  if (!out.triangles.empty()) {
+    UnionFind comp(out.positions.size());
+    for (const auto& t : out.triangles) {
+      comp.unite(t[0], t[1]);
+      comp.unite(t[1], t[2]);
+    }
+    // Signed volumes about one common origin (any origin gives a closed component's volume).
+    std::map<std::uint32_t, double> volume;
+    std::map<std::uint32_t, std::vector<std::uint32_t>> members;
+    const glm::dvec3 o = out.positions[out.triangles.front()[0]];
+    for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+      const auto& t = out.triangles[f];
+      const std::uint32_t c = comp.find(t[0]);
+      volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+      members[c].push_back(f);
+    }
+    std::uint32_t largest = volume.begin()->first;
+    for (const auto& [c, v] : volume) {
+      if (v > volume[largest]) largest = c;
+    }
+    std::map<std::uint32_t, std::uint8_t> keep_comp;
+    for (const auto& [c, v] : volume) {
+      if (c == largest) {
+        keep_comp[c] = 1;
+        continue;
+      }
+      st.inner_shells += v < 0 ? 1 : 0;
+      bool holds = false;
+      if (v > 0) {
+        Mesh part;
+        part.positions = out.positions;
+        glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
+        for (const std::uint32_t f : members[c]) {
+          part.triangles.push_back(out.triangles[f]);
+          for (const std::uint32_t x : out.triangles[f]) {
+            lo = glm::min(lo, out.positions[x]);
+            hi = glm::max(hi, out.positions[x]);
+          }
+        }
+        std::vector<glm::dvec3> near;
+        for (const glm::dvec3& a : anchors) {
+          if (glm::all(glm::greaterThanEqual(a, lo)) && glm::all(glm::lessThanEqual(a, hi))) near.push_back(a);
+        }
+        for (const int w : winding_numbers(part, near)) holds = holds || w != 0;
+      }
+      keep_comp[c] = holds ? 1 : 0;
+      st.lumps += (v > 0 && !holds) ? 1 : 0;
+    }
+    std::size_t w = 0;
+    for (std::size_t f = 0; f < out.triangles.size(); ++f) {
+      if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
+      out.triangles[w] = out.triangles[f];
+      origin_of[w] = origin_of[f];
+      if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
+      if (branches) out.triangle_branch[w] = out.triangle_branch[f];
+      ++w;
+    }
+    out.triangles.resize(w);
+    origin_of.resize(w);
+    if (uvs) out.corner_uvs.resize(w);
+    if (branches) out.triangle_branch.resize(w);
+  }
+
+  // Unused vertices go (those of dropped triangles and split pinches), the order kept.
+  std::vector<std::uint32_t> renumber(out.positions.size(), kNone);
+  for (const auto& t : out.triangles) {
+    for (const std::uint32_t v : t) renumber[v] = 0;
+  }
+  std::uint32_t used = 0;
+  const bool nodes = out.vertex_node.size() == renumber.size(), strands = out.vertex_strand.size() == renumber.size();
+  for (std::size_t v = 0; v < renumber.size(); ++v) {
+    if (renumber[v] == kNone) continue;
+    renumber[v] = used;
+    out.positions[used] = out.positions[v];
+    if (nodes) out.vertex_node[used] = out.vertex_node[v];
+    if (strands) out.vertex_strand[used] = out.vertex_strand[v];
+    ++used;
+  }
+  out.positions.resize(used);
+  if (nodes) out.vertex_node.resize(used);
+  if (strands) out.vertex_strand.resize(used);
+  for (auto& t : out.triangles) {
+    for (auto& v : t) v = renumber[v];
+  }
+  if (!mesh.normals.empty()) out.normals = angle_weighted_normals(out);
+  mesh = std::move(out);
+  origin_out = std::move(origin_of);
+  return st;
+}
+
+}  // namespace sm
