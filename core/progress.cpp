@@ -17,8 +17,8 @@ OverallProgress OverallProgress::pipeline() {
                           {"contours", 25},
                           {"meshing", 20},
                           {"fork retry", 5},
-                          {"repair", 5},
                           {"outer surface", 3},
+                          {"repair", 5},
                           {"export", 10}});
 }
 

@@ -75,7 +75,7 @@ TEST(OverallProgress, OnlyMovesForwardAcrossPhasesRetriesAndUnknownOnes) {
   // The pipeline's table knows every phase the stages report, and the export.
   OverallProgress run = OverallProgress::pipeline();
   double last = 0;
-  for (const char* phase : {"skeleton", "particles", "strands", "contours", "meshing", "fork retry", "outer surface", "export"}) {
+  for (const char* phase : {"skeleton", "particles", "strands", "contours", "meshing", "fork retry", "outer surface", "repair", "export"}) {
     for (const double f : {0.0, 0.5, 1.0}) {
       const double now = run.update(phase, f);
       EXPECT_GE(now, last) << phase;
