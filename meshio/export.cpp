@@ -1043,6 +1043,46 @@ std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams&
 }
 
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params) {
+  write_mesh(mesh, path, params, {});
+}
+
+namespace {
+
+// A stream buffer that passes bytes on to another stream and reports the share of `expected`
+// bytes passed so far, about every 1 %.
+class ProgressSink : public std::streambuf {
+ public:
+  ProgressSink(std::ostream& out, std::size_t expected, const ProgressFn& progress)
+      : out_(out), expected_(std::max<std::size_t>(expected, 1)), progress_(progress) {}
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    const char ch = traits_type::to_char_type(c);
+    xsputn(&ch, 1);
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    out_.write(s, n);
+    written_ += static_cast<std::size_t>(n);
+    if (written_ >= next_) {
+      progress_("export", std::min(1.0, double(written_) / double(expected_)));
+      next_ = written_ + expected_ / 100;
+    }
+    return n;
+  }
+
+ private:
+  std::ostream& out_;
+  std::size_t expected_, written_ = 0, next_ = 0;
+  const ProgressFn& progress_;
+};
+
+}  // namespace
+
+void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params,
+                const ProgressFn& progress) {
+  if (progress) progress("export", 0);
   const MeshFormat format = mesh_format_from_path(path);
   PreparedFile file;
   try {
@@ -1050,7 +1090,18 @@ void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const Expor
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(path.string() + ": " + e.what());
   }
-  write_file_atomically(path, file.write);
+  if (!progress) {
+    write_file_atomically(path, file.write);
+    return;
+  }
+  write_file_atomically(path, [&](std::ostream& out) {
+    ProgressSink sink(out, file.size_hint, progress);
+    std::ostream counted(&sink);
+    counted.exceptions(std::ios::badbit);
+    file.write(counted);
+    counted.flush();
+  });
+  progress("export", 1);
 }
 
 }  // namespace sm

@@ -47,6 +47,7 @@
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "core/progress.h"
 #include "meshio/placement.h"
 #include "skeleton/skeleton.h"
 
@@ -116,5 +117,8 @@ std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams&
 /// Writes the mesh to `path` in the format given by its extension, atomically.
 /// Throws InvalidInputError (unknown extension, invalid mesh) or IoError (cannot write).
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params = {});
+/// The same, reporting ("export", fraction of the bytes written) to `progress` as it goes.
+void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params,
+                const ProgressFn& progress);
 
 }  // namespace sm

@@ -48,11 +48,7 @@ void check_json_output(const std::string& path, const char* option) {
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read) {
   SkeletonResult result = build_skeleton(read_skeleton(path, read), params);
-  for (const auto& w : result.report.warnings.list()) {
-    std::string line = w.message + " (" + std::to_string(w.count) + "x";
-    for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
-    log::warn(line + ")");
-  }
+  print_warnings(result.report.warnings, log::level() == log::Level::verbose);
   return result;
 }
 
