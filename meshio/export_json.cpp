@@ -29,6 +29,15 @@ const std::vector<AttributeName>& attribute_names() {
       {"normal", &ExportParams::normals},
       {"uv", &ExportParams::uvs},
       {"branch_id", &ExportParams::branch_ids},
+      {"level", &ExportParams::branch_level},
+      {"root_distance", &ExportParams::root_distance},
+      {"pivot", &ExportParams::branch_pivot},
+      {"direction", &ExportParams::branch_direction},
+      {"phase", &ExportParams::branch_phase},
+      {"thickness", &ExportParams::thickness},
+      {"color", &ExportParams::color},
+      {"uv1", &ExportParams::uv1},
+      {"tangent", &ExportParams::tangents},
   };
   return names;
 }
@@ -104,12 +113,13 @@ void set_attributes(std::string_view list, ExportParams& params) {
   }
   for (const auto& a : table) params.*(a.flag) = false;
   std::vector<std::string> accepted = names_of(table);
-  accepted.insert(accepted.end(), {"all", "none"});
+  accepted.insert(accepted.end(), {"wind", "all", "none"});
   for (const std::string& w : words) {
     if (w == "none") continue;
     bool found = false;
     for (const auto& a : table) {
-      if (w == a.name || w == "all") {
+      static const std::set<std::string> wind{"level", "root_distance", "pivot", "direction", "phase", "thickness"};
+      if (w == a.name || w == "all" || (w == "wind" && wind.count(a.name))) {
         params.*(a.flag) = true;
         found = true;
       }

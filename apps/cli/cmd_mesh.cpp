@@ -125,6 +125,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       ExportParams ep = params.output;
       ep.up_axis = r.skeleton.skeleton.up_axis;
       ep.root = r.skeleton.skeleton.position[0];
+      ep.skeleton = &r.skeleton.skeleton;  // for the tree attributes
       // Streamed: the file is never held whole in memory; the bar goes on through it.
       std::string mesh_bytes;  // for standard output, written once everything succeeded
       if (to_stdout) {

@@ -18,7 +18,8 @@ void add_export_options(CLI::App& sub, ExportOptions& o) {
                  "File units per metre: a number or m, cm, mm, in, ft (default m: the input's metres)")
       ->group(group);
   sub.add_option("--attributes", o.attributes,
-                 "Vertex attributes, comma-separated: normal, uv, branch_id, all or none "
+                 "Vertex attributes, comma-separated (docs/export.md): normal, uv, branch_id, level, root_distance, "
+                 "pivot, direction, phase, thickness (wind: those six), color, uv1, tangent, all or none "
                  "(default normal,uv,branch_id)")
       ->group(group);
   sub.add_flag("--no-optimize", o.no_optimize, "Keep the mesher's vertex and triangle order")->group(group);
