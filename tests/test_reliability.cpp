@@ -407,6 +407,30 @@ TEST(Reliability, AllOutputsOfACommandOrNone) {
   EXPECT_EQ(files_in(dir), 3u);  // t.json, a.json, b.json: no temporary left
 }
 
+TEST(Reliability, MeshStrictFailsWhenTheMeshFailsACheck) {
+  // Ten twigs of 1 cm from the top of a 10 cm trunk: the mesh is sound but does not follow
+  // the twigs' radii (fidelity p95 0.22 > 0.15). Without --strict that is exit 0; with it,
+  // exit 4 and the failed check named; the outputs are written all the same, and `check`
+  // agrees. A tree whose mesh passes exits 0 under --strict.
+  const fs::path dir = test::temp_dir("rel_strict");
+  write_file_atomically(dir / "star.json", raw_skeleton_to_json(test::star(10)));
+  const std::string tree = (dir / "star.json").string(), out = (dir / "star.glb").string();
+  EXPECT_EQ(run("-q mesh " + tree + " -o " + out).code, 0);
+  fs::remove(out);
+  const CmdResult strict = run("-q mesh --strict " + tree + " -o " + out + " --stats " + (dir / "s.json").string());
+  EXPECT_EQ(strict.code, 4) << strict.err;
+  EXPECT_NE(strict.err.find("fails its checks (--strict)"), std::string::npos) << strict.err;
+  EXPECT_NE(strict.err.find("problem: fidelity p95"), std::string::npos) << strict.err;
+  EXPECT_TRUE(fs::exists(out));
+  EXPECT_TRUE(fs::exists(dir / "s.json"));
+  const CmdResult check = run("check " + out + " --skeleton " + tree);
+  EXPECT_EQ(check.code, 4) << check.out;
+  EXPECT_NE(check.out.find("problem: fidelity p95"), std::string::npos) << check.out;
+  const std::string fork = std::string(STRANDMESH_SOURCE_DIR) + "/fuzz/corpus/skeleton_json/y_fork.json";
+  const CmdResult ok = run("-q mesh --strict " + fork + " -o " + (dir / "fork.glb").string());
+  EXPECT_EQ(ok.code, 0) << ok.err;
+}
+
 TEST(Reliability, TemporaryFilesGoOnSignalsAndLeftoversWithTheNextRun) {
   const fs::path dir = test::temp_dir("rel_signals");
   // SIGTERM and SIGINT in the middle of writing: the temporary file is removed, the process
