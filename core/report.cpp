@@ -15,7 +15,7 @@ Warning& Warnings::find_or_add(std::string_view kind, std::string_view message) 
 void Warnings::add(std::string_view kind, std::string_view message, std::string_view where) {
   Warning& w = find_or_add(kind, message);
   ++w.count;
-  if (!where.empty() && w.examples.size() < max_examples) w.examples.emplace_back(where);
+  if (!where.empty() && w.examples.size() < max_kept_examples) w.examples.emplace_back(where);
 }
 
 void Warnings::add_count(std::string_view kind, std::string_view message, std::size_t n) {
@@ -28,7 +28,7 @@ void Warnings::merge(const Warnings& other) {
     Warning& w = find_or_add(o.kind, o.message);
     w.count += o.count;
     for (const auto& e : o.examples) {
-      if (w.examples.size() >= max_examples) break;
+      if (w.examples.size() >= max_kept_examples) break;
       w.examples.push_back(e);
     }
   }
@@ -52,7 +52,7 @@ std::string Warnings::to_string() const {
   for (const auto& w : list_) {
     out += w.message;
     out += " (" + std::to_string(w.count) + "x";
-    for (std::size_t i = 0; i < w.examples.size(); ++i) {
+    for (std::size_t i = 0; i < std::min(w.examples.size(), max_examples); ++i) {
       out += i == 0 ? "; e.g. " : ", ";
       out += w.examples[i];
     }

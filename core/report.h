@@ -18,14 +18,15 @@ struct Warning {
   std::string kind;                   ///< short stable key, e.g. "zero_radius_raised"
   std::string message;                ///< one sentence describing the rule and the repair
   std::size_t count = 0;              ///< how many times it happened
-  std::vector<std::string> examples;  ///< the first few places, e.g. "node id 17"
+  std::vector<std::string> examples;  ///< the first places (Warnings::max_kept_examples), e.g. "node id 17"
 };
 
 /// An ordered list of counted warnings (order of first occurrence, hence deterministic as long
 /// as the caller records them in a deterministic order).
 class Warnings {
  public:
-  static constexpr std::size_t max_examples = 3;
+  static constexpr std::size_t max_examples = 3;         ///< examples shown by to_string()
+  static constexpr std::size_t max_kept_examples = 1000;  ///< examples kept (the CLI lists them with -v)
 
   /// Counts one occurrence of `kind`; `message` is kept from the first call, `where` is kept
   /// as an example while fewer than max_examples are stored.

@@ -35,6 +35,7 @@ struct Bud {
 RawSkeleton grow_random(const RandomGrowParams& p) {
   RawSkeleton raw;
   raw.up_axis = UpAxis::z;
+  raw.grown = true;
   raw.source = "strandmesh random grower (seed " + std::to_string(p.seed) + ")";
   const dvec3 up(0, 0, 1);
   raw.add(0, -1, dvec3(0), p.trunk_radius);

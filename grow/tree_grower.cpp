@@ -155,8 +155,10 @@ class TreeGrower {
       sp.merge_inner_branches = false;
       sp.max_lateral_angle = 0;
       const SkeletonResult clean = build_skeleton(result.skeleton, sp);
-      if (clean.report.branch_collisions > 0)
+      if (clean.report.branch_collisions > 0) {
         result.skeleton = raw_from_skeleton(clean.skeleton, result.skeleton.source);
+        result.skeleton.grown = true;
+      }
     }
     stats_->timings.add("separation", clock.lap());
     report("cleanup", 1);
@@ -840,6 +842,7 @@ class TreeGrower {
   RawSkeleton emit() {
     RawSkeleton raw;
     raw.up_axis = UpAxis::z;
+    raw.grown = true;
     raw.source = std::string("strandmesh ") + (sot() ? "self-organizing" : "space colonization") + " grower (seed " +
                  std::to_string(p_.seed) + ")";
     std::vector<std::int64_t> new_id(pos_.size(), -1);

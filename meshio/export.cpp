@@ -42,6 +42,7 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "meshio/tree_attributes.h"
 
 namespace sm {
 
@@ -397,8 +398,14 @@ ViewData packed_view(std::size_t count, F f) {
 // KHR_mesh_quantization's 16-bit positions (SHORT, padded to 8 bytes; the node holding the
 // mesh scales them back by `dequant`) and 8-bit normals (BYTE normalized, padded to 4 bytes).
 // Indices are 16-bit when every vertex number fits.
+void add_tree_streams(std::vector<Stream>& streams, const std::shared_ptr<const ExportBuffers>& shared,
+                      const std::shared_ptr<const TreeAttributes>& tree, const Placement& place, const ExportParams& p);
+std::vector<glm::vec4> tangents(const ExportBuffers& eb, const Placement& place);
+
 std::vector<Stream> gltf_streams(const std::shared_ptr<const ExportBuffers>& shared, const Placement& place,
-                                 bool quantize, glm::dvec4& dequant) {
+                                 const ExportParams& params, const std::shared_ptr<const TreeAttributes>& tree,
+                                 glm::dvec4& dequant) {
+  const bool quantize = params.quantize;
   const ExportBuffers& eb = *shared;
   const std::size_t n = eb.positions.size();
   std::vector<Stream> streams;
@@ -456,7 +463,13 @@ std::vector<Stream> gltf_streams(const std::shared_ptr<const ExportBuffers>& sha
                        view_data<glm::vec2>(0, n, [&eb](std::size_t i) { return eb.uvs[i]; }), {}, {},
                        quantize ? Stream::Filter::exponential : Stream::Filter::none, {}});
   }
-  if (!eb.branch.empty()) {
+  if (params.tangents && !eb.uvs.empty()) {
+    auto t = std::make_shared<const std::vector<glm::vec4>>(tangents(eb, place));
+    streams.push_back({"TANGENT", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, false, 16,
+                       view_data<glm::vec4>(0, n, [t](std::size_t i) { return (*t)[i]; }), {}, {}});
+  }
+  if (tree) add_tree_streams(streams, shared, tree, place, params);
+  if (!eb.branch.empty() && params.branch_ids) {
     streams.push_back({"_BRANCH_ID", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, false, 4,
                        view_data<float>(0, n, [&eb](std::size_t i) { return static_cast<float>(eb.branch[i]); }), {}, {}});
   }
@@ -471,6 +484,96 @@ std::vector<Stream> gltf_streams(const std::shared_ptr<const ExportBuffers>& sha
                        {}, {}});
   }
   return streams;
+}
+
+// The branch of export vertex i: its triangle's (when split at branches) or its node's.
+std::uint32_t branch_of(const ExportBuffers& eb, const TreeAttributes& t, std::size_t i) {
+  return eb.branch.empty() ? t.vertex_branch[eb.source_vertex[i]] : eb.branch[i];
+}
+
+// Unit tangents along u (around the branch) in the file's frame, w the handedness of
+// (normal, tangent, bitangent) as glTF's TANGENT wants it: per-triangle dP/du accumulated per
+// vertex, made orthogonal to the normal (Lengyel's method, which MikkTSpace refines).
+std::vector<glm::vec4> tangents(const ExportBuffers& eb, const Placement& place) {
+  const std::size_t n = eb.positions.size();
+  std::vector<glm::dvec3> tu(n, glm::dvec3(0)), tv(n, glm::dvec3(0));
+  for (std::size_t t = 0; t + 2 < eb.indices.size(); t += 3) {
+    const std::uint32_t a = eb.indices[t], b = eb.indices[t + 1], c = eb.indices[t + 2];
+    const glm::dvec3 p0 = place.position(eb.positions[a]), e1 = place.position(eb.positions[b]) - p0,
+                     e2 = place.position(eb.positions[c]) - p0;
+    const glm::dvec2 w0(eb.uvs[a]), d1 = glm::dvec2(eb.uvs[b]) - w0, d2 = glm::dvec2(eb.uvs[c]) - w0;
+    const double det = d1.x * d2.y - d2.x * d1.y;
+    if (!(std::abs(det) > 1e-20)) continue;
+    const glm::dvec3 su = (e1 * d2.y - e2 * d1.y) / det, sv = (e2 * d1.x - e1 * d2.x) / det;
+    for (const std::uint32_t v : {a, b, c}) tu[v] += su, tv[v] += sv;
+  }
+  std::vector<glm::vec4> out(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const glm::dvec3 nrm = eb.normals.empty() ? glm::dvec3(0, 1, 0) : glm::dvec3(unit_float(place.direction(glm::dvec3(eb.normals[i]))));
+    glm::dvec3 t = tu[i] - nrm * glm::dot(nrm, tu[i]);
+    if (!(glm::length(t) > 1e-12)) {  // no UV gradient here: any direction across the normal
+      t = std::abs(nrm.x) < 0.9 ? glm::cross(nrm, glm::dvec3(1, 0, 0)) : glm::cross(nrm, glm::dvec3(0, 1, 0));
+    }
+    t = glm::normalize(t);
+    const double w = glm::dot(glm::cross(nrm, t), tv[i]) < 0 ? -1.0 : 1.0;
+    out[i] = glm::vec4(glm::vec3(unit_float(t)), static_cast<float>(w));
+  }
+  return out;
+}
+
+// The streams of the tree attributes (tree_attributes.h) and the packed COLOR_0 / TEXCOORD_1.
+void add_tree_streams(std::vector<Stream>& streams, const std::shared_ptr<const ExportBuffers>& shared,
+                      const std::shared_ptr<const TreeAttributes>& tree, const Placement& place, const ExportParams& p) {
+  const std::size_t n = shared->positions.size();
+  const double scale = place.scale;
+  auto scalar = [&](const char* name, std::function<float(std::size_t)> f) {
+    streams.push_back({name, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, false, 4,
+                       view_data<float>(0, n, [f = std::move(f)](std::size_t i) { return f(i); }), {}, {}});
+  };
+  auto vec3 = [&](const char* name, std::function<glm::vec3(std::size_t)> f) {
+    streams.push_back({name, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, false, 12,
+                       view_data<glm::vec3>(0, n, [f = std::move(f)](std::size_t i) { return f(i); }), {}, {}});
+  };
+  const auto& eb = shared;
+  if (p.branch_level) scalar("_BRANCH_LEVEL", [eb, tree](std::size_t i) { return float(tree->level[branch_of(*eb, *tree, i)]); });
+  if (p.root_distance) {
+    scalar("_ROOT_DISTANCE", [eb, tree, scale](std::size_t i) { return float(double(tree->root_distance[eb->source_vertex[i]]) * scale); });
+  }
+  if (p.branch_pivot) {
+    vec3("_BRANCH_PIVOT", [eb, tree, place](std::size_t i) { return glm::vec3(place.position(tree->pivot[branch_of(*eb, *tree, i)])); });
+  }
+  if (p.branch_direction) {
+    vec3("_BRANCH_DIRECTION", [eb, tree, place](std::size_t i) { return unit_float(place.direction(tree->direction[branch_of(*eb, *tree, i)])); });
+  }
+  if (p.branch_phase) scalar("_BRANCH_PHASE", [eb, tree](std::size_t i) { return tree->phase[branch_of(*eb, *tree, i)]; });
+  if (p.thickness) {
+    scalar("_THICKNESS", [eb, tree, scale](std::size_t i) { return float(double(tree->thickness[eb->source_vertex[i]]) * scale); });
+  }
+  if (p.color) {  // unsigned bytes, normalized: each value over its maximum
+    auto unorm = [](double x) { return static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); };
+    streams.push_back({"COLOR_0", TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_TYPE_VEC4, true, 4,
+                       packed_view<std::uint8_t, 4>(n,
+                                                    [eb, tree, unorm](std::size_t i) {
+                                                      const TreeAttributes& t = *tree;
+                                                      const std::uint32_t v = eb->source_vertex[i], b = branch_of(*eb, t, i);
+                                                      auto over = [](double x, double m) { return m > 0 ? x / m : 0.0; };
+                                                      return std::array<std::uint8_t, 4>{
+                                                          unorm(over(t.root_distance[v], t.max_root_distance)),
+                                                          unorm(over(t.thickness[v], t.max_thickness)), unorm(t.phase[b]),
+                                                          unorm(over(t.level[b], t.max_level))};
+                                                    }),
+                       {}, {}});
+  }
+  if (p.uv1) {
+    streams.push_back({"TEXCOORD_1", TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, false, 8,
+                       view_data<glm::vec2>(0, n,
+                                            [eb, tree, scale](std::size_t i) {
+                                              const std::uint32_t v = eb->source_vertex[i];
+                                              return glm::vec2(float(double(tree->root_distance[v]) * scale),
+                                                               float(double(tree->thickness[v]) * scale));
+                                            }),
+                       {}, {}});
+  }
 }
 
 // The bytes of a stream, whole.
@@ -528,7 +631,17 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
   const bool compress = params.compress == Compression::meshopt;
   glm::dvec4 dequant;
-  std::vector<Stream> streams = gltf_streams(shared, place, params.quantize, dequant);
+  std::shared_ptr<const TreeAttributes> tree;
+  const bool wants_tree = params.branch_level || params.root_distance || params.branch_pivot || params.branch_direction ||
+                          params.branch_phase || params.thickness || params.color || params.uv1;
+  if (wants_tree) {
+    if (params.skeleton == nullptr) {
+      throw InvalidInputError("the tree attributes (level, root_distance, pivot, direction, phase, thickness, color, "
+                              "uv1) need the skeleton the mesh was made from");
+    }
+    tree = std::make_shared<const TreeAttributes>(compute_tree_attributes(mesh, *params.skeleton));
+  }
+  std::vector<Stream> streams = gltf_streams(shared, place, params, tree, dequant);
 
   auto model = std::make_shared<tinygltf::Model>();
   model->asset.version = "2.0";
@@ -571,6 +684,13 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
 
   tinygltf::Mesh gmesh;
   gmesh.name = "tree";
+  if (tree) {  // the maxima the packed attributes (COLOR_0) were divided by
+    tinygltf::Value::Object ranges;
+    ranges["max_root_distance"] = tinygltf::Value(double(tree->max_root_distance) * place.scale);
+    ranges["max_thickness"] = tinygltf::Value(double(tree->max_thickness) * place.scale);
+    ranges["max_level"] = tinygltf::Value(int(tree->max_level));
+    gmesh.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh_attributes", tinygltf::Value(std::move(ranges))}});
+  }
   gmesh.primitives.push_back(std::move(prim));
   model->meshes.push_back(std::move(gmesh));
 
@@ -894,7 +1014,10 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
   const std::size_t nv = mesh.positions.size();
   const std::size_t nf = mesh.triangles.size();
   const bool with_uv = params.uvs && !mesh.corner_uvs.empty();
-  const bool with_branch = params.branch_ids && !mesh.triangle_branch.empty();
+  // Per-branch attributes take the branch of each corner's triangle: split there too.
+  const bool per_branch = params.branch_ids || params.branch_level || params.branch_pivot || params.branch_direction ||
+                          params.branch_phase || params.color;
+  const bool with_branch = per_branch && !mesh.triangle_branch.empty();
 
   // Corners of each welded vertex, in triangle order.
   const VertexCorners vc = vertex_corners(mesh);
@@ -1043,6 +1166,46 @@ std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams&
 }
 
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params) {
+  write_mesh(mesh, path, params, {});
+}
+
+namespace {
+
+// A stream buffer that passes bytes on to another stream and reports the share of `expected`
+// bytes passed so far, about every 1 %.
+class ProgressSink : public std::streambuf {
+ public:
+  ProgressSink(std::ostream& out, std::size_t expected, const ProgressFn& progress)
+      : out_(out), expected_(std::max<std::size_t>(expected, 1)), progress_(progress) {}
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    const char ch = traits_type::to_char_type(c);
+    xsputn(&ch, 1);
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    out_.write(s, n);
+    written_ += static_cast<std::size_t>(n);
+    if (written_ >= next_) {
+      progress_("export", std::min(1.0, double(written_) / double(expected_)));
+      next_ = written_ + expected_ / 100;
+    }
+    return n;
+  }
+
+ private:
+  std::ostream& out_;
+  std::size_t expected_, written_ = 0, next_ = 0;
+  const ProgressFn& progress_;
+};
+
+}  // namespace
+
+void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params,
+                const ProgressFn& progress) {
+  if (progress) progress("export", 0);
   const MeshFormat format = mesh_format_from_path(path);
   PreparedFile file;
   try {
@@ -1050,7 +1213,18 @@ void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const Expor
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(path.string() + ": " + e.what());
   }
-  write_file_atomically(path, file.write);
+  if (!progress) {
+    write_file_atomically(path, file.write);
+    return;
+  }
+  write_file_atomically(path, [&](std::ostream& out) {
+    ProgressSink sink(out, file.size_hint, progress);
+    std::ostream counted(&sink);
+    counted.exceptions(std::ios::badbit);
+    file.write(counted);
+    counted.flush();
+  });
+  progress("export", 1);
 }
 
 }  // namespace sm

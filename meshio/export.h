@@ -47,6 +47,7 @@
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "core/progress.h"
 #include "meshio/placement.h"
 #include "skeleton/skeleton.h"
 
@@ -80,6 +81,18 @@ struct ExportParams {
   bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
   bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
   bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)
+  // glTF vertex attributes for wind and shading (docs/export.md); all need `skeleton`.
+  bool branch_level = false;      ///< `_BRANCH_LEVEL`: 0 trunk, 1 its laterals, ... (default false)
+  bool root_distance = false;     ///< `_ROOT_DISTANCE`: along the tree from the root, file units (default false)
+  bool branch_pivot = false;      ///< `_BRANCH_PIVOT`: where the vertex's branch leaves its parent, file frame (default false)
+  bool branch_direction = false;  ///< `_BRANCH_DIRECTION`: unit direction there (default false)
+  bool branch_phase = false;      ///< `_BRANCH_PHASE`: random in [0, 1) per branch (default false)
+  bool thickness = false;         ///< `_THICKNESS`: skeleton radius at the vertex, file units (default false)
+  bool color = false;             ///< COLOR_0 = (root distance, thickness, phase, level), each over its maximum (default false)
+  bool uv1 = false;               ///< TEXCOORD_1 = (root distance, thickness) in file units (default false)
+  bool tangents = false;          ///< TANGENT from the UVs (u around the branch), w the handedness (default false)
+  std::uint32_t lods = 1;  ///< levels of detail `strandmesh mesh` writes, the full mesh included (lod/lod.h; default 1: none)
+  const Skeleton* skeleton = nullptr;  ///< the skeleton the mesh was made from (not owned; for the attributes above)
   Compression compress = Compression::none;  ///< glTF: buffer compression (default none)
   bool quantize = false;       ///< glTF: KHR_mesh_quantization, 16-bit positions and 8-bit normals (default false)
 };
@@ -116,5 +129,8 @@ std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams&
 /// Writes the mesh to `path` in the format given by its extension, atomically.
 /// Throws InvalidInputError (unknown extension, invalid mesh) or IoError (cannot write).
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params = {});
+/// The same, reporting ("export", fraction of the bytes written) to `progress` as it goes.
+void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params,
+                const ProgressFn& progress);
 
 }  // namespace sm

@@ -29,6 +29,15 @@ const std::vector<AttributeName>& attribute_names() {
       {"normal", &ExportParams::normals},
       {"uv", &ExportParams::uvs},
       {"branch_id", &ExportParams::branch_ids},
+      {"level", &ExportParams::branch_level},
+      {"root_distance", &ExportParams::root_distance},
+      {"pivot", &ExportParams::branch_pivot},
+      {"direction", &ExportParams::branch_direction},
+      {"phase", &ExportParams::branch_phase},
+      {"thickness", &ExportParams::thickness},
+      {"color", &ExportParams::color},
+      {"uv1", &ExportParams::uv1},
+      {"tangent", &ExportParams::tangents},
   };
   return names;
 }
@@ -104,12 +113,13 @@ void set_attributes(std::string_view list, ExportParams& params) {
   }
   for (const auto& a : table) params.*(a.flag) = false;
   std::vector<std::string> accepted = names_of(table);
-  accepted.insert(accepted.end(), {"all", "none"});
+  accepted.insert(accepted.end(), {"wind", "all", "none"});
   for (const std::string& w : words) {
     if (w == "none") continue;
     bool found = false;
     for (const auto& a : table) {
-      if (w == a.name || w == "all") {
+      static const std::set<std::string> wind{"level", "root_distance", "pivot", "direction", "phase", "thickness"};
+      if (w == a.name || w == "all" || (w == "wind" && wind.count(a.name))) {
         params.*(a.flag) = true;
         found = true;
       }
@@ -141,6 +151,12 @@ void read_export_json(const json& section, const std::string& where, ExportParam
       {"optimize", [&](const json& v) { p.optimize = v.get<bool>(); }},
       {"compress", [&](const json& v) { p.compress = parse_compression(v.get<std::string>()); }},
       {"quantize", [&](const json& v) { p.quantize = v.get<bool>(); }},
+      {"lods",
+       [&](const json& v) {
+         const auto n = v.get<std::int64_t>();
+         if (n < 1 || n > 8) throw InvalidInputError("must be 1 (no levels of detail) to 8");
+         p.lods = static_cast<std::uint32_t>(n);
+       }},
   };
   std::vector<std::string> known;
   for (const auto& [k, f] : keys) known.push_back(k);
@@ -171,6 +187,7 @@ json export_to_json(const ExportParams& p) {
   j["optimize"] = p.optimize;
   j["compress"] = p.compress == Compression::meshopt ? "meshopt" : "none";
   j["quantize"] = p.quantize;
+  j["lods"] = p.lods;
   return j;
 }
 

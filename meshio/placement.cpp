@@ -24,7 +24,7 @@ bool parse_double(std::string_view s, double& x) {
 }  // namespace
 
 std::string placement_comment(const Placement& p) {
-  const glm::dvec3 t = p.translation();
+  const glm::dvec3 t = p.translation() + glm::dvec3(0.0);  // -0 prints as 0
   return std::string("strandmesh-placement up ") + (p.to == UpAxis::y ? "y" : "z") + " scale " + shortest(p.scale) +
          " translation " + shortest(t.x) + " " + shortest(t.y) + " " + shortest(t.z);
 }

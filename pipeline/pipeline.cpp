@@ -142,6 +142,13 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
   }
   const json j{{"nodes", r.skeleton.skeleton.size()},
                {"input_nodes", r.skeleton.report.input_nodes},
+               {"sanitizing",
+                {{"dropped_nodes", r.skeleton.report.dropped_nodes},
+                 {"max_move_m", r.skeleton.report.max_move},
+                 {"max_move_radii", r.skeleton.report.max_move_radii},
+                 {"p95_move_radii", r.skeleton.report.p95_move_radii},
+                 {"raised_radii", r.skeleton.report.raised_radii},
+                 {"clamped_radii", r.skeleton.report.clamped_children}}},
                {"strands", r.particles.strand_count()},
                {"particles", r.particles.position.size()},
                {"spacing", r.particles.spacing},

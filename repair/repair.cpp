@@ -2,8 +2,6 @@
 
 #include "repair/repair.h"
 
-#include <cstdio>
-#include <cstdlib>
 #include <algorithm>
 #include <numeric>
 
@@ -99,15 +97,7 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
   st.counted = true;
   std::vector<std::array<std::uint32_t, 2>> pairs = all_pairs();
   st.pairs_found = pairs.size();
-  if (std::getenv("SM_DEBUG_UNION")) {
-    std::size_t adj[4] = {0, 0, 0, 0};
-    for (const auto& [a, b] : pairs) {
-      int sh = 0;
-      for (auto x : mesh.triangles[a]) for (auto y : mesh.triangles[b]) sh += x == y;
-      ++adj[std::min(sh, 3)];
-    }
-    std::fprintf(stderr, "pairs sharing 0/1/2 vertices: %zu %zu %zu\n", adj[0], adj[1], adj[2]);
-  }
+
   st.timings.add("find_pairs", clock.lap());
   // Folds first: pairs of triangles within two rings of each other are creases of one sheet
   // (a tight crotch, a zigzag), which flips, moves and collapses untangle in place; a cut line

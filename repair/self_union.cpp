@@ -5,10 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <exception>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -669,6 +666,7 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
         for (const int w : winding_numbers(part, near)) holds = holds || w != 0;
       }
       keep_comp[c] = holds ? 1 : 0;
+
       st.lumps += (v > 0 && !holds) ? 1 : 0;
     }
     std::size_t w = 0;

@@ -9,7 +9,7 @@ findings, and so is a rejection (exit 1) whose message does not name the input f
 Findings are copied to OUT/findings/. Deterministic for a seed.
 
   scripts/mutation_campaign.py --binary build-asan/strandmesh --kind skeleton --count 3000 \\
-      --seeds ../shared/skeletons fuzz/corpus/skeleton_json fuzz/corpus/skeleton_swc --out /tmp/campaign
+      --seeds tests/data/skeletons fuzz/corpus/skeleton_json fuzz/corpus/skeleton_swc --out /tmp/campaign
   scripts/mutation_campaign.py --binary build-asan/strandmesh --kind mesh --count 1000 \\
       --seeds fuzz/corpus/mesh_glb fuzz/corpus/mesh_gltf fuzz/corpus/mesh_obj fuzz/corpus/mesh_ply --out /tmp/campaign
 """

@@ -126,6 +126,7 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
   RawSkeleton raw;
   raw.source = name;
   raw.up_axis = parse_up_axis(doc, name);
+  if (const auto it = doc.find("grown"); it != doc.end() && it->is_boolean()) raw.grown = it->get<bool>();
   if (const auto it = doc.find("sanitized"); it != doc.end()) {
     if (!it->is_boolean()) throw InvalidInputError(name + ": \"sanitized\" must be true or false, not " + excerpt(it->dump()));
     raw.sanitized = it->get<bool>();
@@ -254,6 +255,7 @@ std::string raw_skeleton_to_json(const RawSkeleton& raw) {
   doc["source"] = raw.source.empty() ? std::string("strandmesh") : raw.source;
   doc["up_axis"] = raw.up_axis == UpAxis::y ? "y" : "z";
   doc["units"] = "m";
+  if (raw.grown) doc["grown"] = true;  // see RawSkeleton::grown
   json nodes = json::array();
   for (std::size_t i = 0; i < raw.size(); ++i) {
     nodes.push_back({{"id", raw.id[i]},

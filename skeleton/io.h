@@ -1,7 +1,7 @@
 #pragma once
 /// Skeleton file formats.
 ///
-/// JSON (our format; see docs/skeleton-format.md and ../shared/skeletons/README.md):
+/// JSON (our format; see docs/skeleton-format.md and tests/data/skeletons/README.md):
 ///   {"up_axis": "z"|"y", "nodes": [{"id": 0, "parent": -1, "position": [x,y,z], "radius": r}, ...]}
 ///   Unknown keys are ignored; ids are any distinct non-negative integers.
 /// SWC (one node per line, `id type x y z radius parent`, '#' starts a comment, parent -1

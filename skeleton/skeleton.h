@@ -37,6 +37,9 @@ struct RawSkeleton {
   /// refinements (inner branches folded, steep laterals raised, branches separated) were
   /// applied already and are not applied again, so re-importing an export changes nothing.
   bool sanitized = false;
+  /// Made by strandmesh's growers (JSON key "grown": true): their thin twig tips are by design,
+  /// and the CLI lists the warnings about them only with --verbose.
+  bool grown = false;
 
   [[nodiscard]] std::size_t size() const { return id.size(); }
   /// Appends a node; returns its index.

@@ -203,14 +203,14 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
 
 TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {
   // Over meshing.count_pairs_up_to triangles the pairs are counted only where the fold repair
-  // looked (near the junctions): the run says so, and --stats records it. Within the limit it
+  // looked (near the junctions): the run says so with -v, and --stats records it. Within the limit it
   // says nothing of the kind.
   const fs::path dir = test::temp_dir("cli_count_pairs");
   ASSERT_EQ(run("grow --seed 1 -o " + (dir / "t.json").string()).code, 0);
   { std::ofstream(dir / "small_limit.json") << R"({"meshing": {"count_pairs_up_to": 1000}})"; }
   const std::string mesh =
       "mesh " + (dir / "t.json").string() + " -o " + (dir / "t.glb").string() + " --stats " + (dir / "s.json").string();
-  const CmdResult limited = run(mesh + " --config " + (dir / "small_limit.json").string());
+  const CmdResult limited = run(mesh + " -v --config " + (dir / "small_limit.json").string());
   ASSERT_EQ(limited.code, 0) << limited.err;
   const std::string note = "self-intersections were looked for near the junctions only";
   EXPECT_NE((limited.out + limited.err).find(note), std::string::npos) << limited.out << limited.err;
@@ -290,6 +290,43 @@ TEST(Cli, MeshFailuresLeaveNoOutput) {
   EXPECT_FALSE(fs::exists(dir / "z.glb"));
   // An output folder that does not exist.
   EXPECT_EQ(run("mesh " + (dir / "ok.json").string() + " -o " + (dir / "nope" / "t.glb").string()).code, 1);
+}
+
+TEST(Cli, SuggestionsStdioExportOptionsAndGrownTreeWarnings) {
+  const fs::path dir = test::temp_dir("cli_export");
+  const std::string bin = std::string(STRANDMESH_BINARY_DIR) + "/strandmesh";
+  // "Did you mean" for a mistyped command and option.
+  const CmdResult cmd = run("mesj x.json -o y.glb");
+  EXPECT_EQ(cmd.code, 2);
+  EXPECT_NE(cmd.err.find("did you mean 'strandmesh mesh'"), std::string::npos) << cmd.err;
+  const CmdResult opt = run("mesh x.json -o y.glb --pivott root");
+  EXPECT_EQ(opt.code, 2);
+  EXPECT_NE(opt.err.find("did you mean '--pivot'"), std::string::npos) << opt.err;
+  const CmdResult attr = run("mesh x.json -o y.glb --attributes normal,brnch_id");
+  EXPECT_EQ(attr.code, 1);
+  EXPECT_NE(attr.err.find("did you mean \"branch_id\""), std::string::npos) << attr.err;
+  // A grown tree through standard input and output, as y-up OBJ with the root at the origin.
+  const CmdResult piped = run("grow --seed 2 -o - -q | " + bin + " mesh - -o - --output-format obj -q");
+  ASSERT_EQ(piped.code, 0) << piped.err;
+  EXPECT_EQ(piped.out.rfind("# strandmesh\n", 0), 0u);
+  EXPECT_NE(piped.out.find("strandmesh-placement up y scale 1 translation 0 0 0\n"), std::string::npos);
+  // Export options from the command line and from a config file's export section.
+  ASSERT_EQ(run("grow --seed 2 -o " + (dir / "t.json").string()).code, 0);
+  const CmdResult cm = run("mesh " + (dir / "t.json").string() + " -o " + (dir / "t.obj").string() + " --scale cm --up-axis z");
+  ASSERT_EQ(cm.code, 0) << cm.err;
+  EXPECT_NE(read_file(dir / "t.obj").find("strandmesh-placement up z scale 100 "), std::string::npos);
+  write_file_atomically(dir / "c.json", R"({"export": {"pivot": "center", "compress": "meshopt"}})");
+  const CmdResult cfg = run("mesh " + (dir / "t.json").string() + " --config " + (dir / "c.json").string() + " -o " +
+                            (dir / "t.gltf").string());
+  ASSERT_EQ(cfg.code, 0) << cfg.err;
+  EXPECT_NE(read_file(dir / "t.gltf").find("EXT_meshopt_compression"), std::string::npos);
+  // The grower's thin twig tips are by design: no warning, unless -v asks for everything.
+  EXPECT_EQ(cfg.err.find("tip thinner than one particle spacing"), std::string::npos) << cfg.err;
+  ASSERT_EQ(run("grow --preset conifer -o " + (dir / "conifer.json").string()).code, 0);  // has thin tips
+  const CmdResult quiet = run("mesh " + (dir / "conifer.json").string() + " -o " + (dir / "v.glb").string());
+  EXPECT_EQ(quiet.err.find("tip thinner than one particle spacing"), std::string::npos) << quiet.err;
+  const CmdResult verbose = run("mesh " + (dir / "conifer.json").string() + " -o " + (dir / "v.glb").string() + " -v");
+  EXPECT_NE(verbose.err.find("as grown on purpose: tip thinner"), std::string::npos) << verbose.err;
 }
 
 }  // namespace

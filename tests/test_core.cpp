@@ -10,8 +10,10 @@
 
 #include "core/errors.h"
 #include "core/file_io.h"
+#include "core/progress.h"
 #include "core/math.h"
 #include "core/mesh.h"
+#include "core/progress.h"
 #include "core/report.h"
 #include "core/rng.h"
 
@@ -56,8 +58,32 @@ TEST(Warnings, CountsAndExamples) {
   w.add("j", "another");
   EXPECT_EQ(w.count("k"), 5u);
   EXPECT_EQ(w.total(), 6u);
-  EXPECT_EQ(w.list()[0].examples.size(), Warnings::max_examples);
-  EXPECT_NE(w.to_string().find("a thing (5x; e.g. node 0"), std::string::npos);
+  EXPECT_EQ(w.list()[0].examples.size(), 5u);  // all kept (up to max_kept_examples)
+  EXPECT_NE(w.to_string().find("a thing (5x; e.g. node 0, node 1, node 2)"), std::string::npos);  // a few shown
+}
+
+TEST(OverallProgress, OnlyMovesForwardAcrossPhasesRetriesAndUnknownOnes) {
+  OverallProgress p({{"a", 1}, {"b", 2}, {"c", 1}});
+  EXPECT_DOUBLE_EQ(p.update("a", 0.5), 0.125);
+  EXPECT_DOUBLE_EQ(p.update("b", 0.5), 0.5);
+  EXPECT_DOUBLE_EQ(p.update("a", 1.0), 0.5);      // an earlier phase again (a retry): held
+  EXPECT_DOUBLE_EQ(p.update("what", 0.9), 0.5);   // unknown: held
+  EXPECT_DOUBLE_EQ(p.update("b", 0.25), 0.5);     // a phase restarting: held
+  EXPECT_DOUBLE_EQ(p.update("c", 0.0), 0.75);
+  EXPECT_DOUBLE_EQ(p.update("c", 2.0), 1.0);      // clamped
+  EXPECT_DOUBLE_EQ(p.update("c", std::nan("")), 1.0);
+  // The pipeline's table knows every phase the stages report, and the export.
+  OverallProgress run = OverallProgress::pipeline();
+  double last = 0;
+  for (const char* phase : {"skeleton", "particles", "strands", "contours", "meshing", "fork retry", "outer surface", "repair", "export"}) {
+    for (const double f : {0.0, 0.5, 1.0}) {
+      const double now = run.update(phase, f);
+      EXPECT_GE(now, last) << phase;
+      last = now;
+    }
+    EXPECT_GT(last, 0.0) << phase;
+  }
+  EXPECT_DOUBLE_EQ(last, 1.0);
 }
 
 // snap_to_grid rounds without a library call; it must agree with std::nearbyint of the

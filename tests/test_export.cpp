@@ -19,6 +19,7 @@
 #include "meshio/export.h"
 #include "meshio/export_json.h"
 #include "meshio/mesh_io.h"
+#include "meshio/tree_attributes.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"
 
@@ -333,7 +334,9 @@ TEST(Placement, ConfigSectionAndAttributeNames) {
   EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"up_axis": 3})"), "c", p), InvalidInputError);
   EXPECT_THROW(set_attributes("normal,brnch_id", p), InvalidInputError);
   set_attributes("all", p);
-  EXPECT_EQ(attribute_list(p), "normal,uv,branch_id");
+  EXPECT_EQ(attribute_list(p), "normal,uv,branch_id,level,root_distance,pivot,direction,phase,thickness,color,uv1,tangent");
+  set_attributes("normal,wind", p);
+  EXPECT_EQ(attribute_list(p), "normal,level,root_distance,pivot,direction,phase,thickness");
 }
 
 // ---------------------------------------------------------------- compression
@@ -398,6 +401,99 @@ TEST(Compression, MalformedMeshoptDataIsAnErrorNotACrash) {
   }
   std::string cut = bytes.substr(0, bytes.size() - 16);
   EXPECT_THROW((void)parse_mesh(cut, MeshFormat::glb, "cut.glb"), InvalidInputError);
+}
+
+// ---------------------------------------------------------------- tree attributes
+
+// Root (0,0,0) r 0.2 -> node 1 (0,0,1) r 0.1 -> node 2 (0,0,2) r 0.05 (main), and a lateral
+// node 3 at (1,0,1) r 0.05 from node 1.
+Skeleton small_fork() {
+  Skeleton s;
+  const NodeId root = s.add_node(NodeId(), {0, 0, 0}, 0.2);
+  const NodeId n1 = s.add_node(root, {0, 0, 1}, 0.1);
+  s.add_node(n1, {0, 0, 2}, 0.05);
+  s.add_node(n1, {1, 0, 1}, 0.05);
+  return s;
+}
+
+TEST(TreeAttributes, ValuesOnASmallFork) {
+  const Skeleton s = small_fork();
+  Mesh m;  // one vertex per place of interest (no triangles are needed)
+  m.positions = {{0.2, 0, 0.5}, {0, 0.05, 1.5}, {0.5, 0.05, 1.0}, {0.1, 0, -0.1}};
+  m.vertex_node = {NodeId(1u), NodeId(2u), NodeId(3u), NodeId(0u)};
+  const TreeAttributes a = compute_tree_attributes(m, s);
+  // Distance along the tree and the radius there, interpolated along the nearest edge.
+  EXPECT_FLOAT_EQ(a.root_distance[0], 0.5f);
+  EXPECT_FLOAT_EQ(a.thickness[0], 0.15f);
+  EXPECT_FLOAT_EQ(a.root_distance[1], 1.5f);
+  EXPECT_FLOAT_EQ(a.thickness[1], 0.075f);
+  EXPECT_FLOAT_EQ(a.root_distance[2], 1.5f);  // 1 m up the trunk, then 0.5 m out along the lateral
+  EXPECT_FLOAT_EQ(a.thickness[2], 0.075f);
+  EXPECT_FLOAT_EQ(a.root_distance[3], 0.0f);  // below the root: clamped to it
+  EXPECT_FLOAT_EQ(a.max_root_distance, 1.5f);
+  // Branches: the trunk (id 0: nodes 0, 1, 2) and the lateral (id 3).
+  EXPECT_EQ(a.vertex_branch, (std::vector<std::uint32_t>{0, 0, 3, 0}));
+  EXPECT_EQ(a.level[0], 0u);
+  EXPECT_EQ(a.level[3], 1u);
+  EXPECT_EQ(a.max_level, 1u);
+  EXPECT_EQ(a.pivot[3], dvec3(0, 0, 1));  // where it leaves the trunk
+  EXPECT_EQ(a.direction[3], dvec3(1, 0, 0));
+  EXPECT_EQ(a.pivot[0], dvec3(0, 0, 0));
+  EXPECT_EQ(a.direction[0], dvec3(0, 0, 1));
+  EXPECT_GE(a.phase[3], 0.0f);
+  EXPECT_LT(a.phase[3], 1.0f);
+  EXPECT_NE(a.phase[0], a.phase[3]);
+  EXPECT_EQ(compute_tree_attributes(m, s).phase, a.phase);  // deterministic
+  m.vertex_node.clear();
+  EXPECT_THROW(compute_tree_attributes(m, s), InvalidInputError);
+}
+
+// The float values of attribute `name` of a .glb's first primitive (plain float accessors).
+std::vector<float> glb_floats(const std::string& glb, const std::string& name) {
+  std::uint32_t json_length = 0;
+  std::memcpy(&json_length, glb.data() + 12, 4);
+  const auto json = nlohmann::json::parse(glb.substr(20, json_length));
+  const std::string bin = glb_buffer(glb);
+  const auto& acc = json["accessors"][json["meshes"][0]["primitives"][0]["attributes"][name].get<int>()];
+  const auto& view = json["bufferViews"][acc["bufferView"].get<int>()];
+  const std::size_t n = acc["count"].get<std::size_t>() * (acc["type"] == "SCALAR" ? 1 : acc["type"] == "VEC2" ? 2 : acc["type"] == "VEC3" ? 3 : 4);
+  std::vector<float> out(n);
+  std::memcpy(out.data(), bin.data() + view.value("byteOffset", std::size_t{0}), n * sizeof(float));
+  return out;
+}
+
+TEST(TreeAttributes, ExportedPerVertexInTheFileFrame) {
+  // A tube along the trunk's first edge, every vertex made by node 1.
+  const Skeleton s = small_fork();
+  Mesh m = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 12, 6, true);
+  m.vertex_node.assign(m.positions.size(), NodeId(1u));
+  m.triangle_branch.assign(m.triangles.size(), 0u);
+  ExportParams p{.root = dvec3(0), .optimize = false, .skeleton = &s};
+  set_attributes("all", p);
+  const std::string glb = encode_mesh(m, MeshFormat::glb, p);
+  const std::vector<float> pos = glb_floats(glb, "POSITION"), dist = glb_floats(glb, "_ROOT_DISTANCE"),
+                           thick = glb_floats(glb, "_THICKNESS"), tangent = glb_floats(glb, "TANGENT"),
+                           normal = glb_floats(glb, "NORMAL"), pivot = glb_floats(glb, "_BRANCH_PIVOT");
+  ASSERT_EQ(dist.size() * 3, pos.size());
+  for (std::size_t i = 0; i < dist.size(); ++i) {
+    const float up = pos[3 * i + 1];  // y-up file: below node 1 the height is the root distance
+    if (up < 0.99f) {  // (at node 1's height the lateral edge may be nearer)
+      EXPECT_NEAR(dist[i], std::max(up, 0.0f), 1e-6);
+      EXPECT_NEAR(thick[i], 0.2f - 0.1f * std::max(up, 0.0f), 1e-6);
+    }
+    EXPECT_EQ(pivot[3 * i + 1], 0.0f);  // the trunk's pivot: the root, at the file's origin
+    // Tangents: unit, across the normal, w = +-1.
+    const glm::vec3 t(tangent[4 * i], tangent[4 * i + 1], tangent[4 * i + 2]), nrm(normal[3 * i], normal[3 * i + 1], normal[3 * i + 2]);
+    EXPECT_NEAR(glm::length(t), 1.0f, 1e-5);
+    EXPECT_NEAR(glm::dot(t, nrm), 0.0f, 1e-5);
+    EXPECT_EQ(std::abs(tangent[4 * i + 3]), 1.0f);
+  }
+  // Without the skeleton the tree attributes cannot be made.
+  p.skeleton = nullptr;
+  EXPECT_THROW(encode_mesh(m, MeshFormat::glb, p), InvalidInputError);
+  // The file still checks as the same closed mesh.
+  p.skeleton = &s;
+  EXPECT_TRUE(check_mesh(parse_mesh(glb, MeshFormat::glb, "t")).ok());
 }
 
 TEST(Export, GltfKeepsSubMillimetrePrecisionFarFromTheOrigin) {

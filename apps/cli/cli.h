@@ -7,11 +7,14 @@
 /// 4 the mesh fails a check (`check`, `mesh --strict`); `batch`: 5 some trees failed, 6 all did.
 
 #include <functional>
+#include <optional>
+#include <set>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "apps/common/prologue.h"
+#include "core/progress.h"
 #include "core/report.h"
 
 namespace sm::cli {
@@ -53,19 +56,40 @@ void add_unavailable_command(CLI::App& app, const std::string& name, const std::
 /// `bench` print them under the stage's own line.
 void verbose_phases(const Timings& phases);
 
-/// A progress bar on stderr (only when stderr is a terminal or --verbose, and not --quiet).
+/// Writes `bytes` to the file `path` atomically, or to standard output when `path` is "-".
+void write_output(const std::string& path, std::string_view bytes);
+
+/// Warning kinds the built-in growers' trees have on purpose (twig tips thinner than one
+/// particle spacing): for a grown skeleton they are listed only with --verbose.
+extern const std::set<std::string> kExpectedOfGrownTrees;
+
+/// Prints warnings grouped by kind, one line each: "MESSAGE (N×; e.g. A, B, C)"; with
+/// `verbose` every kept place follows on its own line. Kinds in `expected` go to --verbose only.
+void print_warnings(const Warnings& warnings, bool verbose, const std::set<std::string>& expected = {});
+
+/// A progress bar on stderr (only when stderr is a terminal, and not --quiet): the phase's
+/// full name, a bar that only moves forward, the percentage and, once a run has taken a few
+/// seconds, an estimate of the time left. With `overall`, the bar shows the whole run (the
+/// phases weighted by OverallProgress); without, each phase's own fraction.
 class ProgressBar {
  public:
-  explicit ProgressBar(bool enabled);
+  explicit ProgressBar(bool enabled, std::optional<OverallProgress> overall = std::nullopt);
   ~ProgressBar();
   void update(std::string_view phase, double fraction);
   void finish();
+  /// The line update() draws for `phase` at `fraction` after `seconds` (tested without a terminal).
+  static std::string line(std::string_view phase, double fraction, double seconds);
 
  private:
   bool enabled_;
+  std::optional<OverallProgress> overall_;
+  Stopwatch clock_;
   bool drawn_ = false;
   std::string phase_;
-  int last_percent_ = -1;
+  double shown_ = 0;       // fraction of the current phase (or the run) shown, never decreasing
+  int last_permille_ = -1;
+  int last_second_ = -1;
+  std::size_t width_ = 0;  // characters of the longest line drawn, to clear it
 };
 
 }  // namespace sm::cli

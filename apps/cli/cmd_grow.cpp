@@ -70,17 +70,17 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_option("--preset", o->preset,
                    "Grow with a preset: a name from configs/grow (see --list-presets) or a path to a .json file");
     sub.add_flag("--list-presets", o->list, "List the grow presets with their node ranges and descriptions");
-    sub.add_option("-o,--output", o->output, "Output skeleton file (.json)");
+    sub.add_option("-o,--output", o->output, "Output skeleton file (.json), or - for standard output");
     return [o, &global] {
       if (o->list) return list_presets();
       if (o->output.empty()) throw UsageError("grow: -o FILE.json is required");
-      check_json_output(o->output, "-o");
+      if (o->output != "-") check_json_output(o->output, "-o");
       if (o->preset.empty()) {
         RandomGrowParams params;
         params.seed = o->seed;
         const RawSkeleton raw = grow_random(params);
         const SkeletonResult result = build_skeleton(raw);
-        write_file_atomically(o->output, raw_skeleton_to_json(raw));
+        write_output(o->output, raw_skeleton_to_json(raw));
         log::info("grew " + std::to_string(raw.size()) + " nodes (seed " + std::to_string(o->seed) + ") -> " +
                   o->output);
         log::verbose(describe_skeleton(result));
@@ -96,7 +96,7 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
       const GrowStats& s = grown.stats;
       for (const auto& w : s.warnings.list()) log::warn(w.message);
       const SkeletonResult result = build_skeleton(grown.skeleton);
-      write_file_atomically(o->output, raw_skeleton_to_json(grown.skeleton));
+      write_output(o->output, raw_skeleton_to_json(grown.skeleton));
       log::info("grew " + std::to_string(s.nodes) + " nodes, " + std::to_string(s.forks) + " forks, " +
                 std::to_string(s.tips) + " tips, height " + fmt(2, s.height) + " m, trunk radius " +
                 fmt(3, s.trunk_radius) + " m (preset " + preset.name + ", seed " + std::to_string(preset.params.seed) +

@@ -56,7 +56,11 @@ void add_info_command(CLI::App& app, const GlobalOptions&) {
                          {"raised_laterals", r.raised_laterals},
                          {"branch_collisions", r.branch_collisions},
                          {"unresolved_collisions", r.unresolved_collisions},
-                         {"max_separation", r.max_separation}};
+                         {"max_separation", r.max_separation},
+                         {"dropped_nodes", r.dropped_nodes},
+                         {"max_move", r.max_move},
+                         {"max_move_radii", r.max_move_radii},
+                         {"p95_move_radii", r.p95_move_radii}};
         std::printf("%s\n", j.dump(2).c_str());
       } else {
         std::printf("%s\n%s", o->input.c_str(), describe_skeleton(result).c_str());

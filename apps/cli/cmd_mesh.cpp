@@ -13,15 +13,24 @@
 #include "core/log.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
+#include "lod/lod.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 
 namespace sm::cli {
 
+namespace {
+// The file of level of detail k: "tree.glb" -> "tree_lod1.glb".
+std::string lod_path(const std::string& output, std::uint32_t k) {
+  const std::filesystem::path p(output);
+  return (p.parent_path() / (p.stem().string() + "_lod" + std::to_string(k) + p.extension().string())).string();
+}
+}  // namespace
+
 void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
   add_command(app, "mesh", "Mesh a skeleton: strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}", [&global](CLI::App& sub) -> Action {
     struct Opts {
-      std::string input, output, config, dump_dir, stats_path;
+      std::string input, output, config, dump_dir, stats_path, output_format = "glb";
       std::uint64_t seed = 1;
       double spacing = 0;
       std::uint32_t root_strands = 0;
@@ -33,8 +42,11 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     };
     auto o = std::make_shared<Opts>();
     // Required unless --print-config (checked below, so the config can be printed alone).
-    sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg); required");
-    sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply; required");
+    sub.add_option("SKELETON", o->input, "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg), or - for standard input (JSON or SWC); required");
+    sub.add_option("-o,--output", o->output, "Output mesh: .glb, .gltf, .obj or .ply, or - for standard output (see --output-format); required");
+    sub.add_option("--output-format", o->output_format, "Format written to standard output (-o -): glb, gltf, obj or ply")
+        ->check(CLI::IsMember({"glb", "gltf", "obj", "ply"}))
+        ->capture_default_str();
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
     auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")
                      ->capture_default_str()
@@ -88,7 +100,8 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       // Every output is checked before the long run (an unknown extension, a missing or
       // read-only folder, a target that is a directory or device), and all are written
       // together at the end, or none of them (OutputTransaction).
-      (void)mesh_format_from_path(o->output);
+      const bool to_stdout = o->output == "-";
+      const MeshFormat format = mesh_format_from_path(to_stdout ? "stdout." + o->output_format : o->output);
       if (!o->stats_path.empty() && extension_of(o->stats_path) != "json") {
         throw InvalidInputError(o->stats_path + ": --stats writes JSON; the file name must end in .json");
       }
@@ -105,52 +118,94 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         if (std::filesystem::create_directories(o->dump_dir, ec)) created.dir = o->dump_dir;
         if (ec) throw IoError("cannot create directory " + o->dump_dir + ": " + ec.message());
       }
-      check_output_path(o->output);
+      if (!to_stdout) check_output_path(o->output);
+      const std::uint32_t lods = params.output.lods;
+      if (lods > 1 && to_stdout) throw UsageError("levels of detail (--lods) are written to files, not to standard output");
+      for (std::uint32_t k = 1; k < lods; ++k) check_output_path(lod_path(o->output, k));
       if (!o->stats_path.empty()) check_output_path(o->stats_path);
       OutputTransaction outputs;
-      const RawSkeleton raw = read_skeleton(o->input, read_options(o->input_options));
-      ProgressBar bar(!global.quiet);
+      const RawSkeleton raw = read_skeleton_arg(o->input, read_options(o->input_options));
+      ProgressBar bar(!global.quiet, OverallProgress::pipeline());
       std::mutex m;
       PipelineResult r = run_pipeline(raw, params, [&](std::string_view phase, double f) {
         std::lock_guard lock(m);
         bar.update(phase, f);
       });
-      bar.finish();
-      const Warnings warnings = r.warnings();
-      for (const auto& w : warnings.list()) {
-        std::string line = w.message + " (" + std::to_string(w.count) + "x";
-        for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
-        log::warn(line + ")");
-      }
       if (!o->dump_dir.empty()) dump_stages(r, o->dump_dir);  // creates the folder, which may hold the output
       release_intermediates(r);  // their memory goes to the exporter
       Stopwatch export_clock;
       ExportParams ep = params.output;
       ep.up_axis = r.skeleton.skeleton.up_axis;
       ep.root = r.skeleton.skeleton.position[0];
-      write_mesh(r.mesh.mesh, o->output, ep);  // streamed: the file is never held whole in memory
+      ep.skeleton = &r.skeleton.skeleton;  // for the tree attributes
+      // Streamed: the file is never held whole in memory; the bar goes on through it.
+      std::string mesh_bytes;  // for standard output, written once everything succeeded
+      if (to_stdout) {
+        mesh_bytes = encode_mesh(r.mesh.mesh, format, ep);
+      } else {
+        write_mesh(r.mesh.mesh, o->output, ep, [&](std::string_view phase, double f) { bar.update(phase, f); });
+      }
       const double export_seconds = export_clock.elapsed();
+      bar.finish();
+      print_warnings(r.warnings(), global.verbose, raw.grown ? kExpectedOfGrownTrees : std::set<std::string>{});
       if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
                    " edges not shared by exactly two triangles; please report this skeleton");
         return int(kInternal);  // nothing written
       }
+      // Levels of detail: the pipeline again on a pruned skeleton with coarser parameters (lod/lod.h).
+      std::vector<std::string> lod_lines;
+      for (std::uint32_t k = 1; k < lods; ++k) {
+        Stopwatch lod_clock;
+        LodLevel level;
+        ProgressBar lod_bar(!global.quiet, OverallProgress::pipeline());
+        PipelineResult lr = mesh_lod(raw, params, k, {}, [&](std::string_view phase, double f) {
+          std::lock_guard lock(m);
+          lod_bar.update(phase, f);
+        }, &level);
+        if (lr.mesh.stats.bad_edges > 0) {
+          log::error("internal error: level of detail " + std::to_string(k) + " has " +
+                     std::to_string(lr.mesh.stats.bad_edges) + " edges not shared by exactly two triangles");
+          return int(kInternal);
+        }
+        ExportParams lp = ep;
+        lp.skeleton = &lr.skeleton.skeleton;  // the same root: the pivot does not move between levels
+        write_mesh(lr.mesh.mesh, lod_path(o->output, k), lp, [&](std::string_view phase, double f) { lod_bar.update(phase, f); });
+        lod_bar.finish();
+        char text[320];
+        std::snprintf(text, sizeof text,
+                      "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step %.2g) "
+                      "in %.2f s -> %s",
+                      k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
+                      level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
+                      lod_path(o->output, k).c_str());
+        if (lr.repair.pairs_left > 0) {
+          log::warn("level of detail " + std::to_string(k) + " keeps " + std::to_string(lr.repair.pairs_left) +
+                    " self-intersecting triangle pairs");
+        }
+        lod_lines.emplace_back(text);
+      }
       outputs.commit();
+      if (to_stdout) {
+        std::fwrite(mesh_bytes.data(), 1, mesh_bytes.size(), stdout);
+        if (std::fflush(stdout) != 0) throw IoError("cannot write the mesh to standard output");
+      }
       created.dir.clear();
       char line[512];
       std::snprintf(line, sizeof line, "%s: %zu nodes, %zu strands, %zu particles => %zu triangles, %zu vertices in %.2f s -> %s",
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
-      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere) {
+      for (const std::string& l : lod_lines) log::info(l);
+      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere && global.verbose) {
         std::snprintf(line, sizeof line,
                       "note: self-intersections were looked for near the junctions only (%zu triangles, more than "
                       "meshing.count_pairs_up_to = %zu): `strandmesh check` counts them all; a higher limit "
                       "(configs/high_detail.json) has them looked for and repaired everywhere (about 2x the time, up "
                       "to 7x where it repairs)",
                       r.mesh.mesh.triangle_count(), params.meshing.count_pairs_up_to);
-        log::info(line);
+        log::verbose(line);
       }
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
       for (const auto& [stage, phases] : stage_phases(r)) {

@@ -19,13 +19,7 @@
 namespace sm::cli {
 namespace {
 
-void log_warnings(const Warnings& warnings) {
-  for (const auto& w : warnings.list()) {
-    std::string line = w.message + " (" + std::to_string(w.count) + "x";
-    for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
-    log::warn(line + ")");
-  }
-}
+void log_warnings(const Warnings& warnings) { print_warnings(warnings, log::level() == log::Level::verbose); }
 
 std::string fixed(double v, int digits) {
   char buf[64];

@@ -1,5 +1,9 @@
 #include "apps/cli/input_options.h"
 
+#include <cstdio>
+
+#include "core/errors.h"
+#include "core/file_io.h"
 #include "skeleton/import/formats.h"
 
 namespace sm::cli {
@@ -22,6 +26,23 @@ ReadOptions read_options(const InputOptions& o) {
   if (!o.columns.empty()) r.columns = parse_column_map(o.columns);
   if (!o.units.empty()) std::tie(r.length_unit, r.thickness_unit) = parse_units(o.units);
   return r;
+}
+
+RawSkeleton read_skeleton_arg(const std::string& path, const ReadOptions& options) {
+  if (path != "-") return read_skeleton(path, options);
+  std::string text;
+  char buf[1 << 16];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, stdin)) > 0;) {
+    text.append(buf, n);
+    if (text.size() > kMaxInputBytes) throw IoError("standard input: more than 2 GiB");
+  }
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  const bool json = options.format == SkeletonFormat::json ||
+                    (options.format == SkeletonFormat::automatic && first != std::string::npos && text[first] == '{');
+  if (json) return parse_skeleton_json(text, "<stdin>");
+  if (options.format == SkeletonFormat::swc || options.format == SkeletonFormat::automatic) return parse_swc(text, "<stdin>");
+  throw UsageError("standard input is read as JSON or SWC only; write the skeleton to a file for --format " +
+                   format_name(options.format));
 }
 
 }  // namespace sm::cli

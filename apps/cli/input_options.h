@@ -22,4 +22,8 @@ void add_input_options(CLI::App& sub, InputOptions& options);
 /// The ReadOptions of the typed options. Throws UsageError for a bad value.
 ReadOptions read_options(const InputOptions& options);
 
+/// Reads the skeleton named on the command line: a file, or "-" for standard input (JSON or
+/// SWC, by --format or by content: JSON starts with '{'). Throws like read_skeleton().
+RawSkeleton read_skeleton_arg(const std::string& path, const ReadOptions& options);
+
 }  // namespace sm::cli

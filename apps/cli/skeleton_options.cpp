@@ -48,11 +48,7 @@ void check_json_output(const std::string& path, const char* option) {
 
 SkeletonResult load_skeleton(const std::string& path, const SkeletonParams& params, const ReadOptions& read) {
   SkeletonResult result = build_skeleton(read_skeleton(path, read), params);
-  for (const auto& w : result.report.warnings.list()) {
-    std::string line = w.message + " (" + std::to_string(w.count) + "x";
-    for (std::size_t i = 0; i < w.examples.size(); ++i) line += (i == 0 ? "; e.g. " : ", ") + w.examples[i];
-    log::warn(line + ")");
-  }
+  print_warnings(result.report.warnings, log::level() == log::Level::verbose);
   return result;
 }
 
@@ -74,7 +70,7 @@ std::string describe_skeleton(const SkeletonResult& result) {
   }
   const auto d = s.depths();
   const std::uint32_t depth = d.empty() ? 0 : *std::max_element(d.begin(), d.end());
-  char buf[1024];
+  char buf[2048];
   std::string out;
   std::snprintf(buf, sizeof buf,
                 "nodes            %zu (input %zu)\n"
@@ -101,10 +97,13 @@ std::string describe_skeleton(const SkeletonResult& result) {
                 "  tight bends      %zu nodes where a branch turned too sharply removed\n"
                 "  separated pairs  %zu (largest move %.3g m, %zu unresolved)\n"
                 "  collar nodes     %zu (a refinement, not a repair)\n"
-                "  raised laterals  %zu (steep laterals given an upturned base; a refinement)\n",
+                "  raised laterals  %zu (steep laterals given an upturned base; a refinement)\n"
+                "  dropped nodes    %zu input nodes without a node of the result (merged or removed)\n"
+                "  node moves       largest %.3g m (%.3g radii), 95th percentile %.3g radii\n",
                 r.merged_edges, r.raised_radii, r.radius_floor, r.clamped_children, r.resampled_edges,
                 r.binarized_nodes, r.inserted_nodes, r.merged_inner, r.hairpins, r.hidden_tips, r.tight_bends,
-                r.branch_collisions, r.max_separation, r.unresolved_collisions, r.collars, r.raised_laterals);
+                r.branch_collisions, r.max_separation, r.unresolved_collisions, r.collars, r.raised_laterals,
+                r.dropped_nodes, r.max_move, r.max_move_radii, r.p95_move_radii);
   out += buf;
   return out;
 }
