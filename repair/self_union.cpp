@@ -90,7 +90,7 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
       const glm::dvec3 r0 = glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
       const glm::dvec3 r1 = glm::cross(axis, r0);
       std::vector<std::tuple<double, int, std::uint32_t>> ring;  // angle, leaving?, corner
-      auto third = [&](std::uint32_t i) {
+      auto third = [&, x = x](std::uint32_t i) {  // (x by copy: clang 14 cannot capture a structured binding)
         const std::uint32_t c = vc.corner[b + i];
         const auto& t = mesh.triangles[c / 3];
         for (const std::uint32_t w : t) {
