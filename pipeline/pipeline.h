@@ -34,6 +34,20 @@ struct PipelineParams {
   ExportParams output;
 };
 
+/// Calls `f(stage_params)` on each stage's Params of `p` in pipeline order (skeleton,
+/// particles, strands, contours, meshing, repair); with param_table_of, the generic walk over
+/// every parameter (config files, the viewer, `strandmesh params`).
+template <class PP, class F>
+  requires std::is_same_v<std::remove_const_t<PP>, PipelineParams>
+void for_each_stage_params(PP& p, F&& f) {
+  f(p.skeleton);
+  f(p.particles);
+  f(p.strands);
+  f(p.contours);
+  f(p.meshing);
+  f(p.repair);
+}
+
 /// The stages, in order; `rerun_pipeline` restarts from one of them.
 enum class Stage { skeleton = 0, particles, strands, contours, meshing };
 const char* stage_name(Stage s);
