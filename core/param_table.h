@@ -51,6 +51,7 @@ struct ParamChoice {
   int (*get)(const P&) = nullptr;
   void (*set)(P&, int) = nullptr;
   std::span<const char* const> names;
+  friend bool operator==(const ParamChoice& a, const ParamChoice& b) { return a.get == b.get && a.set == b.set; }
 };
 
 /// `param_choice<&P::field>(names)`: the ParamChoice of an enum member whose values are

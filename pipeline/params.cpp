@@ -200,4 +200,60 @@ std::string params_to_json(const PipelineParams& p) {
   return doc.dump(2) + "\n";
 }
 
+namespace {
+
+template <class P>
+std::string accepted(const ParamSpec<P>& s) {
+  switch (param_kind(s)) {
+    case ParamKind::flag:
+      return "true, false";
+    case ParamKind::choice: {
+      std::string list;
+      for (const char* n : std::get<ParamChoice<P>>(s.field).names) list += (list.empty() ? "`" : ", `") + std::string(n) + "`";
+      return list;
+    }
+    default:
+      return s.range.rule();
+  }
+}
+
+template <class P>
+void reference_section(std::string& out, const P& defaults, bool markdown) {
+  const ParamTable<P>& t = param_table_of<P>();
+  const json values = write_section(defaults);
+  if (!markdown) {
+    for (const ParamSpec<P>& s : t.fields) {
+      std::string rule = accepted(s);
+      std::erase(rule, '`');
+      out += std::string(t.section) + "." + s.key + " = " + values.at(s.key).dump() + "  (" + rule +
+             (*s.unit ? std::string("; ") + s.unit : "") + ")\n    " + s.help + "\n";
+    }
+    return;
+  }
+  out += "\n### " + std::string(t.section) + "\n\n";
+  out += "| key | default | accepted | unit | meaning |\n|---|---|---|---|---|\n";
+  for (const ParamSpec<P>& s : t.fields) {
+    out += "| `" + std::string(s.key) + "` | " + values.at(s.key).dump() + " | " + accepted(s) + " | " + s.unit + " | " +
+           s.help + " |\n";
+  }
+}
+
+}  // namespace
+
+std::string params_reference(bool markdown) {
+  if (!markdown) {
+    std::string out;
+    const PipelineParams defaults;
+    for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, false); });
+    return out;
+  }
+  std::string out =
+      "Every key of a config file, by section, with its default (the initializer in the stage's\n"
+      "Params header), the values accepted and the unit (\"x local radius\": relative to the\n"
+      "branch radius there; lambda: the particle spacing in a cross-section).\n";
+  const PipelineParams defaults;
+  for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, true); });
+  return out;
+}
+
 }  // namespace sm

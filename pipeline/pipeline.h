@@ -60,6 +60,10 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
 PipelineParams load_params(const std::filesystem::path& path, const PipelineParams& base = {});
 /// All parameters as a config file (every key, current values); parse_params_json reads it back.
 std::string params_to_json(const PipelineParams& params);
+/// The parameter reference from the stage tables: every key with its default, accepted values,
+/// unit and meaning; as Markdown tables per section (`strandmesh params --markdown`, the
+/// reference in docs/defaults.md) or as plain text (`strandmesh params`).
+std::string params_reference(bool markdown);
 
 struct PipelineResult {
   SkeletonResult skeleton;
