@@ -77,7 +77,7 @@ TEST(Fuse, PantsAreManifoldForTinyAndLargeLoops) {
       EXPECT_EQ(tris.size(), std::size_t(lower_n + 2 * upper_n + 2));
       for (const auto& [edge, count] : e) {
         EXPECT_EQ(count, 1);
-        const auto in_loop = [&](const std::vector<std::uint32_t>& l) {
+        const auto in_loop = [&, edge = edge](const std::vector<std::uint32_t>& l) {
           for (std::size_t k = 0; k < l.size(); ++k) {
             if (l[k] == edge.first && l[(k + 1) % l.size()] == edge.second) return true;
           }
