@@ -203,6 +203,13 @@ TEST(Pipeline, OtherGrownTrees) {
   expect_bounded(run_and_check(test::grown_tree(3)), 30, 0.15, 1);
 }
 
+TEST(Pipeline, GrownTree72WithPreviewSettings) {
+  // Bug 72: with the preview settings one strip of this tree fanned a whole loop round one
+  // vertex of the next and the mesh had 4 edges not shared by exactly two triangles.
+  const PipelineParams preview = load_params(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs/preview.json");
+  expect_sound(run_and_check(test::grown_tree(72), nullptr, preview));
+}
+
 TEST(Pipeline, FoldRepairUntanglesJunctions) {
   // Grown tree seed 3 folds at a few junctions when stitched as is; the edge flips of the
   // fold repair untangle most of them without moving a vertex: same vertices, same counts,
