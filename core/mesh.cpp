@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -188,6 +189,133 @@ void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::sp
     const double l = glm::length(sum[k]);
     mesh.normals[list[k]] = l > 0 ? sum[k] * (1.0 / l) : glm::dvec3(0, 0, 1);
   }
+}
+
+glm::dvec3 Mesh::corner_normal(std::uint32_t c) const {
+  const auto it = std::lower_bound(corner_normals.begin(), corner_normals.end(), c,
+                                   [](const CornerNormal& n, std::uint32_t x) { return n.corner < x; });
+  if (it != corner_normals.end() && it->corner == c) return it->normal;
+  return normals[triangles[c / 3][c % 3]];
+}
+
+namespace {
+
+/// A corner's normal counts as facing away from its triangle below this cosine (89 degrees:
+/// a degree of margin, so float32 rounding in the files cannot turn it past 90).
+constexpr double kBackwardCosine = 0.0174524064372835;
+
+/// Groups the corners of one vertex (unit face normals `n`, weights `w`) so that each group's
+/// weighted mean normal is within acos(kBackwardCosine) of every normal in it: the group
+/// starts as all corners left and sheds its worst corner until it holds; repeated on the
+/// corners shed. A single corner always holds, so every corner gets a group. Returns the
+/// group of each corner (0: the first, the largest share of the fan) and each group's normal.
+void group_corners(const std::vector<glm::dvec3>& n, const std::vector<double>& w, std::vector<std::uint32_t>& group,
+                   std::vector<glm::dvec3>& mean) {
+  const std::size_t k = n.size();
+  constexpr std::uint32_t kNone = UINT32_MAX;
+  group.assign(k, kNone);
+  mean.clear();
+  std::vector<std::uint8_t> in(k);
+  for (std::size_t left = k; left > 0;) {
+    const auto g = static_cast<std::uint32_t>(mean.size());
+    for (std::size_t i = 0; i < k; ++i) in[i] = group[i] == kNone;
+    glm::dvec3 m(0);
+    for (;;) {
+      m = glm::dvec3(0);
+      for (std::size_t i = 0; i < k; ++i) {
+        if (in[i]) m += w[i] * n[i];
+      }
+      const double l = glm::length(m);
+      std::size_t worst = k;
+      double worst_dot = kBackwardCosine;
+      std::size_t members = 0;
+      for (std::size_t i = 0; i < k; ++i) {
+        if (!in[i]) continue;
+        ++members;
+        const double d = l > 0 ? glm::dot(m, n[i]) / l : -1.0;
+        if (d < worst_dot) {
+          worst_dot = d;
+          worst = i;
+        }
+      }
+      if (worst == k || members == 1) {
+        m = l > 0 ? m / l : n[std::size_t(std::find(in.begin(), in.end(), 1) - in.begin())];
+        break;
+      }
+      in[worst] = 0;
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+      if (in[i]) {
+        group[i] = g;
+        --left;
+      }
+    }
+    mean.push_back(m);
+  }
+}
+
+}  // namespace
+
+std::size_t split_backward_normals(Mesh& mesh) {
+  return split_backward_normals(mesh, vertex_corners(mesh));
+}
+
+std::size_t split_backward_normals(Mesh& mesh, const VertexCorners& vc) {
+  mesh.corner_normals.clear();
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
+  if (mesh.normals.size() != nv) return 0;
+  // The vertices with a corner facing away from its triangle: one pass over the triangles.
+  std::vector<std::uint8_t> bad(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1 << 15), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 fn = mesh.face_normal(t);
+      const double l = glm::length(fn);
+      if (!(l > 0)) continue;
+      for (const std::uint32_t v : t) {
+        if (glm::dot(mesh.normals[v], fn) < kBackwardCosine * l)
+          std::atomic_ref<std::uint8_t>(bad[v]).store(1, std::memory_order_relaxed);
+      }
+    }
+  });
+  std::vector<std::uint32_t> split;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (bad[v]) split.push_back(static_cast<std::uint32_t>(v));
+  }
+  // Each such vertex's corners grouped (independent per vertex; in vertex order).
+  std::vector<std::vector<CornerNormal>> found(split.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, split.size(), 64), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<glm::dvec3> n, mean;
+    std::vector<double> w;
+    std::vector<std::uint32_t> group, corner;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const std::uint32_t v = split[i];
+      n.clear();
+      w.clear();
+      corner.clear();
+      for (std::uint32_t x = vc.begin[v]; x < vc.begin[v + 1]; ++x) {
+        const std::uint32_t c = vc.corner[x];
+        const auto& t = mesh.triangles[c / 3];
+        const glm::dvec3 fn = mesh.face_normal(t);
+        const double l = glm::length(fn);
+        if (!(l > 0)) continue;  // no direction: keeps the vertex normal
+        const std::array<double, 3> cw = corner_weights(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], fn);
+        n.push_back(fn / l);
+        w.push_back(cw[c % 3] * l + 1e-12);  // the corner's angle (never 0, so every group has a direction)
+        corner.push_back(c);
+      }
+      group_corners(n, w, group, mean);
+      if (mean.empty()) continue;
+      mesh.normals[v] = mean[0];
+      for (std::size_t k = 0; k < corner.size(); ++k) {
+        if (group[k] != 0) found[i].push_back({corner[k], mean[group[k]]});
+      }
+    }
+  });
+  for (auto& list : found) mesh.corner_normals.insert(mesh.corner_normals.end(), list.begin(), list.end());
+  std::sort(mesh.corner_normals.begin(), mesh.corner_normals.end(),
+            [](const CornerNormal& a, const CornerNormal& b) { return a.corner < b.corner; });
+  return split.size();
 }
 
 double winding_number(const Mesh& mesh, const glm::dvec3& p) {
