@@ -12,13 +12,6 @@
 
 namespace sm {
 
-/// The normal of one corner where it differs from its vertex's (Mesh::corner_normals).
-struct CornerNormal {
-  std::uint32_t corner = 0;  ///< 3 f + k: corner k of triangle f
-  glm::dvec3 normal{0.0};    ///< unit length
-  friend bool operator==(const CornerNormal&, const CornerNormal&) = default;
-};
-
 /// A welded, indexed triangle mesh (structure of arrays).
 ///
 /// Triangles are counter-clockwise seen from outside. Vertices are shared between all
@@ -32,11 +25,6 @@ struct Mesh {
   std::vector<Triangle> triangles;    ///< #F vertex indices, CCW seen from outside
 
   std::vector<glm::dvec3> normals;                   ///< #V unit normals, or empty
-  /// Corners whose normal is not their vertex's (sorted by corner, at most a few per cent):
-  /// where one normal per vertex would face more than 90 degrees away from one of its
-  /// triangles (a fold at a crotch), the vertex's corners are grouped and each group gets its
-  /// own normal (split_backward_normals). The exporters split those vertices, as for UV seams.
-  std::vector<CornerNormal> corner_normals;
   std::vector<std::array<glm::vec2, 3>> corner_uvs;  ///< #F × 3 texture coordinates, or empty
   std::vector<StrandId> vertex_strand;               ///< #V strand the vertex lies on (invalid: cap centre), or empty
   std::vector<NodeId> vertex_node;             ///< #V skeleton node whose edge or section made the vertex, or empty
@@ -51,9 +39,6 @@ struct Mesh {
     const glm::dvec3& p = positions[t[0]];
     return glm::cross(positions[t[1]] - p, positions[t[2]] - p);
   }
-  /// The normal at corner c (3 f + k): its entry in corner_normals, else its vertex's.
-  /// Precondition: `normals` is not empty.
-  [[nodiscard]] glm::dvec3 corner_normal(std::uint32_t c) const;
 };
 
 /// The corners (3 f + k: corner k of triangle f) around every vertex, in triangle order:
@@ -82,16 +67,6 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
 /// `triangles`, when given, holds (in increasing order) every triangle at those vertices,
 /// and only those are visited.
 void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::span<const std::uint32_t> triangles = {});
-
-/// Where a vertex's normal (mesh.normals, filled) is more than about 89 degrees from the
-/// normal of one of its triangles, its corners are grouped so that each group's angle-weighted
-/// normal is within that of every triangle in it (the largest group keeps the vertex normal,
-/// the others get corner_normals); replaces mesh.corner_normals. Returns how many vertices
-/// were split. After it, no corner's normal is more than 90 degrees from its triangle's
-/// (triangles of zero area aside).
-std::size_t split_backward_normals(Mesh& mesh);
-/// The same, with the mesh's vertex_corners already at hand.
-std::size_t split_backward_normals(Mesh& mesh, const VertexCorners& corners);
 
 /// Generalized winding number of the mesh's triangles about p: the solid angles they span
 /// there (core/math.h solid_angle), summed in triangle order, over 4 pi. For a closed,

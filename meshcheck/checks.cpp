@@ -437,7 +437,7 @@ std::string to_text(const MeshCheckReport& r) {
     for (const auto v : q.backward_normal_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(v);
     line("backward normals", n(q.backward_normals) + " vertices" +
                                  (q.normals_computed ? " (angle-weighted; the mesh has no normals)"
-                                                     : " (" + n(q.split_vertices) + " split vertices)") +
+                                                     : std::string()) +
                                  ex);
   }
   const auto failures = r.failures();
@@ -505,7 +505,6 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                       {"dihedral_max", q.dihedral_max},
                       {"sharpest_edges", pairs(q.sharpest_edges)},
                       {"normals_computed", q.normals_computed},
-                      {"split_vertices", q.split_vertices},
                       {"backward_normals", q.backward_normals},
                       {"backward_normal_examples", q.backward_normal_examples}};
     if (q.caps_known) {

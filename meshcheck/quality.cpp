@@ -242,32 +242,22 @@ TriangleQuality measure_quality(const Mesh& mesh, const Skeleton* skeleton, cons
                     });
   for (std::size_t k = 0; k < shown; ++k) q.sharpest_edges.push_back({edges[k].a, edges[k].b});
 
-  // ---- normals: every corner's against its triangle's
-  Mesh computed;
-  const Mesh* with_normals = &mesh;
+  // ---- normals: every vertex's against each of its triangles'
+  std::vector<dvec3> computed;
   if (mesh.normals.size() != nv) {
     q.normals_computed = true;
-    computed.positions = mesh.positions;
-    computed.triangles = mesh.triangles;
-    computed.normals = angle_weighted_normals(computed, vc);
-    with_normals = &computed;
+    computed = angle_weighted_normals(mesh, vc);
   }
-  std::vector<std::uint8_t> backward(nv, 0), split(nv, 0);
-  for (const CornerNormal& c : with_normals->corner_normals) {
-    if (c.corner / 3 < nf) split[mesh.triangles[c.corner / 3][c.corner % 3]] = 1;
-  }
+  const std::vector<dvec3>& vertex_normal = q.normals_computed ? computed : mesh.normals;
+  std::vector<std::uint8_t> backward(nv, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    const bool corners = !with_normals->corner_normals.empty();
     for (std::size_t v = r.begin(); v != r.end(); ++v) {
       for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
-        const std::uint32_t c = vc.corner[i];
-        const dvec3 n = corners ? with_normals->corner_normal(c) : with_normals->normals[v];
-        if (glm::dot(n, normal[c / 3]) < 0) backward[v] = 1;
+        if (glm::dot(vertex_normal[v], normal[vc.corner[i] / 3]) < 0) backward[v] = 1;
       }
     }
   });
   for (std::size_t v = 0; v < nv; ++v) {
-    q.split_vertices += split[v];
     if (!backward[v]) continue;
     ++q.backward_normals;
     if (q.backward_normal_examples.size() < params.max_examples)

@@ -19,8 +19,8 @@
 ///    triangles is. Without a skeleton nothing counts as a cap.
 ///  - junctions (with a skeleton): edges whose midpoint lies within `junction_radii` times the
 ///    fork's radius of a node with two or more children.
-///  - backward normal: a vertex (or split corner) normal more than 90 degrees from the normal
-///    of one of the triangles it serves (Mesh::corner_normal); counted per vertex. A mesh
+///  - backward normal: a vertex normal more than 90 degrees from the normal of one of its
+///    triangles; counted per vertex. A mesh
 ///    without normals is measured with its angle-weighted normals (normals_computed).
 ///
 /// Cost: one pass over the triangles, a sort of the edges, and with a skeleton a nearest-edge
@@ -71,7 +71,6 @@ struct TriangleQuality {
   std::vector<std::array<std::uint32_t, 2>> sharpest_edges;  ///< vertex pairs of the largest dihedral angles, largest first
 
   bool normals_computed = false;      ///< the mesh had no normals: its angle-weighted ones were measured
-  std::size_t split_vertices = 0;     ///< vertices with more than one normal (Mesh::corner_normals)
   std::size_t backward_normals = 0;   ///< vertices with a normal more than 90 degrees from one of its triangles
   std::vector<std::uint32_t> backward_normal_examples;  ///< vertex indices
 
