@@ -27,11 +27,11 @@
 ///    node is a sphere) divided by the radius of the nearest cone at the closest point
 ///    (linearly interpolated between its end radii); reported as p50, p95 and max.
 ///  - thick nodes inside (with a skeleton): every node whose radius is at least the median
-///    radius must lie inside the mesh or on its surface (a node at the centre of a flat cap)
-///    (CGAL `Side_of_triangle_mesh`; only tested on a closed, manifold, oriented mesh). Where
-///    the mesh intersects itself, a ray from a node inside two overlapping parts crosses two
-///    surfaces and CGAL calls it outside: nodes it calls outside are tested again by the
-///    generalized winding number, and count as inside at 0.5 or more
+///    radius must lie inside the mesh or on its surface (a node at the centre of a flat cap):
+///    winding number at least 1, all nodes in one pass over the triangles (core/mesh.h
+///    winding_numbers), or on the surface by CGAL's exact `Side_of_triangle_mesh`; only
+///    tested on a closed, manifold, oriented mesh. A node inside two overlapping parts, where
+///    the mesh intersects itself, has winding number 2 and is inside
 ///    (thick_nodes_in_overlaps; the self-intersections are reported anyway).
 ///
 /// Cost: O(F log F) plus the self-intersection test (box intersection, near-linear on meshes

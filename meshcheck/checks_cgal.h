@@ -21,7 +21,7 @@ struct CgalCheckResult {
   bool inside_checked = false;                         ///< `inside` was computed
   Timings timings;                                     ///< seconds per phase
   std::vector<std::uint8_t> inside;                    ///< #queries: 1 when inside the mesh or on its surface
-  std::size_t inside_by_winding = 0;                   ///< of those, found inside overlapping parts (see below)
+  std::size_t inside_by_winding = 0;                   ///< of those, inside overlapping parts (winding number >= 2)
 };
 
 /// Self-intersecting triangle pairs (when `self_intersections`) and which `queries` lie inside
@@ -30,12 +30,11 @@ struct CgalCheckResult {
 /// index in a triangle), as check_mesh has already established; `closed_polygon_mesh` adds no
 /// boundary. Precondition: indices in range, coordinates finite.
 ///
-/// CGAL's Side_of_triangle_mesh counts the crossings of a ray, which presumes a mesh without
-/// self-intersections: a point inside two overlapping parts (a stub's tube running into its
-/// parent's) crosses two surfaces and counts as outside. Queries it finds outside get the
-/// generalized winding number of the surface about them (the solid angle its triangles span,
-/// over 4 pi; 2 inside two overlapping parts, 0 outside), and count as inside at 0.5 or more
-/// (inside_by_winding), for as many of them as 200 M triangle visits allow.
+/// Inside means a winding number of at least 1 (core/mesh.h winding_numbers: signed ray
+/// crossings, all queries in one pass), so a point inside two overlapping parts (a stub's
+/// tube running into its parent's; winding number 2, inside_by_winding) is inside, where a
+/// parity test would call it outside; a point CGAL's exact Side_of_triangle_mesh puts on the
+/// surface counts as inside too.
 CgalCheckResult run_cgal_checks(const Mesh& mesh, bool polygon_mesh, bool closed_polygon_mesh, bool self_intersections,
                                 const std::vector<glm::dvec3>& queries, std::size_t max_examples);
 

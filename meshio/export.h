@@ -91,6 +91,7 @@ struct ExportParams {
   bool color = false;             ///< COLOR_0 = (root distance, thickness, phase, level), each over its maximum (default false)
   bool uv1 = false;               ///< TEXCOORD_1 = (root distance, thickness) in file units (default false)
   bool tangents = false;          ///< TANGENT from the UVs (u around the branch), w the handedness (default false)
+  std::uint32_t lods = 1;  ///< levels of detail `strandmesh mesh` writes, the full mesh included (lod/lod.h; default 1: none)
   const Skeleton* skeleton = nullptr;  ///< the skeleton the mesh was made from (not owned; for the attributes above)
   Compression compress = Compression::none;  ///< glTF: buffer compression (default none)
   bool quantize = false;       ///< glTF: KHR_mesh_quantization, 16-bit positions and 8-bit normals (default false)

@@ -151,6 +151,12 @@ void read_export_json(const json& section, const std::string& where, ExportParam
       {"optimize", [&](const json& v) { p.optimize = v.get<bool>(); }},
       {"compress", [&](const json& v) { p.compress = parse_compression(v.get<std::string>()); }},
       {"quantize", [&](const json& v) { p.quantize = v.get<bool>(); }},
+      {"lods",
+       [&](const json& v) {
+         const auto n = v.get<std::int64_t>();
+         if (n < 1 || n > 8) throw InvalidInputError("must be 1 (no levels of detail) to 8");
+         p.lods = static_cast<std::uint32_t>(n);
+       }},
   };
   std::vector<std::string> known;
   for (const auto& [k, f] : keys) known.push_back(k);
@@ -181,6 +187,7 @@ json export_to_json(const ExportParams& p) {
   j["optimize"] = p.optimize;
   j["compress"] = p.compress == Compression::meshopt ? "meshopt" : "none";
   j["quantize"] = p.quantize;
+  j["lods"] = p.lods;
   return j;
 }
 

@@ -90,7 +90,7 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
       const glm::dvec3 r0 = glm::normalize(glm::cross(axis, std::abs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
       const glm::dvec3 r1 = glm::cross(axis, r0);
       std::vector<std::tuple<double, int, std::uint32_t>> ring;  // angle, leaving?, corner
-      auto third = [&](std::uint32_t i) {
+      auto third = [&, x = x](std::uint32_t i) {  // (x by copy: clang 14 cannot capture a structured binding)
         const std::uint32_t c = vc.corner[b + i];
         const auto& t = mesh.triangles[c / 3];
         for (const std::uint32_t w : t) {
@@ -548,6 +548,113 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
 
 }  // namespace
 
+namespace {
+
+/// The triangles with a half-edge a -> b that has no single twin b -> a, nor is unique.
+std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
+  const VertexCorners vc = vertex_corners(m);
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t a = 0; a + 1 < vc.begin.size(); ++a) {
+    for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
+      const std::uint32_t c = vc.corner[k], f = c / 3;
+      const std::uint32_t b = m.triangles[f][(c % 3 + 1) % 3];
+      int same = 0, twin = 0;
+      for (std::uint32_t j = vc.begin[a]; j < vc.begin[a + 1]; ++j) {
+        const std::uint32_t cj = vc.corner[j];
+        same += m.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
+        twin += m.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
+      }
+      if (same != 1 || twin != 1) out.push_back(f);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Components (through shared vertices) of `out` other than the largest: inner shells (a void
+/// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
+/// apart from the tube it folded) go. A part that holds an anchor is a branch the union cut off
+/// the tree (its tube turned inside out over a whole section): the input triangles it was cut
+/// from are returned, and the mesh is not to be used.
+std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t>& origin_of,
+                                            std::span<const glm::dvec3> anchors,
+                                            const std::vector<std::uint8_t>& was_cut, SelfUnionStats& st) {
+  std::vector<std::uint32_t> severed;
+  if (out.triangles.empty()) return severed;
+  const bool uvs = !out.corner_uvs.empty(), branches = !out.triangle_branch.empty();
+  UnionFind comp(out.positions.size());
+  for (const auto& t : out.triangles) {
+    comp.unite(t[0], t[1]);
+    comp.unite(t[1], t[2]);
+  }
+  // Signed volumes about one common origin (any origin gives a closed component's volume).
+  std::map<std::uint32_t, double> volume;
+  std::map<std::uint32_t, std::vector<std::uint32_t>> members;
+  const glm::dvec3 o = out.positions[out.triangles.front()[0]];
+  for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+    const auto& t = out.triangles[f];
+    const std::uint32_t c = comp.find(t[0]);
+    volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+    members[c].push_back(f);
+  }
+  std::uint32_t largest = volume.begin()->first;
+  for (const auto& [c, v] : volume) {
+    if (v > volume[largest]) largest = c;
+  }
+  std::map<std::uint32_t, std::uint8_t> keep_comp;
+  for (const auto& [c, v] : volume) {
+    if (c == largest) {
+      keep_comp[c] = 1;
+      continue;
+    }
+    bool holds = false;
+    if (v > 0) {
+      Mesh part;
+      part.positions = out.positions;
+      glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
+      for (const std::uint32_t f : members[c]) {
+        part.triangles.push_back(out.triangles[f]);
+        for (const std::uint32_t x : out.triangles[f]) {
+          lo = glm::min(lo, out.positions[x]);
+          hi = glm::max(hi, out.positions[x]);
+        }
+      }
+      std::vector<glm::dvec3> near;
+      for (const glm::dvec3& a : anchors) {
+        if (glm::all(glm::greaterThanEqual(a, lo)) && glm::all(glm::lessThanEqual(a, hi))) near.push_back(a);
+      }
+      for (const int w : winding_numbers(part, near)) holds = holds || w != 0;
+    }
+    if (holds) {
+      for (const std::uint32_t f : members[c]) {
+        if (was_cut[origin_of[f]]) severed.push_back(origin_of[f]);
+      }
+      continue;
+    }
+    keep_comp[c] = 0;
+    st.inner_shells += v < 0 ? 1 : 0;
+    st.lumps += v > 0 ? 1 : 0;
+  }
+  if (!severed.empty()) return severed;
+  std::size_t w = 0;
+  for (std::size_t f = 0; f < out.triangles.size(); ++f) {
+    if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
+    out.triangles[w] = out.triangles[f];
+    origin_of[w] = origin_of[f];
+    if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
+    if (branches) out.triangle_branch[w] = out.triangle_branch[f];
+    ++w;
+  }
+  out.triangles.resize(w);
+  origin_of.resize(w);
+  if (uvs) out.corner_uvs.resize(w);
+  if (branches) out.triangle_branch.resize(w);
+  return severed;
+}
+
+}  // namespace
+
 SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
                           std::span<const glm::dvec3> anchors, std::vector<std::uint32_t>& origin_out) {
   SelfUnionStats st;
@@ -558,25 +665,13 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   if (pairs.empty()) return st;
   const VertexCorners vc = vertex_corners(mesh);
 
-  // Attempts: pairs whose patches could not be judged are left out, with every pair joined
-  // to them (sharing a triangle or a vertex), and the rest is tried again.
+  // Attempts: where patches cannot be judged, or the union cuts a branch off the tree, those
+  // crossings are left out, with every pair joined to them (sharing a vertex), and the rest is
+  // tried again.
   std::vector<std::array<std::uint32_t, 2>> active = pairs;
   std::vector<std::uint8_t> excluded(mesh.positions.size(), 0);  // per vertex
-  Attempt attempt(mesh, vc);
-  constexpr int kAttempts = 4;
-  bool ready = false;
-  for (int k = 0; k < kAttempts && !active.empty(); ++k) {
-    if (!attempt.run(active)) {
-      st.problem = attempt.problem;
-      return st;
-    }
-    if (attempt.bad.empty()) {
-      ready = true;
-      break;
-    }
-    // Leave out the bad triangles' clusters: every pair with a vertex on a bad triangle,
-    // repeated until no pair left in touches a vertex left out.
-    for (const std::uint32_t f : attempt.bad) {
+  auto leave_out = [&](const std::vector<std::uint32_t>& bad) {
+    for (const std::uint32_t f : bad) {
       for (const std::uint32_t v : mesh.triangles[f]) excluded[v] = 1;
     }
     for (bool grew = true; grew;) {
@@ -600,88 +695,58 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       }
       active.swap(still);
     }
+  };
+  Attempt attempt(mesh, vc);
+  constexpr int kAttempts = 6;
+  Mesh out;
+  std::vector<std::uint32_t> origin_of;
+  bool ready = false;
+  for (int k = 0; k < kAttempts && !active.empty(); ++k) {
+    if (!attempt.run(active)) {
+      st.problem = attempt.problem;
+      return st;
+    }
+    if (!attempt.bad.empty()) {
+      leave_out(attempt.bad);
+      continue;
+    }
+    SelfUnionStats trial;
+    out = Mesh{};
+    attempt.assemble(out, origin_of, grid, trial);
+    std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
+    std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
+    trial.split_vertices = split_pinches(out, node, strand);
+    std::vector<std::uint8_t> was_cut(nf, 0);
+    for (const auto& pr : active) was_cut[pr[0]] = was_cut[pr[1]] = 1;
+    // Where the kept patches do not close up (a cut line ending where the surface folds), those
+    // crossings are left out too.
+    std::vector<std::uint32_t> open;
+    for (const std::uint32_t f : open_edge_triangles(out)) open.push_back(origin_of[f]);
+    if (!open.empty()) {
+      leave_out(open);
+      continue;
+    }
+    const std::vector<std::uint32_t> severed = drop_loose_parts(out, origin_of, anchors, was_cut, trial);
+    if (!severed.empty()) {
+      leave_out(severed);
+      continue;
+    }
+    st.new_vertices = trial.new_vertices;
+    st.dropped_triangles = trial.dropped_triangles;
+    st.flipped_triangles = trial.flipped_triangles;
+    st.split_vertices = trial.split_vertices;
+    st.inner_shells = trial.inner_shells;
+    st.lumps = trial.lumps;
+    ready = true;
+    break;
   }
   st.patches = attempt.patches;
   st.cut_triangles = attempt.cut_triangles;
   st.left_out = pairs.size() - active.size();
   if (!ready) {
-    st.problem = active.empty() ? "no crossing could be judged" : "crossings still misjudged after " +
-                                                                      std::to_string(kAttempts) + " attempts";
+    st.problem = active.empty() ? "no crossing could be judged"
+                                : "crossings still misjudged after " + std::to_string(kAttempts) + " attempts";
     return st;
-  }
-  Mesh out;
-  std::vector<std::uint32_t> origin_of;
-  attempt.assemble(out, origin_of, grid, st);
-  const bool uvs = !out.corner_uvs.empty(), branches = !out.triangle_branch.empty();
-  std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
-  std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
-  st.split_vertices = split_pinches(out, node, strand);
-
-  // Components (through shared vertices) other than the largest: inner shells (a void
-  // enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out,
-  // come apart from the tube it folded) go; a part that holds a skeleton node stays.
-  if (!out.triangles.empty()) {
-    UnionFind comp(out.positions.size());
-    for (const auto& t : out.triangles) {
-      comp.unite(t[0], t[1]);
-      comp.unite(t[1], t[2]);
-    }
-    // Signed volumes about one common origin (any origin gives a closed component's volume).
-    std::map<std::uint32_t, double> volume;
-    std::map<std::uint32_t, std::vector<std::uint32_t>> members;
-    const glm::dvec3 o = out.positions[out.triangles.front()[0]];
-    for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
-      const auto& t = out.triangles[f];
-      const std::uint32_t c = comp.find(t[0]);
-      volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
-      members[c].push_back(f);
-    }
-    std::uint32_t largest = volume.begin()->first;
-    for (const auto& [c, v] : volume) {
-      if (v > volume[largest]) largest = c;
-    }
-    std::map<std::uint32_t, std::uint8_t> keep_comp;
-    for (const auto& [c, v] : volume) {
-      if (c == largest) {
-        keep_comp[c] = 1;
-        continue;
-      }
-      st.inner_shells += v < 0 ? 1 : 0;
-      bool holds = false;
-      if (v > 0) {
-        Mesh part;
-        part.positions = out.positions;
-        glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
-        for (const std::uint32_t f : members[c]) {
-          part.triangles.push_back(out.triangles[f]);
-          for (const std::uint32_t x : out.triangles[f]) {
-            lo = glm::min(lo, out.positions[x]);
-            hi = glm::max(hi, out.positions[x]);
-          }
-        }
-        std::vector<glm::dvec3> near;
-        for (const glm::dvec3& a : anchors) {
-          if (glm::all(glm::greaterThanEqual(a, lo)) && glm::all(glm::lessThanEqual(a, hi))) near.push_back(a);
-        }
-        for (const int w : winding_numbers(part, near)) holds = holds || w != 0;
-      }
-      keep_comp[c] = holds ? 1 : 0;
-
-      st.lumps += (v > 0 && !holds) ? 1 : 0;
-    }
-    std::size_t w = 0;
-    for (std::size_t f = 0; f < out.triangles.size(); ++f) {
-      if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
-      out.triangles[w] = out.triangles[f];
-      origin_of[w] = origin_of[f];
-      if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
-      if (branches) out.triangle_branch[w] = out.triangle_branch[f];
-      ++w;
-    }
-    out.triangles.resize(w);
-    origin_of.resize(w);
-    if (uvs) out.corner_uvs.resize(w);
-    if (branches) out.triangle_branch.resize(w);
   }
 
   // Unused vertices go (those of dropped triangles and split pinches), the order kept.

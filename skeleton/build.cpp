@@ -159,12 +159,22 @@ std::uint32_t validate(const RawSkeleton& raw, const SkeletonParams& params,
       root = static_cast<std::uint32_t>(i);
     }
   }
+  std::vector<std::uint32_t> children(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
     const std::int64_t pid = raw.parent_id[i];
     if (pid == -1) continue;
     if (pid == raw.id[i]) reject(at(raw, i) + ": node is its own parent (a cycle)");
-    if (!index_of.count(pid)) {
+    const auto parent = index_of.find(pid);
+    if (parent == index_of.end()) {
       reject(at(raw, i) + ": parent id " + std::to_string(pid) + " does not exist");
+    }
+    if (++children[parent->second] > SkeletonLimits::max_children) {
+      const std::size_t total = static_cast<std::size_t>(
+          std::count(raw.parent_id.begin(), raw.parent_id.end(), raw.id[parent->second]));
+      reject(at(raw, parent->second) + ": " + std::to_string(total) + " children; a node may have at most " +
+             std::to_string(SkeletonLimits::max_children) +
+             " (a hub of that many branches from one point is not meshed well nor in reasonable time; spread "
+             "them over nodes along the branch)");
     }
   }
   if (root == kNone) reject(file + ": no root (no node has parent -1); the parent links form a cycle");

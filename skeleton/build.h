@@ -42,6 +42,11 @@ struct SkeletonLimits {
   static constexpr double max_offset_ratio = 1e9;
   /// Largest extent (bounding box side, radii included) over the thinnest radius.
   static constexpr double max_extent_ratio = 1e6;
+  /// Most children of one node. The contour stage's work at a hub grows with the square of
+  /// its children (every split test there cuts the strands of all of them): 10,000 twigs from
+  /// one point take about half a minute and 20,000 two minutes, and neither mesh follows its
+  /// twigs (docs/reliability.md). Measured trees have at most a few children per node.
+  static constexpr std::size_t max_children = 10'000;
 };
 
 /// What to do with a child that is thicker than its parent.

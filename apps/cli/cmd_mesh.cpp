@@ -13,10 +13,19 @@
 #include "core/log.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
+#include "lod/lod.h"
 #include "pipeline/pipeline.h"
 #include "skeleton/io.h"
 
 namespace sm::cli {
+
+namespace {
+// The file of level of detail k: "tree.glb" -> "tree_lod1.glb".
+std::string lod_path(const std::string& output, std::uint32_t k) {
+  const std::filesystem::path p(output);
+  return (p.parent_path() / (p.stem().string() + "_lod" + std::to_string(k) + p.extension().string())).string();
+}
+}  // namespace
 
 void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
   add_command(app, "mesh", "Mesh a skeleton: strandmesh mesh SKELETON -o OUT.{glb,gltf,obj,ply}", [&global](CLI::App& sub) -> Action {
@@ -110,6 +119,9 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         if (ec) throw IoError("cannot create directory " + o->dump_dir + ": " + ec.message());
       }
       if (!to_stdout) check_output_path(o->output);
+      const std::uint32_t lods = params.output.lods;
+      if (lods > 1 && to_stdout) throw UsageError("levels of detail (--lods) are written to files, not to standard output");
+      for (std::uint32_t k = 1; k < lods; ++k) check_output_path(lod_path(o->output, k));
       if (!o->stats_path.empty()) check_output_path(o->stats_path);
       OutputTransaction outputs;
       const RawSkeleton raw = read_skeleton_arg(o->input, read_options(o->input_options));
@@ -142,6 +154,38 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                    " edges not shared by exactly two triangles; please report this skeleton");
         return int(kInternal);  // nothing written
       }
+      // Levels of detail: the pipeline again on a pruned skeleton with coarser parameters (lod/lod.h).
+      std::vector<std::string> lod_lines;
+      for (std::uint32_t k = 1; k < lods; ++k) {
+        Stopwatch lod_clock;
+        LodLevel level;
+        ProgressBar lod_bar(!global.quiet, OverallProgress::pipeline());
+        PipelineResult lr = mesh_lod(raw, params, k, {}, [&](std::string_view phase, double f) {
+          std::lock_guard lock(m);
+          lod_bar.update(phase, f);
+        }, &level);
+        if (lr.mesh.stats.bad_edges > 0) {
+          log::error("internal error: level of detail " + std::to_string(k) + " has " +
+                     std::to_string(lr.mesh.stats.bad_edges) + " edges not shared by exactly two triangles");
+          return int(kInternal);
+        }
+        ExportParams lp = ep;
+        lp.skeleton = &lr.skeleton.skeleton;  // the same root: the pivot does not move between levels
+        write_mesh(lr.mesh.mesh, lod_path(o->output, k), lp, [&](std::string_view phase, double f) { lod_bar.update(phase, f); });
+        lod_bar.finish();
+        char text[320];
+        std::snprintf(text, sizeof text,
+                      "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step %.2g) "
+                      "in %.2f s -> %s",
+                      k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
+                      level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
+                      lod_path(o->output, k).c_str());
+        if (lr.repair.pairs_left > 0) {
+          log::warn("level of detail " + std::to_string(k) + " keeps " + std::to_string(lr.repair.pairs_left) +
+                    " self-intersecting triangle pairs");
+        }
+        lod_lines.emplace_back(text);
+      }
       outputs.commit();
       if (to_stdout) {
         std::fwrite(mesh_bytes.data(), 1, mesh_bytes.size(), stdout);
@@ -153,6 +197,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     o->input.c_str(), r.skeleton.skeleton.size(), r.particles.strand_count(), r.particles.position.size(),
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
+      for (const std::string& l : lod_lines) log::info(l);
       if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere && global.verbose) {
         std::snprintf(line, sizeof line,
                       "note: self-intersections were looked for near the junctions only (%zu triangles, more than "

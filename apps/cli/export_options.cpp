@@ -26,6 +26,11 @@ void add_export_options(CLI::App& sub, ExportOptions& o) {
   sub.add_option("--compress", o.compress, "glTF buffer compression: meshopt (EXT_meshopt_compression) or none")
       ->check(CLI::IsMember({"meshopt", "none"}))
       ->group(group);
+  sub.add_option("--lods", o.lods,
+                 "Levels of detail in all (1-8), each a closed mesh from the pipeline run again on coarser settings "
+                 "with thin twigs pruned; level k goes to OUT_lodK.EXT")
+      ->check(CLI::Range(1, 8))
+      ->group(group);
   sub.add_flag("--quantize", o.quantize, "glTF: 16-bit positions, 8-bit normals (KHR_mesh_quantization)")->group(group);
 }
 
@@ -37,6 +42,7 @@ void apply_export_options(const ExportOptions& o, ExportParams& p) {
   if (o.no_optimize) p.optimize = false;
   if (!o.compress.empty()) p.compress = parse_compression(o.compress);
   if (o.quantize) p.quantize = true;
+  if (o.lods > 0) p.lods = o.lods;
 }
 
 }  // namespace sm::cli

@@ -13,6 +13,7 @@ namespace sm::cli {
 struct ExportOptions {
   std::string up_axis, pivot, scale, attributes, compress;
   bool no_optimize = false, quantize = false;
+  std::uint32_t lods = 0;  ///< 0: not given
 };
 
 /// Adds --up-axis, --pivot, --scale, --attributes, --no-optimize, --compress, --quantize to `sub`.
