@@ -4,13 +4,13 @@
 # prints one Markdown row per tree (the figures of `strandmesh check --json`).
 #
 #   scripts/quality_table.sh [BUILD_DIR] [SKELETON_DIR]   # defaults: build, ../shared/skeletons
-#   PRESETS="oak conifer" SEEDS="1" scripts/quality_table.sh   # fewer grown trees
+#   PRESETS="oak conifer" SEEDS="1" scripts/quality_table.sh   # fewer grown trees (PRESETS="": none)
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 SM="${1:-$ROOT/build}/strandmesh"
 SKELETONS="${2:-$ROOT/../shared/skeletons}"
-PRESETS="${PRESETS:-broadleaf conifer oak bush}"
-SEEDS="${SEEDS:-1 2 3}"
+PRESETS="${PRESETS-broadleaf conifer oak bush}"
+SEEDS="${SEEDS-1 2 3}"
 OUT="$(mktemp -d)"
 trap 'rm -rf "$OUT"' EXIT
 
