@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -109,6 +110,66 @@ inline std::array<double, 3> corner_weights(const glm::dvec3& p0, const glm::dve
 const glm::dvec3 kRayDirection = glm::normalize(glm::dvec3(0.5773502691896258, 0.7071067811865476, 0.4082482904638631) +
                                                 glm::dvec3(0.01234567, -0.00987654, 0.00543210));
 
+
+/// A vertex normal is accepted when it is at most 89 degrees from each of its triangles' normals
+/// (a degree of margin, so float32 storage cannot turn it past 90).
+constexpr double kServeCosine = 0.0174524064372835;
+
+/// The unit direction n with the largest min_i dot(n, u_i) over the unit vectors u (the centre
+/// of the smallest spherical cap holding them), and that minimum. The optimum is fixed by one,
+/// two or three of them (a vector, the bisector of two, the direction equally far from three),
+/// so those candidates are tried; the first best one wins, so the result depends on the order
+/// of u only. Triples are tried for up to 32 vectors.
+std::pair<glm::dvec3, double> most_central_direction(const std::vector<glm::dvec3>& u) {
+  glm::dvec3 best(0, 0, 1);
+  double best_min = -2;
+  auto consider = [&](const glm::dvec3& d) {
+    const double l = glm::length(d);
+    if (!(l > 1e-12)) return;
+    const glm::dvec3 n = d / l;
+    double m = 2;
+    for (const glm::dvec3& x : u) {
+      m = std::min(m, glm::dot(n, x));
+      if (m <= best_min) return;
+    }
+    best = n;
+    best_min = m;
+  };
+  const std::size_t k = u.size();
+  for (std::size_t i = 0; i < k; ++i) consider(u[i]);
+  for (std::size_t i = 0; i < k; ++i)
+    for (std::size_t j = i + 1; j < k; ++j) consider(u[i] + u[j]);
+  if (k <= 32) {
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = i + 1; j < k; ++j)
+        for (std::size_t l = j + 1; l < k; ++l) {
+          const glm::dvec3 c = glm::cross(u[j] - u[i], u[l] - u[i]);
+          consider(c);
+          consider(-c);
+        }
+  }
+  return {best, best_min};
+}
+
+/// Where a vertex's normal (normals, unit) is more than 89 degrees from one of its triangles'
+/// (issue 32: a black patch in shading), replaces it by the direction closest to all of them
+/// (most_central_direction), if that is better. `faces_of(v, out)` fills the unit normals of
+/// v's triangles of non-zero area.
+template <class FacesOf>
+void serve_every_face(std::span<const std::uint32_t> vertices, std::vector<glm::dvec3>& normals, FacesOf&& faces_of) {
+  std::vector<glm::dvec3> u;
+  for (const std::uint32_t v : vertices) {
+    faces_of(v, u);
+    std::sort(u.begin(), u.end(), [](const glm::dvec3& a, const glm::dvec3& b) {
+      return a.x != b.x ? a.x < b.x : (a.y != b.y ? a.y < b.y : a.z < b.z);
+    });  // the result depends on the set of triangles only, not on their order
+    double worst = 2;
+    for (const glm::dvec3& x : u) worst = std::min(worst, glm::dot(normals[v], x));
+    if (u.empty() || worst >= kServeCosine) continue;
+    const auto [n, m] = most_central_direction(u);
+    if (m > worst) normals[v] = n;
+  }
+}
 }  // namespace
 
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh) {
@@ -161,6 +222,32 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
       sum[v] = l > 0 ? sum[v] * (1.0 / l) : glm::dvec3(0, 0, 1);
     }
   });
+  // The vertices whose normal faces (nearly) away from one of their triangles: one pass over
+  // the triangles marks them; they are few (a fold or needle at a crotch) and fixed in order.
+  std::vector<std::uint8_t> away(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, kChunk), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 fn = mesh.face_normal(t);
+      const double l = glm::length(fn);
+      if (!(l > 0)) continue;
+      for (const std::uint32_t v : t) {
+        if (glm::dot(sum[v], fn) < kServeCosine * l) std::atomic_ref<std::uint8_t>(away[v]).store(1, std::memory_order_relaxed);
+      }
+    }
+  });
+  std::vector<std::uint32_t> fix;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (away[v]) fix.push_back(static_cast<std::uint32_t>(v));
+  }
+  serve_every_face(fix, sum, [&](std::uint32_t v, std::vector<glm::dvec3>& u) {
+    u.clear();
+    for (std::uint32_t x = vc.begin[v]; x < vc.begin[v + 1]; ++x) {
+      const glm::dvec3 fn = mesh.face_normal(mesh.triangles[vc.corner[x] / 3]);
+      const double l = glm::length(fn);
+      if (l > 0 && std::isfinite(l)) u.push_back(fn / l);
+    }
+  });
   return sum;
 }
 
@@ -188,6 +275,21 @@ void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::sp
     const double l = glm::length(sum[k]);
     mesh.normals[list[k]] = l > 0 ? sum[k] * (1.0 / l) : glm::dvec3(0, 0, 1);
   }
+  // As angle_weighted_normals: no normal facing away from one of its triangles.
+  std::vector<std::vector<glm::dvec3>> faces(list.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& t = mesh.triangles[triangles.empty() ? k : triangles[k]];
+    if (!(mark[t[0]] | mark[t[1]] | mark[t[2]])) continue;
+    const glm::dvec3 fn = mesh.face_normal(t);
+    const double l = glm::length(fn);
+    if (!(l > 0 && std::isfinite(l))) continue;
+    for (const std::uint32_t v : t) {
+      if (mark[v]) faces[static_cast<std::size_t>(slot(v))].push_back(fn / l);
+    }
+  }
+  serve_every_face(list, mesh.normals, [&](std::uint32_t v, std::vector<glm::dvec3>& u) {
+    u = faces[static_cast<std::size_t>(slot(v))];
+  });
 }
 
 double winding_number(const Mesh& mesh, const glm::dvec3& p) {

@@ -28,153 +28,16 @@
 #include "core/errors.h"
 #include "core/union_find.h"
 #include "meshcheck/checks_cgal.h"
+#include "meshcheck/cone_tree.h"
 
 namespace sm {
 
 namespace {
 
 using glm::dvec3;
-
-// ---------------------------------------------------------------- round cones
-
-struct Cone {
-  dvec3 a, b;     // end sphere centres (b == a for a lone node)
-  double ra, rb;  // end sphere radii (> 0)
-};
-
-struct ConeDistance {
-  double distance;  // signed: negative inside
-  double radius;    // cone radius at the closest point
-};
-
-// Signed distance from p to the convex hull of the spheres (a, ra) and (b, rb). In the half
-// plane through the axis, the hull's outline is two circles joined by their common tangent;
-// the point's coordinate along that tangent decides whether sphere a, sphere b or the
-// tangent (the conical side) is closest.
-ConeDistance cone_distance(const Cone& c, const dvec3& p) {
-  const dvec3 axis = c.b - c.a;
-  const double len = glm::length(axis);
-  if (len <= std::abs(c.ra - c.rb)) {  // one sphere contains the other (or a single node)
-    const bool a_big = c.ra >= c.rb;
-    const dvec3& centre = a_big ? c.a : c.b;
-    const double r = a_big ? c.ra : c.rb;
-    return {glm::length(p - centre) - r, r};
-  }
-  const dvec3 e = axis / len;
-  const dvec3 w = p - c.a;
-  const double y = glm::dot(w, e);          // along the axis
-  const double x = glm::length(w - y * e);  // away from the axis
-  const double s = (c.ra - c.rb) / len;     // sine of the cone's half angle
-  const double co = std::sqrt(std::max(0.0, 1.0 - s * s));
-  const double u = y * co - x * s;  // along the tangent, 0 at a's tangent point
-  if (u <= 0) return {glm::length(w) - c.ra, c.ra};
-  if (u >= len * co) return {glm::length(p - c.b) - c.rb, c.rb};
-  const double d = y * s + x * co - c.ra;                    // distance to the tangent line
-  const double t = std::clamp((y - d * s) / len, 0.0, 1.0);  // axial position of the closest point
-  return {d, c.ra + t * (c.rb - c.ra)};
-}
-
-// A bounding-volume hierarchy over cones: nearest cone by signed distance, exactly.
-class ConeTree {
- public:
-  explicit ConeTree(std::vector<Cone> cones) {
-    const std::size_t n = cones.size();
-    std::vector<std::uint32_t> order(n);
-    std::iota(order.begin(), order.end(), 0u);
-    std::vector<dvec3> centre(n);
-    for (std::size_t i = 0; i < n; ++i) centre[i] = 0.5 * (cones[i].a + cones[i].b);
-    struct Task {
-      std::uint32_t node, begin, end;
-    };
-    std::vector<Task> stack;
-    nodes_.push_back({});
-    stack.push_back({0, 0, static_cast<std::uint32_t>(n)});
-    while (!stack.empty()) {
-      const Task task = stack.back();
-      stack.pop_back();
-      Node node;
-      node.lo = dvec3(std::numeric_limits<double>::infinity());
-      node.hi = -node.lo;
-      dvec3 clo = node.lo, chi = node.hi;
-      for (std::uint32_t i = task.begin; i < task.end; ++i) {
-        const Cone& c = cones[order[i]];
-        node.lo = glm::min(node.lo, glm::min(c.a - c.ra, c.b - c.rb));
-        node.hi = glm::max(node.hi, glm::max(c.a + c.ra, c.b + c.rb));
-        node.rmax = std::max(node.rmax, std::max(c.ra, c.rb));
-        clo = glm::min(clo, centre[order[i]]);
-        chi = glm::max(chi, centre[order[i]]);
-      }
-      if (task.end - task.begin <= kLeafSize) {
-        node.first = task.begin;
-        node.count = task.end - task.begin;
-        nodes_[task.node] = node;
-        continue;
-      }
-      const dvec3 ext = chi - clo;
-      const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
-      const std::uint32_t mid = task.begin + (task.end - task.begin) / 2;
-      std::nth_element(order.begin() + task.begin, order.begin() + mid, order.begin() + task.end,
-                       [&](std::uint32_t i, std::uint32_t j) {
-                         return centre[i][axis] < centre[j][axis] || (centre[i][axis] == centre[j][axis] && i < j);
-                       });
-      node.left = static_cast<std::uint32_t>(nodes_.size());
-      node.right = node.left + 1;
-      nodes_[task.node] = node;
-      nodes_.push_back({});
-      nodes_.push_back({});
-      stack.push_back({node.left, task.begin, mid});
-      stack.push_back({node.right, mid, task.end});
-    }
-    cones_.reserve(n);
-    for (const std::uint32_t i : order) cones_.push_back(cones[i]);
-  }
-
-  [[nodiscard]] ConeDistance nearest(const dvec3& p) const {
-    ConeDistance best{std::numeric_limits<double>::infinity(), 1.0};
-    std::uint32_t stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (lower_bound(node, p) >= best.distance) continue;
-      if (node.count > 0) {
-        for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
-          const ConeDistance d = cone_distance(cones_[i], p);
-          if (d.distance < best.distance) best = d;
-        }
-        continue;
-      }
-      // Visit the nearer child first (pushed last); the depth is at most ~2 log2 N.
-      const double bl = lower_bound(nodes_[node.left], p), br = lower_bound(nodes_[node.right], p);
-      if (top + 2 > 128) continue;  // unreachable for balanced trees of < 2^60 cones
-      if (bl <= br) {
-        stack[top++] = node.right;
-        stack[top++] = node.left;
-      } else {
-        stack[top++] = node.left;
-        stack[top++] = node.right;
-      }
-    }
-    return best;
-  }
-
- private:
-  static constexpr std::uint32_t kLeafSize = 4;
-  struct Node {
-    dvec3 lo{0}, hi{0};
-    double rmax = 0;
-    std::uint32_t first = 0, count = 0, left = 0, right = 0;
-  };
-  // Outside the box, a cone is at least as far as the box; inside, no point is deeper in a
-  // cone than its largest radius.
-  static double lower_bound(const Node& n, const dvec3& p) {
-    const dvec3 d = glm::max(glm::max(n.lo - p, p - n.hi), dvec3(0));
-    const double dist = glm::length(d);
-    return dist > 0 ? dist : -n.rmax;
-  }
-  std::vector<Cone> cones_;
-  std::vector<Node> nodes_;
-};
+using detail::Cone;
+using detail::ConeDistance;
+using detail::ConeTree;
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -190,15 +53,7 @@ void add_example(std::vector<T>& list, const T& value, std::size_t max) {
 
 void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, const Skeleton& skel,
                       std::size_t max_examples, MeshCheckReport& r) {
-  std::vector<Cone> cones;
-  for (std::size_t i = 0; i < skel.size(); ++i) {
-    const NodeId parent = skel.parent[i];
-    if (parent.valid()) {
-      cones.push_back({skel.position[parent.idx()], skel.position[i], skel.radius[parent.idx()], skel.radius[i]});
-    } else if (skel.size() == 1) {
-      cones.push_back({skel.position[i], skel.position[i], skel.radius[i], skel.radius[i]});
-    }
-  }
+  std::vector<Cone> cones = detail::skeleton_cones(skel);
   if (cones.empty()) return;
   const ConeTree tree(std::move(cones));
   std::vector<std::uint32_t> verts;
@@ -434,6 +289,15 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   }
   r.timings.add("fidelity", watch.lap());
 
+  // ---- triangle quality (informative unless limits are given)
+  if (params.quality && r.nonfinite_vertices == 0) {
+    r.quality = measure_quality(mesh, params.skeleton && !params.skeleton->empty() ? params.skeleton : nullptr,
+                                {.junction_radii = params.junction_radii, .max_examples = params.max_examples});
+    r.quality_checked = true;
+    r.quality_limits = params.quality_limits;
+  }
+  r.timings.add("quality", watch.lap());
+
   // ---- CGAL: self-intersections and thick nodes inside
   if (r.nonfinite_vertices == 0 && nf > 0 && (params.self_intersections || !thick.empty())) {
     const bool polygon_mesh = r.edge_manifold && r.vertex_manifold && r.oriented && !repeated_index;
@@ -480,6 +344,9 @@ std::vector<std::string> MeshCheckReport::failures() const {
   if (inside_checked && thick_nodes_inside != thick_nodes) {
     f.push_back(n(thick_nodes - thick_nodes_inside) + " of " + n(thick_nodes) +
                 " thick skeleton nodes lie outside the mesh");
+  }
+  if (quality_checked && quality_limits) {
+    for (const std::string& q : quality.failures(*quality_limits)) f.push_back(q);
   }
   return f;
 }
@@ -550,6 +417,29 @@ std::string to_text(const MeshCheckReport& r) {
     line("thick nodes inside",
          r.inside_checked ? n(r.thick_nodes_inside) + " / " + n(r.thick_nodes) + ex : std::string("not checked"));
   }
+  if (r.quality_checked) {
+    const TriangleQuality& q = r.quality;
+    auto pct = [](double share) { return fmt(100.0 * share, 3) + " %"; };
+    line("small angles", pct(q.share_under_10()) + " of the triangles under 10 degrees, " + pct(q.share_under_5()) +
+                             " under 5, " + pct(q.share_under_1()) + " (" + n(q.under_1) + ") under 1; smallest " +
+                             fmt(q.min_angle, 3));
+    line("aspect ratio", "p95 " + fmt(q.aspect_p95, 3) + ", max " + fmt(q.aspect_max, 3) + " (1 = equilateral)");
+    std::string sharp = pairs(q.sharpest_edges, "-");
+    line("dihedral angle", "p99 " + fmt(q.dihedral_p99, 3) + ", max " + fmt(q.dihedral_max, 3) + " degrees over " +
+                               n(q.edges) + " edges" +
+                               (q.caps_known ? " (" + n(q.cap_edges) + " cap edges left out)" : " (caps included)") +
+                               sharp);
+    if (q.caps_known) {
+      line("  at junctions", "p99 " + fmt(q.junction_dihedral_p99, 3) + ", max " + fmt(q.junction_dihedral_max, 3) +
+                                 " degrees over " + n(q.junction_edges) + " edges");
+    }
+    std::string ex;
+    for (const auto v : q.backward_normal_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(v);
+    line("backward normals", n(q.backward_normals) + " vertices" +
+                                 (q.normals_computed ? " (angle-weighted; the mesh has no normals)"
+                                                     : std::string()) +
+                                 ex);
+  }
   const auto failures = r.failures();
   for (const auto& f : failures) s += "problem: " + f + "\n";
   s += failures.empty() ? "result: ok\n" : "result: FAILED\n";
@@ -596,6 +486,39 @@ nlohmann::json to_json(const MeshCheckReport& r) {
     j["thick_nodes"] = r.thick_nodes;
     j["thick_nodes_inside"] = r.thick_nodes_inside;
     j["thick_nodes_in_overlaps"] = r.thick_nodes_in_overlaps;
+  }
+  if (r.quality_checked) {
+    const TriangleQuality& q = r.quality;
+    nlohmann::json qj{{"share_under_1", q.share_under_1()},
+                      {"share_under_5", q.share_under_5()},
+                      {"share_under_10", q.share_under_10()},
+                      {"under_1", q.under_1},
+                      {"under_5", q.under_5},
+                      {"under_10", q.under_10},
+                      {"min_angle", q.min_angle},
+                      {"aspect_p95", q.aspect_p95},
+                      {"aspect_max", q.aspect_max},
+                      {"caps_known", q.caps_known},
+                      {"dihedral_edges", q.edges},
+                      {"cap_edges", q.cap_edges},
+                      {"dihedral_p99", q.dihedral_p99},
+                      {"dihedral_max", q.dihedral_max},
+                      {"sharpest_edges", pairs(q.sharpest_edges)},
+                      {"normals_computed", q.normals_computed},
+                      {"backward_normals", q.backward_normals},
+                      {"backward_normal_examples", q.backward_normal_examples}};
+    if (q.caps_known) {
+      qj["junction_edges"] = q.junction_edges;
+      qj["junction_dihedral_p99"] = q.junction_dihedral_p99;
+      qj["junction_dihedral_max"] = q.junction_dihedral_max;
+    }
+    if (r.quality_limits) {
+      qj["limits"] = {{"max_share_under_10", r.quality_limits->max_share_under_10},
+                      {"max_under_1", r.quality_limits->max_under_1},
+                      {"max_junction_dihedral_p99", r.quality_limits->max_junction_dihedral_p99},
+                      {"max_backward_normals", r.quality_limits->max_backward_normals}};
+    }
+    j["quality"] = qj;
   }
   j["examples"] = {{"boundary_edges", pairs(r.boundary_edge_examples)},
                    {"nonmanifold_edges", pairs(r.nonmanifold_edge_examples)},

@@ -49,6 +49,7 @@
 
 #include "core/mesh.h"
 #include "core/report.h"
+#include "meshcheck/quality.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -64,6 +65,11 @@ struct MeshCheckParams {
   const Skeleton* skeleton = nullptr;    ///< measure fidelity to this skeleton (mesh's frame); none by default
   double fidelity_tolerance = 0.15;      ///< ok() needs p95 fidelity <= this (relative to local radius; default 0.15)
   std::size_t max_examples = 5;          ///< offending edges/triangles/pairs listed per kind (count; default 5)
+  bool quality = true;                   ///< measure triangle quality and backward normals (meshcheck/quality.h; default true)
+  /// Hold the mesh to these quality goals (ok() fails where one is missed); none by default:
+  /// the quality figures are informative.
+  std::optional<QualityLimits> quality_limits;
+  double junction_radii = QualityParams{}.junction_radii;  ///< junction edges: within this many fork radii of a fork
 };
 
 /// What check_mesh found. Counts are exact; `*_examples` list the first few offenders
@@ -112,12 +118,15 @@ struct MeshCheckReport {
   std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
   std::vector<std::uint32_t> outside_node_examples;                      ///< skeleton node indices (thick, outside)
   std::vector<std::uint32_t> fidelity_outlier_examples;                  ///< vertex indices (beyond the tolerance)
+  bool quality_checked = false;   ///< triangle quality was measured
+  TriangleQuality quality;        ///< angles, aspect ratios, dihedral angles, backward normals
+  std::optional<QualityLimits> quality_limits;  ///< the goals ok() applies to `quality`, if any
   Timings timings;                                                       ///< seconds per phase
 
   /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component
   /// (any genus: where branches cross, their union has a handle), no degenerate triangles, no non-finite vertices, no self-intersections (when
   /// checked), positive volume, and, when a skeleton was given, fidelity p95 <= tolerance and
-  /// every thick node inside.
+  /// every thick node inside; with quality limits, those met too.
   [[nodiscard]] bool ok() const;
   /// One short sentence per failed criterion ("3 boundary edges (not closed)"); empty when ok().
   [[nodiscard]] std::vector<std::string> failures() const;

@@ -52,18 +52,22 @@ double wrap_pi(double a) {
 
 /// Unwrapped angles of loop vertices (raw angles in (-pi, pi] given per vertex id), relative
 /// to `ref`; entry k = m is the first one plus 2 pi, so a full turn ends where it started.
-std::vector<double> unwrapped_angles(const std::vector<std::uint32_t>& loop, const std::vector<double>& raw_angle,
-                                     double ref) {
+/// Returns false (and `a` is meaningless) unless the loop winds once around the point the angles
+/// are measured from: a concave outline (contours' fallback) may pass beside or behind its
+/// centroid, and its angles then turn back or jump, and do not end one turn on.
+bool unwrapped_angles(const std::vector<std::uint32_t>& loop, const std::vector<double>& raw_angle, double ref,
+                      std::vector<double>& a) {
   const std::size_t m = loop.size();
-  std::vector<double> a(m + 1);
+  a.resize(m + 1);
   double prev = 0;
   for (std::size_t k = 0; k < m; ++k) {
     const double raw = raw_angle[loop[k]];
     a[k] = k == 0 ? wrap_pi(raw - ref) : a[k - 1] + wrap_pi(raw - prev);
     prev = raw;
   }
+  const double turn = a[m - 1] + wrap_pi(raw_angle[loop[0]] - prev) - a[0];
   a[m] = a[0] + kTwoPi;
-  return a;
+  return std::abs(turn - kTwoPi) < 0.5 * kTwoPi;
 }
 
 struct AngleGuard {
@@ -75,18 +79,27 @@ struct AngleGuard {
 /// greedy choice that would run against the angular order around the branch axis by more
 /// than the tolerance is overruled, which keeps the strip from folding over itself when the
 /// two loops are offset or differently sampled.
+///
+/// The strip is a monotone path from the edge (lower[0], upper[0]) round to itself, and the
+/// edge (lower[i], upper[0]) is on it at both ends of a run of upper advances from j = 0 all the
+/// way to j = n at one i: a fan of every upper vertex around one lower vertex, each edge of
+/// which is then used four times (and likewise a run of lower advances round one upper vertex).
+/// Neither choice can ever be right, so neither is made, whatever the greedy rule and the guard
+/// say (as in stitch_open): upper may not reach its end while lower is still at the vertex where
+/// upper left its start, nor lower its end while upper is still where lower left its start.
 void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
             const std::vector<glm::dvec3>& pos, std::vector<Mesh::Triangle>& out, const AngleGuard* guard) {
   const std::size_t m = lower.size(), n = upper.size();
   std::size_t i = 0, j = 0;
+  std::size_t i_left_upper0 = 0, j_left_lower0 = 0;  // where upper left upper[0], lower left lower[0]
   while (i < m || j < n) {
     const std::uint32_t p = lower[i % m], q = upper[j % n];
     const std::uint32_t p1 = lower[(i + 1) % m], q1 = upper[(j + 1) % n];
+    const bool can_lower = i < m && !(i + 1 == m && j == j_left_lower0 && n > 1);
+    const bool can_upper = j < n && !(j + 1 == n && i == i_left_upper0 && m > 1);
     bool advance_lower;
-    if (i == m) {
-      advance_lower = false;
-    } else if (j == n) {
-      advance_lower = true;
+    if (!can_upper || !can_lower) {
+      advance_lower = can_lower || (!can_upper && i < m);
     } else {
       const double dl = glm::length(pos[p1] - pos[q]);
       const double du = glm::length(pos[p] - pos[q1]);
@@ -100,9 +113,11 @@ void stitch(const std::vector<std::uint32_t>& lower, const std::vector<std::uint
     if (advance_lower) {
       out.push_back({p, p1, q});
       ++i;
+      if (j == 0) i_left_upper0 = i;
     } else {
       out.push_back({p, q1, q});
       ++j;
+      if (i == 0) j_left_lower0 = j;
     }
   }
 }
@@ -509,12 +524,14 @@ void Builder::strip(std::uint32_t lower_loop, std::uint32_t upper_loop, std::uin
   // their planes tilted against each other, so projecting one onto the other's plane would
   // scramble the angles. Frames are parallel-transported, so their normals share the origin.
   const double ref = vertex_angle_[lower[0]];
+  // Without one turn on either loop the angles mean nothing: the greedy rule alone.
   AngleGuard guard;
-  guard.lower = unwrapped_angles(lower, vertex_angle_, ref);
-  guard.upper = unwrapped_angles(upper, vertex_angle_, ref);
+  const bool g1 = unwrapped_angles(lower, vertex_angle_, ref, guard.lower);
+  const bool g2 = unwrapped_angles(upper, vertex_angle_, ref, guard.upper);
+  const bool guarded = g1 && g2;
   guard.tolerance = 0.25 * kTwoPi / double(std::max(lower.size(), upper.size()));
   out.scratch.clear();
-  stitch(lower, upper, c_.point, out.scratch, &guard);
+  stitch(lower, upper, c_.point, out.scratch, guarded ? &guard : nullptr);
   out.emit(branch, TriangleKind::strip);
 }
 
@@ -1082,13 +1099,7 @@ Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
   return c;
 }
 
-void validate_params(const MeshParams& p) {
-  const ParamChecker check{"meshing"};
-  // (A dome of 1e9 radii ran for minutes: its spikes cross everything near them.)
-  check.within(p.tip_dome, 0, 10, "tip_dome");
-  check.positive(p.uv_repeat_u, "uv_repeat_u");
-  check.non_negative(p.fold_repair_max_move, "fold_repair_max_move");
-}
+void validate_params(const MeshParams& p) { check_params(p); }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
                       const ProgressFn& progress) {

@@ -117,12 +117,7 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
 
 }  // namespace
 
-void validate_params(const RepairParams& p) {
-  const ParamChecker check{"repair"};
-  check.within(double(p.max_rounds), 0, 100, "max_rounds");
-  check.within(double(p.fold_rounds), 0, 1000, "fold_rounds");
-  check.within(p.fold_max_move, 0, 1, "fold_max_move");
-}
+void validate_params(const RepairParams& p) { check_params(p); }
 
 RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairParams& params) {
   validate_params(params);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/param_table.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
 #include "skeleton/skeleton.h"
@@ -36,6 +37,10 @@ struct RepairParams {
   /// fold repair has looked near the junctions). configs/high_detail.json counts every mesh.
   std::size_t count_pairs_up_to = 300'000;
 };
+
+/// The config key, accepted range, unit and help of each field of RepairParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<RepairParams>& param_table(std::type_identity<RepairParams>);
 
 struct RepairStats {
   bool counted = false;            ///< the mesh was small enough to look for pairs everywhere

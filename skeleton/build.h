@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/param_table.h"
 #include "core/report.h"
 #include "skeleton/skeleton.h"
 
@@ -148,6 +149,10 @@ struct SkeletonParams {
   /// Gap the separation leaves between two such branches, relative to the sum of their radii.
   double branch_clearance = 0.15;
 };
+
+/// The config key, accepted range, unit and help of each field of SkeletonParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<SkeletonParams>& param_table(std::type_identity<SkeletonParams>);
 
 /// The counted repairs of one build_skeleton() run, for `strandmesh info` and the viewer.
 struct SkeletonReport {

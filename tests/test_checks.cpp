@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <numbers>
 #include <random>
 
 #include <nlohmann/json.hpp>
@@ -694,5 +695,134 @@ TEST(OuterSurfaceByWinding, KeepsTheUnionOfOverlappingParts) {
   EXPECT_GT(rw.signed_volume, one);
   EXPECT_LT(rw.signed_volume, one * (1 + 0.8 * 0.8 * 0.8));
 }
+// ---------------------------------------------------------------- triangle quality
+
+/// One isosceles triangle per apex angle (degrees), legs of 1 m, none sharing an edge.
+Mesh isosceles_triangles(const std::vector<double>& apex_degrees) {
+  Mesh m;
+  double x = 0;
+  for (const double deg : apex_degrees) {
+    const double h = deg * std::numbers::pi / 360.0;  // half the apex angle
+    const auto v = static_cast<std::uint32_t>(m.positions.size());
+    m.positions.push_back({x, 0, 0});
+    m.positions.push_back({x + std::cos(h), -std::sin(h), 0});
+    m.positions.push_back({x + std::cos(h), std::sin(h), 0});
+    m.triangles.push_back({v, v + 1, v + 2});
+    x += 2;
+  }
+  return m;
+}
+
+TEST(Quality, BoxAnglesAspectRatiosAndDihedralAngles) {
+  const TriangleQuality q = measure_quality(test::box());
+  EXPECT_EQ(q.triangles, 12u);
+  EXPECT_EQ(q.under_10, 0u);
+  EXPECT_NEAR(q.min_angle, 45.0, 1e-9);
+  // Right isosceles triangles: sqrt(3) against 1 for an equilateral one.
+  EXPECT_NEAR(q.aspect_p95, std::sqrt(3.0), 1e-12);
+  EXPECT_NEAR(q.aspect_max, std::sqrt(3.0), 1e-12);
+  // 12 edges at 90 degrees, 6 face diagonals at 0: p99 and max 90.
+  EXPECT_FALSE(q.caps_known);
+  EXPECT_EQ(q.edges, 18u);
+  EXPECT_NEAR(q.dihedral_max, 90.0, 1e-9);
+  EXPECT_NEAR(q.dihedral_p99, 90.0, 1e-9);
+  ASSERT_EQ(q.sharpest_edges.size(), 5u);
+  EXPECT_TRUE(q.normals_computed);
+  EXPECT_EQ(q.backward_normals, 0u);
+}
+
+TEST(Quality, SmallAnglesAreCountedPerThreshold) {
+  const TriangleQuality q = measure_quality(isosceles_triangles({0.5, 3, 7, 20, 60}));
+  EXPECT_EQ(q.triangles, 5u);
+  EXPECT_EQ(q.under_1, 1u);
+  EXPECT_EQ(q.under_5, 2u);
+  EXPECT_EQ(q.under_10, 3u);
+  EXPECT_NEAR(q.share_under_10(), 0.6, 1e-12);
+  EXPECT_NEAR(q.min_angle, 0.5, 1e-9);
+  // Aspect ratio sqrt(3) / (2 sin apex) for legs longer than the base; the p95 of five is the largest.
+  EXPECT_NEAR(q.aspect_max, std::sqrt(3.0) / (2 * std::sin(0.5 * std::numbers::pi / 180)), 1e-6);
+  EXPECT_NEAR(q.aspect_p95, q.aspect_max, 1e-12);
+  EXPECT_EQ(q.edges, 0u);  // no edge has two triangles
+}
+
+TEST(Quality, CapsAreLeftOutAndJunctionsMeasured) {
+  // 16 segments: neighbouring side faces meet at 22.5 degrees, the flat caps at 90 degrees.
+  const Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, false);
+  const TriangleQuality plain = measure_quality(tube);
+  EXPECT_EQ(plain.edges, 368u + 64u);
+  EXPECT_NEAR(plain.dihedral_max, 90.0, 1e-9);
+
+  const Skeleton line = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  const TriangleQuality q = measure_quality(tube, &line);
+  EXPECT_TRUE(q.caps_known);
+  EXPECT_EQ(q.cap_edges, 64u);  // spokes and rims of both caps
+  EXPECT_EQ(q.edges, 368u);     // 128 vertical edges at 22.5 degrees, 240 flat ones
+  EXPECT_NEAR(q.dihedral_max, 22.5, 1e-9);
+  EXPECT_NEAR(q.dihedral_p99, 22.5, 1e-9);
+  EXPECT_EQ(q.junction_edges, 0u);
+
+  // A fork at mid-height (a lateral leaving the tube): edges with their midpoint within
+  // 3 radii (0.3 m) of it are junction edges: 4 rows of vertical edges and diagonals, 5 rings.
+  RawSkeleton raw;
+  raw.add(0, -1, {0, 0, 0}, 0.1);
+  raw.add(1, 0, {0, 0, 0.5}, 0.1);
+  raw.add(2, 1, {0, 0, 1}, 0.1);
+  raw.add(3, 1, {0.4, 0, 0.7}, 0.03);
+  const Skeleton fork = test::built(raw);
+  ASSERT_TRUE(fork.is_fork(NodeId(1u))) << fork.size() << " nodes";
+  const TriangleQuality f = measure_quality(tube, &fork);
+  EXPECT_EQ(f.junction_edges, 4u * 16 + 4u * 16 + 5u * 16);
+  EXPECT_NEAR(f.junction_dihedral_max, 22.5, 1e-9);
+  EXPECT_NEAR(f.junction_dihedral_p99, 22.5, 1e-9);
+}
+
+TEST(Quality, BackwardNormalsAreCounted) {
+  Mesh m = test::box();
+  m.normals = angle_weighted_normals(m);
+  EXPECT_EQ(measure_quality(m).backward_normals, 0u);
+  m.normals[3] = -m.normals[3];
+  const TriangleQuality q = measure_quality(m);
+  EXPECT_FALSE(q.normals_computed);
+  EXPECT_EQ(q.backward_normals, 1u);
+  EXPECT_EQ(q.backward_normal_examples, std::vector<std::uint32_t>{3});
+}
+
+TEST(Quality, LimitsFailAndReportsShowTheFigures) {
+  // One ring of 64 segments along 1 m: every side triangle a needle under 1 degree, the cap
+  // fans 5.6 degrees at the centre.
+  const Mesh needles = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 64, 1, false);
+  const MeshCheckReport informative = check_mesh(needles, {.self_intersections = false});
+  EXPECT_TRUE(informative.quality_checked);
+  EXPECT_TRUE(informative.ok()) << to_text(informative);
+  EXPECT_EQ(informative.quality.under_1, 128u);
+  EXPECT_EQ(informative.quality.under_10, 256u);
+
+  const MeshCheckReport held = check_mesh(needles, {.self_intersections = false, .quality_limits = QualityLimits{}});
+  EXPECT_FALSE(held.ok());
+  EXPECT_TRUE(mentions(held, "100 % of the triangles have an angle under 10 degrees (limit 2 %)")) << to_text(held);
+  EXPECT_TRUE(mentions(held, "128 triangles have an angle under 1 degree (limit 0)")) << to_text(held);
+  const std::string text = to_text(held);
+  EXPECT_NE(text.find("small angles          100 % of the triangles under 10 degrees"), std::string::npos) << text;
+  const nlohmann::json j = to_json(held);
+  EXPECT_EQ(j["quality"]["under_1"].get<std::size_t>(), 128u);
+  EXPECT_DOUBLE_EQ(j["quality"]["share_under_10"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["quality"]["limits"]["max_share_under_10"].get<double>(), 0.02);
+
+  EXPECT_TRUE(check_mesh(test::box(), {.quality_limits = QualityLimits{}}).ok());
+}
+
+TEST(CheckCli, QualityLimits) {
+  const fs::path dir = test::temp_dir("check_cli_quality");
+  write_mesh(test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 64, 1, false), dir / "needles.glb");
+  const CmdResult plain = run("check --json " + (dir / "needles.glb").string());
+  ASSERT_EQ(plain.code, 0) << plain.out << plain.err;
+  const nlohmann::json j = nlohmann::json::parse(plain.out);
+  EXPECT_EQ(j["quality"]["under_1"].get<std::size_t>(), 128u);
+  EXPECT_EQ(j["quality"]["backward_normals"].get<std::size_t>(), 0u);
+  const CmdResult held = run("check --quality-limits " + (dir / "needles.glb").string());
+  EXPECT_EQ(held.code, 4) << held.out << held.err;
+  EXPECT_NE(held.out.find("under 1 degree"), std::string::npos) << held.out;
+}
+
 }  // namespace
 }  // namespace sm

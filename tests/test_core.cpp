@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
 #include <set>
 
@@ -122,6 +123,37 @@ TEST(Frames, TransportKeepsOrthonormalAndMinimal) {
   const Frame k = transport_frame(f, -f.tangent);
   EXPECT_TRUE(std::isfinite(k.normal.x));
   EXPECT_NEAR(glm::dot(k.normal, k.tangent), 0, 1e-12);
+}
+
+TEST(Normals, NoVertexNormalFacesAwayFromItsTriangles) {
+  // Vertex 0 in three 90-degree corners facing +z and one 5-degree needle tilted 100 degrees
+  // away from them: the angle-weighted sum is nearly +z and faces away from the needle; the
+  // normal becomes the direction closest to all four (50 degrees from each).
+  const double tilt = 100.0 * std::numbers::pi / 180.0, needle = 5.0 * std::numbers::pi / 180.0;
+  const glm::dvec3 n4(std::sin(tilt), 0, std::cos(tilt)), t(-n4.z, 0, n4.x);
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0},
+                 std::cos(needle) * glm::dvec3(0, 1, 0) + std::sin(needle) * t};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 2, 5}};
+  const std::vector<glm::dvec3> n = angle_weighted_normals(m);
+  for (const auto& tri : m.triangles) {
+    const glm::dvec3 fn = glm::normalize(m.face_normal(tri));
+    for (const std::uint32_t v : tri) EXPECT_GT(glm::dot(n[v], fn), 0.6) << "vertex " << v;
+  }
+  EXPECT_NEAR(glm::dot(n[0], glm::dvec3(0, 0, 1)), std::cos(0.5 * tilt), 1e-12);
+  EXPECT_NEAR(glm::dot(n[0], n4), std::cos(0.5 * tilt), 1e-12);
+  // Where no triangle faces away, the normals are the angle-weighted sums as before (a box's
+  // corner: equal thirds of the three faces).
+  Mesh box;
+  box.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  box.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}};
+  EXPECT_NEAR(glm::dot(angle_weighted_normals(box)[0], glm::normalize(glm::dvec3(-1, -1, -1))), 1.0, 1e-12);
+  // update_normals gives the same on the vertices it is asked for.
+  Mesh u = m;
+  u.normals.assign(u.positions.size(), glm::dvec3(0, 0, 1));
+  const std::vector<std::uint32_t> all{0, 1, 2, 3, 4, 5};
+  update_normals(u, all);
+  EXPECT_EQ(u.normals, n);
 }
 
 TEST(FileIo, AtomicWriteLeavesNoPartialFile) {

@@ -61,6 +61,40 @@ TEST(Stitch, BandBetweenTwoRings) {
   }
 }
 
+TEST(Stitch, NeverFansOneLoopRoundOneVertexOfTheOther) {
+  // A small loop sitting next to one vertex of a large one (bug 72): every step from there is
+  // shortest round that vertex, and a strip that fans the whole small loop round it uses the
+  // edge from it to the small loop's start four times. The strip must still be a band: each
+  // loop edge once, each other edge once in each direction, m + n triangles.
+  for (int at : {0, 3, 11}) {
+    for (bool small_upper : {true, false}) {
+      std::vector<glm::dvec3> pos;
+      const double a = 2 * kPi * at / 12;
+      const glm::dvec3 near(0.95 * std::cos(a), 0.95 * std::sin(a), 0);
+      const auto big = ring(pos, 12, {0, 0, 0}, 1.0, small_upper ? 0.0 : 0.2);
+      const auto small = ring(pos, 6, near, 0.03, small_upper ? 0.2 : 0.0);
+      const auto& lower = small_upper ? big : small;
+      const auto& upper = small_upper ? small : big;
+      std::vector<Mesh::Triangle> tris;
+      stitch_loops(lower, upper, pos, tris);
+      SCOPED_TRACE("at " + std::to_string(at) + (small_upper ? " small upper" : " small lower"));
+      EXPECT_EQ(tris.size(), 18u);
+      const auto e = directed_edges(tris);
+      auto in_loop = [](const std::vector<std::uint32_t>& l, std::uint32_t u, std::uint32_t v) {
+        for (std::size_t k = 0; k < l.size(); ++k) {
+          if (l[k] == u && l[(k + 1) % l.size()] == v) return true;
+        }
+        return false;
+      };
+      for (const auto& [edge, count] : e) {
+        EXPECT_EQ(count, 1) << edge.first << "->" << edge.second;
+        const bool boundary = in_loop(lower, edge.first, edge.second) || in_loop(upper, edge.second, edge.first);
+        EXPECT_EQ(e.count({edge.second, edge.first}), boundary ? 0u : 1u) << edge.first << "->" << edge.second;
+      }
+    }
+  }
+}
+
 TEST(Fuse, PantsAreManifoldForTinyAndLargeLoops) {
   // Tiny loops are where a naive strip connects one lower vertex to both visits of a crotch
   // vertex; the pants must use every loop edge once and every new edge twice.

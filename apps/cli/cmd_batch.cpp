@@ -135,6 +135,7 @@ TreeRecord run_tree(const TreeJob& job, const Settings& s, bool& resumed) {
     ExportParams ep = params.output;  // the config's "export" section (docs/export.md)
     ep.up_axis = r.skeleton.skeleton.up_axis;
     ep.root = r.skeleton.skeleton.position[0];
+    ep.skeleton = &r.skeleton.skeleton;  // for the tree attributes (export.attributes: wind, ...)
     write_mesh(r.mesh.mesh, s.outdir / mesh_name, ep);
     rec.mesh = mesh_name;
     rec.status = "ok";

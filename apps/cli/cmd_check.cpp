@@ -1,7 +1,7 @@
-// strandmesh check MESH [--skeleton SKELETON] [--json] [--no-self-intersections]
+// strandmesh check MESH [--skeleton SKELETON] [--json] [--no-self-intersections] [--quality-limits]
 //
-// Loads a mesh (.glb, .gltf, .obj, .ply), runs the mesh checks (meshcheck/checks.h) and prints
-// the report. Exit codes: 0 every check passed, 4 the mesh loaded but failed a check, 1 the
+// Loads a mesh (.glb, .gltf, .obj, .ply), runs the mesh checks (meshcheck/checks.h) and the
+// triangle quality figures (meshcheck/quality.h) and prints the report. Exit codes: 0 every check passed, 4 the mesh loaded but failed a check, 1 the
 // mesh or skeleton file is unreadable or malformed, 2 usage error.
 
 #include <cstdio>
@@ -28,6 +28,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           std::string skeleton;
           bool json = false;
           bool no_self_intersections = false;
+          bool quality_limits = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
           std::size_t examples = MeshCheckParams{}.max_examples;
           InputOptions input_options;  ///< how to read --skeleton
@@ -41,6 +42,10 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
         sub.add_flag("--json", o->json, "Print the report as JSON");
         sub.add_flag("--no-self-intersections", o->no_self_intersections,
                      "Skip the self-intersection test (the slowest check)");
+        sub.add_flag("--quality-limits", o->quality_limits,
+                     "Fail (exit 4) where triangle quality misses the close-up goals: over 2 % of the triangles "
+                     "with an angle under 10 degrees, any under 1 degree, a backward normal, a dihedral angle p99 "
+                     "over 40 degrees at junctions (otherwise the quality figures are informative)");
         sub.add_option("--fidelity-tolerance", o->tolerance,
                        "Largest accepted 95th percentile of |distance to skeleton| / local radius")
             ->check(CLI::NonNegativeNumber)
@@ -56,6 +61,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           MeshCheckParams params{.self_intersections = !o->no_self_intersections,
                                  .fidelity_tolerance = o->tolerance,
                                  .max_examples = o->examples};
+          if (o->quality_limits) params.quality_limits = QualityLimits{};
           MeshReadParams read;
           // Measured against the skeleton as the file gives it (radii below the floor raised
           // to it), never against our own sanitized copy.
