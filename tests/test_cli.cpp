@@ -57,6 +57,11 @@ TEST(Cli, ParamsReferenceInTheDocsIsCurrent) {
   ASSERT_NE(end, std::string::npos);
   const auto first = doc.find('\n', begin) + 1;
   EXPECT_EQ(doc.substr(first, end - first), r.out) << "docs/defaults.md is out of date: run scripts/update_param_docs.sh";
+  // The skeleton flags take their help and range from the same table.
+  const CmdResult flag = run("info --max-edge-ratio 0.5 tree.json");
+  EXPECT_EQ(flag.code, 2);
+  EXPECT_NE(flag.err.find("--max-edge-ratio: must be 0 (off) or at least 1, got 0.5"), std::string::npos) << flag.err;
+  EXPECT_NE(run("info --help").out.find("[config: skeleton.max_edge_ratio; 0 (off) or at least 1]"), std::string::npos);
   const CmdResult plain = run("params");
   ASSERT_EQ(plain.code, 0) << plain.err;
   EXPECT_NE(plain.out.find("contours.slice_step = 0.4  (> 0; x local radius)"), std::string::npos) << plain.out;
