@@ -250,7 +250,8 @@ std::string params_reference(bool markdown) {
   std::string out =
       "Every key of a config file, by section, with its default (the initializer in the stage's\n"
       "Params header), the values accepted and the unit (\"x local radius\": relative to the\n"
-      "branch radius there; lambda: the particle spacing in a cross-section).\n";
+      "branch radius there; lambda: the particle spacing in a cross-section). The `export`\n"
+      "section, how the mesh is written, is described in [export.md](export.md).\n";
   const PipelineParams defaults;
   for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, true); });
   return out;

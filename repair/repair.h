@@ -55,6 +55,7 @@ struct RepairStats {
   std::size_t split_vertices = 0;  ///< vertices split where kept parts met at a point
   std::size_t inner_shells = 0;    ///< enclosed voids dropped
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
+  std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
   std::string problem;             ///< why a round was refused (empty: none was)
   Warnings warnings;
   Timings timings;
