@@ -330,8 +330,23 @@ class Walker {
     return g;
   }
 
-  /// slice_step x the local radius, at least min_slice_step x the neighbour distance.
+  /// The target edge length of a loop (ContourParams::ring_edge; metres), 0 when off.
+  [[nodiscard]] double ring_edge() const {
+    return p_.ring_edge > 0 ? p_.ring_edge * spacing_ / p_.resolution : 0.0;
+  }
+  /// Vertices a loop of this perimeter keeps (ContourParams::ring_edge) at most.
+  [[nodiscard]] std::size_t ring_vertices(double perimeter) const {
+    return std::max<std::size_t>(p_.min_ring_vertices, static_cast<std::size_t>(std::ceil(perimeter / ring_edge())));
+  }
+  /// The slice step: with ring_edge, the height of an equilateral triangle on the edge of a
+  /// round section of the local radius (times the node's local factor); else slice_step x the
+  /// local radius. At least min_slice_step x the neighbour distance.
   [[nodiscard]] double fine_step(const SliceGeometry& g) const {
+    if (ring_edge() > 0) {
+      const double circumference = 2.0 * std::numbers::pi * g.radius;
+      const double edge = circumference / double(ring_vertices(circumference));
+      return std::max(local(g.node).slice_step * 0.8660254037844386 * edge, p_.min_slice_step * spacing_);
+    }
     return std::max(slice_step(g.node) * g.radius, p_.min_slice_step * spacing_);
   }
   /// Distance to the next slice from a slice with geometry g: slice_step x the local radius,
@@ -615,7 +630,8 @@ class Walker {
     std::vector<CutEdge> cut_a, cut_b, cut_n;
     std::vector<dvec2> flat, moved, edge_normal;
     std::vector<dvec3> lift;
-    std::vector<std::uint32_t> loop;
+    std::vector<std::uint32_t> loop, keep;
+    std::vector<double> arc;
     std::vector<std::uint8_t> strand_side;  ///< per strand, for loop_sides (0xff between calls)
   };
   static Scratch& thread_scratch() {
@@ -806,9 +822,33 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
       }
     }
   }
+  // Ring resolution (ContourParams::ring_edge): the vertices nearest to evenly spaced marks
+  // along the loop, in order, the first kept.
+  std::vector<std::uint32_t>& keep = scratch_.keep;
+  keep.clear();
+  if (ring_edge() > 0) {
+    std::vector<double>& arc = scratch_.arc;
+    arc.resize(m + 1);
+    arc[0] = 0;
+    for (std::size_t k = 0; k < m; ++k) arc[k + 1] = arc[k] + glm::length(moved[(k + 1) % m] - moved[k]);
+    const std::size_t n = std::min(m, ring_vertices(arc[m]));
+    if (n < m) {
+      std::size_t i = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double mark = arc[m] * double(k) / double(n);
+        // Advance while the next vertex is nearer the mark and leaves room for the rest.
+        while (i + 1 < m - (n - 1 - k) && std::abs(arc[i + 1] - mark) <= std::abs(arc[i] - mark)) ++i;
+        keep.push_back(static_cast<std::uint32_t>(i));
+        ++i;
+      }
+    }
+  }
+  if (keep.empty()) {
+    for (std::size_t k = 0; k < m; ++k) keep.push_back(static_cast<std::uint32_t>(k));
+  }
   ContourSet& store = *store_;
   const auto loop_index = static_cast<std::uint32_t>(store.loop_kind.size());
-  for (std::size_t k = 0; k < m; ++k) {
+  for (const std::uint32_t k : keep) {
     store.point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
     store.strand.push_back(pts.strand[loop[k]]);
   }
@@ -1332,6 +1372,9 @@ ContourSet assemble(Fragment& root) {
 void validate_params(const ContourParams& p) {
   const ParamChecker check{"contours"};
   check.positive(p.slice_step, "slice_step");
+  check.non_negative(p.ring_edge, "ring_edge");
+  check.positive(p.resolution, "resolution");
+  check.require(p.min_ring_vertices >= 3, "min_ring_vertices", "at least 3", double(p.min_ring_vertices));
   check.non_negative(p.min_slice_step, "min_slice_step");
   check.non_negative(p.max_corner_cut, "max_corner_cut");
   check.positive(p.split_gap, "split_gap");

@@ -66,6 +66,9 @@ void visit_fields(StrandParams& p, V&& v) {
 }
 template <class V>
 void visit_fields(ContourParams& p, V&& v) {
+  v("ring_edge", p.ring_edge);
+  v("min_ring_vertices", p.min_ring_vertices);
+  v("resolution", p.resolution);
   v("slice_step", p.slice_step);
   v("min_slice_step", p.min_slice_step);
   v("max_slices_per_edge", p.max_slices_per_edge);
