@@ -218,6 +218,21 @@ std::vector<ParamField> strand_fields(StrandParams& p) {
 
 std::vector<ParamField> contour_fields(ContourParams& p) {
   return {
+      {.key = "ring_edge",
+       .help = "target loop edge length, slices matched (relative to the neighbour distance; 0 = every boundary strand)",
+       .value = &p.ring_edge,
+       .min = 0,
+       .max = 20},
+      {.key = "min_ring_vertices",
+       .help = "fewest vertices a loop keeps with ring_edge (count)",
+       .value = &p.min_ring_vertices,
+       .min = 3,
+       .max = 32},
+      {.key = "resolution",
+       .help = "scales ring resolution and slice spacing together (with ring_edge)",
+       .value = &p.resolution,
+       .min = 0.1,
+       .max = 4},
       {.key = "slice_step",
        .help = "distance between slices (relative to the local radius)",
        .value = &p.slice_step,
