@@ -1407,22 +1407,8 @@ ContourSet assemble(Fragment& root) {
 }  // namespace
 
 void validate_params(const ContourParams& p) {
+  check_params(p);
   const ParamChecker check{"contours"};
-  check.positive(p.slice_step, "slice_step");
-  check.non_negative(p.ring_edge, "ring_edge");
-  check.positive(p.resolution, "resolution");
-  check.require(p.min_ring_vertices >= 3, "min_ring_vertices", "at least 3", double(p.min_ring_vertices));
-  check.non_negative(p.min_slice_step, "min_slice_step");
-  check.non_negative(p.max_corner_cut, "max_corner_cut");
-  check.positive(p.split_gap, "split_gap");
-  check.non_negative(p.thin_gap_radii, "thin_gap_radii");
-  check.non_negative(p.fork_transition, "fork_transition");
-  check.non_negative(p.min_fused_length, "min_fused_length");
-  check.require(p.split_bisection_steps <= 64, "split_bisection_steps", "at most 64 (a double's precision)",
-                double(p.split_bisection_steps));
-  check.require(std::isfinite(p.concave_turn_degrees) && p.concave_turn_degrees >= 0 && p.concave_turn_degrees < 180,
-                "concave_turn_degrees", "in [0, 180)", p.concave_turn_degrees);
-  check.non_negative(p.fallback_max_edge, "fallback_max_edge");
   for (const LocalContourScale& l : p.local) {
     check.positive(l.split_gap, "local split_gap factor");
     check.non_negative(l.fork_transition, "local fork_transition factor");

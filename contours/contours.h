@@ -48,6 +48,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/param_table.h"
 #include "core/ids.h"
 #include "core/math.h"
 #include "core/progress.h"
@@ -138,6 +139,10 @@ struct ContourParams {
   /// n's slice step factor.
   std::vector<LocalContourScale> local;
 };
+
+/// The config key, accepted range, unit and help of each field of ContourParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<ContourParams>& param_table(std::type_identity<ContourParams>);
 
 /// Where a loop comes from.
 enum class LoopKind : std::uint8_t {

@@ -1099,13 +1099,7 @@ Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
   return c;
 }
 
-void validate_params(const MeshParams& p) {
-  const ParamChecker check{"meshing"};
-  // (A dome of 1e9 radii ran for minutes: its spikes cross everything near them.)
-  check.within(p.tip_dome, 0, 10, "tip_dome");
-  check.positive(p.uv_repeat_u, "uv_repeat_u");
-  check.non_negative(p.fold_repair_max_move, "fold_repair_max_move");
-}
+void validate_params(const MeshParams& p) { check_params(p); }
 
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
                       const ProgressFn& progress) {

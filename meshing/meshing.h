@@ -24,6 +24,7 @@
 #include <array>
 #include <cstdint>
 
+#include "core/param_table.h"
 #include "contours/contours.h"
 #include "core/mesh.h"
 #include "core/progress.h"
@@ -113,6 +114,10 @@ struct MeshParams {
   /// fork retry, before the outer surface, on meshes of any size.
   bool cover_near_misses = true;
 };
+
+/// The config key, accepted range, unit and help of each field of MeshParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<MeshParams>& param_table(std::type_identity<MeshParams>);
 
 struct MeshStats {
   std::size_t vertices = 0;

@@ -121,35 +121,7 @@ enum NodeFlag : std::uint8_t {
   kForkChildrenColinear = 16,
 };
 
-void require(bool ok, const std::string& what) {
-  if (!ok) throw InvalidInputError("particle parameters: " + what);
-}
-
-void validate_params(const ParticleParams& p) {
-  require(std::isfinite(p.spacing) && p.spacing >= 0, "spacing must be >= 0 (0 = derived), got " + std::to_string(p.spacing));
-  require(p.min_particles >= 3 && p.min_particles <= ParticleParams::kMaxMinParticles,
-          "min_particles must be in [3, " + std::to_string(ParticleParams::kMaxMinParticles) + "], got " +
-              std::to_string(p.min_particles));
-  require(p.root_strands <= ParticleParams::kMaxRootStrands,
-          "root_strands must be at most " + std::to_string(ParticleParams::kMaxRootStrands) + " (0 = derived), got " +
-              std::to_string(p.root_strands));
-  require(p.max_root_strands >= 1 && p.max_root_strands <= ParticleParams::kMaxRootStrands,
-          "max_root_strands must be in [1, " + std::to_string(ParticleParams::kMaxRootStrands) + "], got " +
-              std::to_string(p.max_root_strands));
-  require(std::isfinite(p.new_strand_sparsity) && p.new_strand_sparsity >= 1.0,
-          "new_strand_sparsity must be >= 1, got " + std::to_string(p.new_strand_sparsity));
-  require(std::isfinite(p.wall_margin) && p.wall_margin >= 0 && p.wall_margin < 1.5,
-          "wall_margin must be in [0, 1.5), got " + std::to_string(p.wall_margin));
-  require(std::isfinite(p.wall_offset) && p.wall_offset >= 0, "wall_offset must be >= 0");
-  require(std::isfinite(p.move_tolerance) && p.move_tolerance >= 0, "move_tolerance must be >= 0");
-  require(std::isfinite(p.max_velocity) && p.max_velocity > 0, "max_velocity must be > 0");
-  require(std::isfinite(p.damping) && p.damping >= 0 && p.damping < 1, "damping must be in [0, 1)");
-  require(std::isfinite(p.step_size) && p.step_size > 0, "step_size must be > 0");
-  require(std::isfinite(p.repulsion_radius) && p.repulsion_radius > 0, "repulsion_radius must be > 0");
-  require(p.rebuild_every >= 1, "rebuild_every must be >= 1");
-  require(std::isfinite(p.neighbour_skin) && p.neighbour_skin > 0, "neighbour_skin must be > 0");
-  require(std::isfinite(p.fork_gap) && p.fork_gap >= 0, "fork_gap must be >= 0");
-}
+void validate_params(const ParticleParams& p) { check_params(p); }
 
 // ---------------------------------------------------------------------------------------------
 // Counts

@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/param_table.h"
 #include "core/ids.h"
 #include "core/math.h"
 #include "core/progress.h"
@@ -106,6 +107,10 @@ struct ParticleParams {
   /// Random seed (tip patterns, new strands); per-node streams derive from (seed, node).
   std::uint64_t seed = 1;
 };
+
+/// The config key, accepted range, unit and help of each field of ParticleParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<ParticleParams>& param_table(std::type_identity<ParticleParams>);
 
 struct ParticleStats {
   std::size_t nodes = 0;

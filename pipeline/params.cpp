@@ -1,14 +1,17 @@
-// Parameter files: every Params field by name, reading with strict key checks, writing all.
+// Parameter files, read and written through each stage's parameter table (core/param_table.h):
+// strict keys (an unknown one is named, with the nearest known key), types and ranges checked.
 
-#include <map>
+#include <algorithm>
 #include <limits>
-#include <set>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/input_limits.h"
+#include "core/suggest.h"
 #include "meshio/export_json.h"
 #include "pipeline/pipeline.h"
 
@@ -17,190 +20,134 @@ namespace {
 
 using nlohmann::json;
 
-// One visit_fields per Params struct: the single list of its configurable fields.
-template <class V>
-void visit_fields(SkeletonParams& p, V&& v) {
-  v("max_nodes", p.max_nodes);
-  v("merge_edge_ratio", p.merge_edge_ratio);
-  v("radius_floor", p.radius_floor);
-  v("max_child_ratio", p.max_child_ratio);
-  v("thick_child_policy", p.thick_child_policy);
-  v("max_edge_ratio", p.max_edge_ratio);
-  v("binarize_step_ratio", p.binarize_step_ratio);
-  v("max_chain_forks", p.max_chain_forks);
-  v("merge_inner_branches", p.merge_inner_branches);
-  v("collar_ratio", p.collar_ratio);
-  v("collar_max_child_ratio", p.collar_max_child_ratio);
-  v("collar_min_stub", p.collar_min_stub);
-  v("max_lateral_angle", p.max_lateral_angle);
-  v("max_turn_back", p.max_turn_back);
-  v("tight_bend_ratio", p.tight_bend_ratio);
-  v("separate", p.separate);
-  v("max_node_move", p.max_node_move);
-  v("branch_clearance", p.branch_clearance);
-}
-template <class V>
-void visit_fields(ParticleParams& p, V&& v) {
-  v("spacing", p.spacing);
-  v("root_strands", p.root_strands);
-  v("max_root_strands", p.max_root_strands);
-  v("min_particles", p.min_particles);
-  v("new_strand_sparsity", p.new_strand_sparsity);
-  v("wall_margin", p.wall_margin);
-  v("wall_offset", p.wall_offset);
-  v("max_steps", p.max_steps);
-  v("move_tolerance", p.move_tolerance);
-  v("max_velocity", p.max_velocity);
-  v("damping", p.damping);
-  v("step_size", p.step_size);
-  v("repulsion_radius", p.repulsion_radius);
-  v("neighbour_skin", p.neighbour_skin);
-  v("rebuild_every", p.rebuild_every);
-  v("fork_gap", p.fork_gap);
-  v("max_total_particles", p.max_total_particles);
-  v("seed", p.seed);
-}
-template <class V>
-void visit_fields(StrandParams& p, V&& v) {
-  v("alpha", p.alpha);
-}
-template <class V>
-void visit_fields(ContourParams& p, V&& v) {
-  v("ring_edge", p.ring_edge);
-  v("min_ring_vertices", p.min_ring_vertices);
-  v("resolution", p.resolution);
-  v("slice_step", p.slice_step);
-  v("min_slice_step", p.min_slice_step);
-  v("max_slices_per_edge", p.max_slices_per_edge);
-  v("max_corner_cut", p.max_corner_cut);
-  v("split_gap", p.split_gap);
-  v("thin_gap_radii", p.thin_gap_radii);
-  v("fork_transition", p.fork_transition);
-  v("min_fused_length", p.min_fused_length);
-  v("split_nested_laterals", p.split_nested_laterals);
-  v("split_bisection_steps", p.split_bisection_steps);
-  v("concave_turn_degrees", p.concave_turn_degrees);
-  v("fallback_max_edge", p.fallback_max_edge);
-}
-template <class V>
-void visit_fields(RepairParams& p, V&& v) {
-  v("self_union", p.self_union);
-  v("max_rounds", p.max_rounds);
-  v("fold_rounds", p.fold_rounds);
-  v("fold_max_move", p.fold_max_move);
-  v("count_pairs_up_to", p.count_pairs_up_to);
-}
-template <class V>
-void visit_fields(MeshParams& p, V&& v) {
-  v("tip_dome", p.tip_dome);
-  v("uv_repeat_u", p.uv_repeat_u);
-  v("uvs", p.uvs);
-  v("normals", p.normals);
-  v("merge_stacked_junctions", p.merge_stacked_junctions);
-  v("fold_repair_rounds", p.fold_repair_rounds);
-  v("fold_repair_max_move", p.fold_repair_max_move);
-  v("fold_repair_collapses", p.fold_repair_collapses);
-  v("fold_repair_refills", p.fold_repair_refills);
-  v("fold_repair_variants", p.fold_repair_variants);
-  v("count_pairs_up_to", p.count_pairs_up_to);
-  v("fork_retry", p.fork_retry);
-  v("outer_surface", p.outer_surface);
-  v("cover_near_misses", p.cover_near_misses);
-}
+// Every section's keys, for "did you mean" across sections.
+std::vector<std::pair<std::string, std::string>> all_keys();
 
-const std::map<std::string, ThickChildPolicy> kPolicies{
-    {"clamp_child", ThickChildPolicy::clamp_child},
-    {"raise_parent", ThickChildPolicy::raise_parent},
-    {"keep", ThickChildPolicy::keep}};
-
+template <class P>
 struct Reader {
   const json& section;
   std::string where;  // "config.json: particles"
-  std::set<std::string> known;
 
-  void operator()(const char* key, double& x) {
-    known.insert(key);
-    if (auto it = section.find(key); it != section.end()) {
-      if (!it->is_number()) fail(key, "a number", *it);
-      x = it->get<double>();
-      if (!std::isfinite(x)) throw InvalidInputError(where + "." + key + ": must be finite");
-    }
-  }
-  template <class I>
-    requires std::is_integral_v<I> && (!std::is_same_v<I, bool>)
-  void operator()(const char* key, I& x) {
-    known.insert(key);
-    if (auto it = section.find(key); it != section.end()) {
-      // (No wrap-around: a value beyond the field's type is an error, not taken modulo 2^32.)
-      const auto max = static_cast<std::uint64_t>(std::numeric_limits<I>::max());
-      if (it->is_number_unsigned() && it->get<std::uint64_t>() <= max) {
-        x = static_cast<I>(it->get<std::uint64_t>());
-      } else if (it->is_number_integer() && it->get<std::int64_t>() >= 0 &&
-                 static_cast<std::uint64_t>(it->get<std::int64_t>()) <= max) {
-        x = static_cast<I>(it->get<std::int64_t>());
-      } else {
-        fail(key, ("a non-negative integer up to " + std::to_string(max)).c_str(), *it);
-      }
-    }
-  }
-  void operator()(const char* key, bool& x) {
-    known.insert(key);
-    if (auto it = section.find(key); it != section.end()) {
-      if (!it->is_boolean()) fail(key, "true or false", *it);
-      x = it->get<bool>();
-    }
-  }
-  void operator()(const char* key, ThickChildPolicy& x) {
-    known.insert(key);
-    if (auto it = section.find(key); it != section.end()) {
-      const auto p = it->is_string() ? kPolicies.find(it->get<std::string>()) : kPolicies.end();
-      if (p == kPolicies.end()) fail(key, "\"clamp_child\", \"raise_parent\" or \"keep\"", *it);
-      x = p->second;
-    }
-  }
-  [[noreturn]] void fail(const char* key, const char* what, const json& value) const {
+  [[noreturn]] void fail(const char* key, const std::string& what, const json& value) const {
     throw InvalidInputError(where + "." + key + ": must be " + what + ", not " + excerpt(value.dump()));
   }
-  void check_unknown() const {
-    for (auto it = section.begin(); it != section.end(); ++it) {
-      if (!known.count(it.key())) {
+
+  void read(P& p, const ParamSpec<P>& s, const json& v) const {
+    switch (param_kind(s)) {
+      case ParamKind::real: {
+        if (!v.is_number()) fail(s.key, "a number", v);
+        const double x = v.get<double>();
+        if (!std::isfinite(x)) throw InvalidInputError(where + "." + s.key + ": must be finite");
+        set_param_value(p, s, x);
+        return;
+      }
+      case ParamKind::integer: {
+        // (No wrap-around: a value beyond the field's type is an error, not taken modulo 2^32.)
+        const auto max = static_cast<std::uint64_t>(param_type_max(s));
+        std::uint64_t x = 0;
+        if (v.is_number_unsigned() && v.get<std::uint64_t>() <= max) {
+          x = v.get<std::uint64_t>();
+        } else if (v.is_number_integer() && v.get<std::int64_t>() >= 0 &&
+                   static_cast<std::uint64_t>(v.get<std::int64_t>()) <= max) {
+          x = static_cast<std::uint64_t>(v.get<std::int64_t>());
+        } else {
+          fail(s.key, "a non-negative integer up to " + std::to_string(max), v);
+        }
+        set_integer(p, s, x);
+        return;
+      }
+      case ParamKind::flag:
+        if (!v.is_boolean()) fail(s.key, "true or false", v);
+        set_param_value(p, s, v.get<bool>() ? 1.0 : 0.0);
+        return;
+      case ParamKind::choice: {
+        const auto& names = std::get<ParamChoice<P>>(s.field).names;
+        for (std::size_t i = 0; i < names.size() && v.is_string(); ++i) {
+          if (v.get<std::string>() == names[i]) return set_param_value(p, s, double(i));
+        }
         std::string list;
-        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-        throw InvalidInputError(where + ": unknown key \"" + excerpt(it.key()) + "\" (known keys: " + list + ")");
+        for (std::size_t i = 0; i < names.size(); ++i) {
+          list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + std::string("\"") + names[i] + "\"";
+        }
+        fail(s.key, list, v);
       }
     }
   }
-};
 
-struct Writer {
-  json& out;
-  template <class T>
-  void operator()(const char* key, T& x) {
-    out[key] = x;
+  // Integers are set exactly (a seed above 2^53 must survive the round trip).
+  static void set_integer(P& p, const ParamSpec<P>& s, std::uint64_t x) {
+    std::visit(
+        [&p, x]<class M>(M m) {
+          if constexpr (std::is_member_object_pointer_v<M>) {
+            using T = std::remove_cvref_t<decltype(p.*m)>;
+            if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) p.*m = static_cast<T>(x);
+          }
+        },
+        s.field);
   }
-  void operator()(const char* key, ThickChildPolicy& x) {
-    for (const auto& [name, value] : kPolicies) {
-      if (value == x) out[key] = name;
+
+  void operator()(P& p) const {
+    const auto& fields = param_table_of<P>().fields;
+    for (const ParamSpec<P>& s : fields) {
+      if (auto it = section.find(s.key); it != section.end()) read(p, s, *it);
     }
+    for (auto it = section.begin(); it != section.end(); ++it) {
+      const bool known = std::any_of(fields.begin(), fields.end(), [&](const auto& s) { return it.key() == s.key; });
+      if (!known) throw InvalidInputError(where + ": unknown key \"" + excerpt(it.key()) + "\"" + suggestion(it.key()));
+    }
+  }
+
+  // " (did you mean "seed"?)", or the section a key belongs to, or the list of known keys.
+  [[nodiscard]] std::string suggestion(const std::string& key) const {
+    const char* own = param_table_of<P>().section;
+    std::vector<std::string> mine;
+    for (const auto& s : param_table_of<P>().fields) mine.emplace_back(s.key);
+    if (const std::string near = closest_name(key, mine); !near.empty()) return " (did you mean \"" + near + "\"?)";
+    for (const auto& [section_name, k] : all_keys()) {
+      if (section_name != own && k == key) return " (it belongs in section \"" + section_name + "\")";
+    }
+    std::string list;
+    for (const auto& k : mine) list += (list.empty() ? "" : ", ") + k;
+    return " (known keys: " + list + ")";
   }
 };
 
 template <class P>
-void read_section(const json& doc, const char* name, const std::string& file, P& params) {
-  auto it = doc.find(name);
-  if (it == doc.end()) return;
-  if (!it->is_object()) throw InvalidInputError(file + ": \"" + name + "\" must be an object");
-  Reader r{*it, file + ": " + name, {}};
-  visit_fields(params, r);
-  r.check_unknown();
+json write_section(const P& p) {
+  json j = json::object();
+  for (const ParamSpec<P>& s : param_table_of<P>().fields) {
+    std::visit(
+        [&]<class M>(M m) {
+          if constexpr (std::is_same_v<M, ParamChoice<P>>) {
+            j[s.key] = m.names[static_cast<std::size_t>(m.get(p))];
+          } else {
+            j[s.key] = p.*m;
+          }
+        },
+        s.field);
+  }
+  return j;
 }
 
 template <class P>
-json write_section(P params) {
-  json j = json::object();
-  Writer w{j};
-  visit_fields(params, w);
-  return j;
+void add_keys(std::vector<std::pair<std::string, std::string>>& out) {
+  for (const auto& s : param_table_of<P>().fields) out.emplace_back(param_table_of<P>().section, s.key);
+}
+
+std::vector<std::pair<std::string, std::string>> all_keys() {
+  std::vector<std::pair<std::string, std::string>> out;
+  const PipelineParams defaults;
+  for_each_stage_params(defaults, [&out]<class P>(const P&) { add_keys<P>(out); });
+  return out;
+}
+
+template <class P>
+void read_section(const json& doc, const std::string& file, P& params) {
+  const char* name = param_table_of<P>().section;
+  auto it = doc.find(name);
+  if (it == doc.end()) return;
+  if (!it->is_object()) throw InvalidInputError(file + ": \"" + name + "\" must be an object");
+  Reader<P>{*it, file + ": " + name}(params);
 }
 
 }  // namespace
@@ -216,28 +163,26 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
     throw InvalidInputError(name + ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
-  static const std::set<std::string> sections{"skeleton", "particles", "strands", "contours", "meshing", "repair"};
+  std::vector<std::string> sections;
+  const PipelineParams defaults;
+  for_each_stage_params(defaults, [&sections]<class P>(const P&) { sections.emplace_back(param_table_of<P>().section); });
+  for (const char* other : {"export", "description", "comment"}) sections.emplace_back(other);
   for (auto it = doc.begin(); it != doc.end(); ++it) {
-    if (!sections.count(it.key()) && it.key() != "comment" && it.key() != "description" && it.key() != "export") {
-      throw InvalidInputError(name + ": unknown section \"" + excerpt(it.key()) +
-                              "\" (known: skeleton, particles, strands, contours, meshing, repair, export, description)");
+    if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
+      const std::string near = closest_name(it.key(), sections);
+      std::string known;
+      for (const auto& k : sections) known += (known.empty() ? "" : ", ") + k;
+      throw InvalidInputError(name + ": unknown section \"" + excerpt(it.key()) + "\"" +
+                              (near.empty() ? "" : " (did you mean \"" + near + "\"?)") + " (known: " + known + ")");
     }
   }
   PipelineParams p = base;
-  read_section(doc, "skeleton", name, p.skeleton);
-  read_section(doc, "particles", name, p.particles);
-  read_section(doc, "strands", name, p.strands);
-  read_section(doc, "contours", name, p.contours);
-  read_section(doc, "meshing", name, p.meshing);
-  read_section(doc, "repair", name, p.repair);
+  for_each_stage_params(p, [&]<class P>(P& stage) { read_section(doc, name, stage); });
   // The writer's options (not a stage): their own reader, meshio/export_json.h.
   if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
   // Values out of range, named with the file (the stages check them again).
   try {
-    validate_params(p.skeleton);
-    validate_params(p.contours);
-    validate_params(p.meshing);
-    validate_params(p.repair);
+    for_each_stage_params(p, []<class P>(const P& stage) { check_params(stage); });
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(name + ": " + e.what());
   }
@@ -250,14 +195,66 @@ PipelineParams load_params(const std::filesystem::path& path, const PipelinePara
 
 std::string params_to_json(const PipelineParams& p) {
   json doc;
-  doc["skeleton"] = write_section(p.skeleton);
-  doc["particles"] = write_section(p.particles);
-  doc["strands"] = write_section(p.strands);
-  doc["contours"] = write_section(p.contours);
-  doc["meshing"] = write_section(p.meshing);
-  doc["repair"] = write_section(p.repair);
+  for_each_stage_params(p, [&doc]<class P>(const P& stage) { doc[param_table_of<P>().section] = write_section(stage); });
   doc["export"] = export_to_json(p.output);
   return doc.dump(2) + "\n";
+}
+
+namespace {
+
+template <class P>
+std::string accepted(const ParamSpec<P>& s) {
+  switch (param_kind(s)) {
+    case ParamKind::flag:
+      return "true, false";
+    case ParamKind::choice: {
+      std::string list;
+      for (const char* n : std::get<ParamChoice<P>>(s.field).names) list += (list.empty() ? "`" : ", `") + std::string(n) + "`";
+      return list;
+    }
+    default:
+      return s.range.rule();
+  }
+}
+
+template <class P>
+void reference_section(std::string& out, const P& defaults, bool markdown) {
+  const ParamTable<P>& t = param_table_of<P>();
+  const json values = write_section(defaults);
+  if (!markdown) {
+    for (const ParamSpec<P>& s : t.fields) {
+      std::string rule = accepted(s);
+      std::erase(rule, '`');
+      out += std::string(t.section) + "." + s.key + " = " + values.at(s.key).dump() + "  (" + rule +
+             (*s.unit ? std::string("; ") + s.unit : "") + ")\n    " + s.help + "\n";
+    }
+    return;
+  }
+  out += "\n### " + std::string(t.section) + "\n\n";
+  out += "| key | default | accepted | unit | meaning |\n|---|---|---|---|---|\n";
+  for (const ParamSpec<P>& s : t.fields) {
+    out += "| `" + std::string(s.key) + "` | " + values.at(s.key).dump() + " | " + accepted(s) + " | " + s.unit + " | " +
+           s.help + " |\n";
+  }
+}
+
+}  // namespace
+
+std::string params_reference(bool markdown) {
+  if (!markdown) {
+    std::string out;
+    const PipelineParams defaults;
+    for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, false); });
+    return out;
+  }
+  std::string out =
+      "Every key of a config file, by section, with its default (the initializer in the stage's\n"
+      "Params header), the values accepted and the unit (\"x local radius\": relative to the\n"
+      "branch radius there; lambda: the particle spacing in a cross-section). The `export`\n"
+      "section, how the mesh is written, is described in [export.md](export.md).\n";
+  const PipelineParams defaults;
+  for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, true); });
+  return out;
 }
 
 }  // namespace sm

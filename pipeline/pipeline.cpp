@@ -177,6 +177,7 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"split_vertices", r.repair.split_vertices},
                  {"inner_shells", r.repair.inner_shells},
                  {"lumps", r.repair.lumps},
+                 {"coincident_vertices", r.repair.coincident_vertices},
                  {"problem", r.repair.problem},
                  {"seconds", r.repair.timings.total()}}},
                {"fork_retry",

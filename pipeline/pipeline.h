@@ -34,6 +34,20 @@ struct PipelineParams {
   ExportParams output;
 };
 
+/// Calls `f(stage_params)` on each stage's Params of `p` in pipeline order (skeleton,
+/// particles, strands, contours, meshing, repair); with param_table_of, the generic walk over
+/// every parameter (config files, the viewer, `strandmesh params`).
+template <class PP, class F>
+  requires std::is_same_v<std::remove_const_t<PP>, PipelineParams>
+void for_each_stage_params(PP& p, F&& f) {
+  f(p.skeleton);
+  f(p.particles);
+  f(p.strands);
+  f(p.contours);
+  f(p.meshing);
+  f(p.repair);
+}
+
 /// The stages, in order; `rerun_pipeline` restarts from one of them.
 enum class Stage { skeleton = 0, particles, strands, contours, meshing };
 const char* stage_name(Stage s);
@@ -46,6 +60,10 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
 PipelineParams load_params(const std::filesystem::path& path, const PipelineParams& base = {});
 /// All parameters as a config file (every key, current values); parse_params_json reads it back.
 std::string params_to_json(const PipelineParams& params);
+/// The parameter reference from the stage tables: every key with its default, accepted values,
+/// unit and meaning; as Markdown tables per section (`strandmesh params --markdown`, the
+/// reference in docs/defaults.md) or as plain text (`strandmesh params`).
+std::string params_reference(bool markdown);
 
 struct PipelineResult {
   SkeletonResult skeleton;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <tuple>
 
 #include "core/errors.h"
 #include "core/union_find.h"
@@ -74,14 +75,49 @@ std::size_t components(const Mesh& m) {
   return n;
 }
 
+/// Vertices at the same position as another (a collapse or a cut line ending on a vertex can
+/// leave two): readers weld them, pinching the surface there. Every one but the first of each
+/// position moves two grid steps (or 1 % of the way, if longer) towards the centroid of its
+/// neighbours, on the grid. Returns how many moved.
+std::size_t separate_coincident(Mesh& mesh, double grid) {
+  std::vector<std::uint32_t> order;
+  std::vector<std::uint8_t> used(mesh.positions.size(), 0);
+  for (const auto& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  for (std::uint32_t v = 0; v < used.size(); ++v) {
+    if (used[v]) order.push_back(v);
+  }
+  const auto key = [&](std::uint32_t v) {
+    const glm::dvec3& p = mesh.positions[v];
+    return std::tuple(p.x, p.y, p.z, v);
+  };
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  std::vector<std::uint32_t> moving;
+  for (std::size_t k = 1; k < order.size(); ++k) {
+    if (mesh.positions[order[k]] == mesh.positions[order[k - 1]]) moving.push_back(order[k]);
+  }
+  if (moving.empty()) return 0;
+  std::vector<glm::dvec3> sum(mesh.positions.size(), glm::dvec3(0.0));
+  std::vector<double> count(mesh.positions.size(), 0.0);
+  for (const auto& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      sum[t[k]] += mesh.positions[t[(k + 1) % 3]] + mesh.positions[t[(k + 2) % 3]];
+      count[t[k]] += 2;
+    }
+  }
+  for (const std::uint32_t v : moving) {
+    const glm::dvec3 p = mesh.positions[v], towards = sum[v] / count[v] - p;
+    const double length = glm::length(towards);
+    if (!(length > 0)) continue;
+    glm::dvec3 q = p + towards * std::min(1.0, std::max(0.01, grid > 0 ? 2 * grid / length : 0.0));
+    if (grid > 0) q = snap_to_grid(q, grid);
+    mesh.positions[v] = q;
+  }
+  return moving.size();
+}
+
 }  // namespace
 
-void validate_params(const RepairParams& p) {
-  const ParamChecker check{"repair"};
-  check.within(double(p.max_rounds), 0, 100, "max_rounds");
-  check.within(double(p.fold_rounds), 0, 1000, "fold_rounds");
-  check.within(p.fold_max_move, 0, 1, "fold_max_move");
-}
+void validate_params(const RepairParams& p) { check_params(p); }
 
 RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairParams& params) {
   validate_params(params);
@@ -131,10 +167,20 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
       options.max_rounds = static_cast<int>(params.fold_rounds);
       options.keep_side = skeleton.position;
       options.grid = r.grid;
+      // Folds are local: a large tree has more of them, not worse ones (the test budget,
+      // per triangle, bounds the cost).
+      options.max_pairs = std::max(options.max_pairs, mesh.triangles.size() / 8);
+      MeshResult before = r;
       const FoldRepairStats fr = repair_folds(mesh, suspect, max_move, options);
       st.fold_pairs = folds;
       st.fold_changes = fr.flips + fr.moves + fr.collapses + fr.refills;
       drop_degenerate(r);
+      // Kept only as a closed 2-manifold (its collapses and refills can pinch an edge).
+      if (const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh)); open > 0) {
+        st.problem = "the fold repair left " + std::to_string(open) + " unpaired half-edges (undone)";
+        st.fold_changes = 0;
+        r = std::move(before);
+      }
       st.timings.add("folds", clock.lap());
       pairs = all_pairs();
       st.timings.add("find_pairs", clock.lap());
@@ -177,6 +223,7 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
     }
     pairs = std::move(after);
   }
+  st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();
   r.stats.vertices = mesh.vertex_count();
   r.stats.triangles = mesh.triangle_count();

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/param_table.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
 #include "skeleton/skeleton.h"
@@ -37,6 +38,10 @@ struct RepairParams {
   std::size_t count_pairs_up_to = 300'000;
 };
 
+/// The config key, accepted range, unit and help of each field of RepairParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<RepairParams>& param_table(std::type_identity<RepairParams>);
+
 struct RepairStats {
   bool counted = false;            ///< the mesh was small enough to look for pairs everywhere
   std::size_t pairs_found = 0;     ///< self-intersecting pairs of the built mesh (whole mesh)
@@ -50,6 +55,7 @@ struct RepairStats {
   std::size_t split_vertices = 0;  ///< vertices split where kept parts met at a point
   std::size_t inner_shells = 0;    ///< enclosed voids dropped
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
+  std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
   std::string problem;             ///< why a round was refused (empty: none was)
   Warnings warnings;
   Timings timings;

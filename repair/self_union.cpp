@@ -59,8 +59,9 @@ std::uint32_t triangle_with_edge(const Mesh& mesh, const VertexCorners& vc, std:
 /// Triangles at a vertex belong to one fan where they share an edge that no other triangle
 /// uses; at an edge of four or more (two solids of the union touching along it), each
 /// triangle is paired with its neighbour around the edge across the solid between them, so
-/// that the solids come apart.
-std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand) {
+/// that the solids come apart. With `grid` > 0 the copies are on that grid, each at least a
+/// grid step from v, so the float32 file keeps them apart.
+std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand, double grid) {
   const VertexCorners vc = vertex_corners(mesh);
   std::size_t split = 0;
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
@@ -131,8 +132,14 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
         count += 2;
       }
       const auto copy = static_cast<std::uint32_t>(mesh.positions.size());
-      const glm::dvec3 p = mesh.positions[v];
-      mesh.positions.push_back(p + 0.01 * (sum / count - p));
+      const glm::dvec3 p = mesh.positions[v], towards = sum / count - p;
+      glm::dvec3 q = p + 0.01 * towards;
+      if (grid > 0) {
+        const double length = glm::length(towards);
+        if (0.01 * length < 2 * grid && length > 0) q = p + towards * std::min(1.0, 2 * grid / length);
+        q = snap_to_grid(q, grid);
+      }
+      mesh.positions.push_back(q);
       if (node) node->push_back((*node)[v]);
       if (strand) strand->push_back(StrandId{});
       for (std::uint32_t i = 0; i < n; ++i) {
@@ -165,6 +172,11 @@ class Attempt {
   /// CGAL fails; otherwise `bad` lists the cut triangles (mesh indices) whose patches could not
   /// be judged consistently (empty: the union can be assembled).
   bool run(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  /// Only the refinement of run(): whether CGAL can refine the triangles of `pairs`.
+  bool refines(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+    choose(pairs);
+    return refine();
+  }
   /// The mesh with the union in place (after run() left `bad` empty).
   void assemble(Mesh& out, std::vector<std::uint32_t>& origin, double grid, SelfUnionStats& st) const;
 
@@ -653,6 +665,43 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
   return severed;
 }
 
+/// Where CGAL cannot refine a set of pairs, the crossings it fails on: the pairs are split into
+/// clusters (joined through shared vertices), the clusters into at most 64 batches refined one
+/// by one, and the clusters of a failing batch one by one. Returns the triangles of the failing
+/// clusters (empty when every batch refines after all). The cost is about twice the refinement
+/// of the whole set, plus a pass over the mesh per call.
+std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
+                                            const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  UnionFind joined(mesh.positions.size());
+  for (const auto& pr : pairs) {
+    for (const std::uint32_t f : pr) {
+      joined.unite(mesh.triangles[f][0], mesh.triangles[f][1]);
+      joined.unite(mesh.triangles[f][0], mesh.triangles[f][2]);
+    }
+    joined.unite(mesh.triangles[pr[0]][0], mesh.triangles[pr[1]][0]);
+  }
+  std::map<std::uint32_t, std::vector<std::array<std::uint32_t, 2>>> by_root;  // ordered: deterministic
+  for (const auto& pr : pairs) by_root[joined.find(mesh.triangles[pr[0]][0])].push_back(pr);
+  std::vector<const std::vector<std::array<std::uint32_t, 2>>*> clusters;
+  for (const auto& [root, members] : by_root) clusters.push_back(&members);
+
+  constexpr std::size_t kBatches = 64;
+  const std::size_t per_batch = (clusters.size() + kBatches - 1) / kBatches;
+  std::vector<std::uint32_t> failing;
+  std::vector<std::array<std::uint32_t, 2>> batch;
+  for (std::size_t b = 0; b < clusters.size(); b += per_batch) {
+    const std::size_t e = std::min(clusters.size(), b + per_batch);
+    batch.clear();
+    for (std::size_t c = b; c < e; ++c) batch.insert(batch.end(), clusters[c]->begin(), clusters[c]->end());
+    if (attempt.refines(batch)) continue;
+    for (std::size_t c = b; c < e; ++c) {
+      if (e - b > 1 && attempt.refines(*clusters[c])) continue;
+      for (const auto& pr : *clusters[c]) failing.insert(failing.end(), {pr[0], pr[1]});
+    }
+  }
+  return failing;
+}
+
 }  // namespace
 
 SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
@@ -665,9 +714,9 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   if (pairs.empty()) return st;
   const VertexCorners vc = vertex_corners(mesh);
 
-  // Attempts: where patches cannot be judged, or the union cuts a branch off the tree, those
-  // crossings are left out, with every pair joined to them (sharing a vertex), and the rest is
-  // tried again.
+  // Attempts: where CGAL cannot refine a cluster of crossings, patches cannot be judged, or
+  // the union cuts a branch off the tree, those crossings are left out, with every pair joined
+  // to them (sharing a vertex), and the rest is tried again.
   std::vector<std::array<std::uint32_t, 2>> active = pairs;
   std::vector<std::uint8_t> excluded(mesh.positions.size(), 0);  // per vertex
   auto leave_out = [&](const std::vector<std::uint32_t>& bad) {
@@ -697,14 +746,20 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     }
   };
   Attempt attempt(mesh, vc);
-  constexpr int kAttempts = 6;
+  constexpr int kAttempts = 12;
   Mesh out;
   std::vector<std::uint32_t> origin_of;
   bool ready = false;
   for (int k = 0; k < kAttempts && !active.empty(); ++k) {
     if (!attempt.run(active)) {
-      st.problem = attempt.problem;
-      return st;
+      const std::vector<std::uint32_t> failing = failing_clusters(attempt, mesh, active);
+      if (failing.empty()) {
+        st.problem = attempt.problem;
+        return st;
+      }
+      ++st.unrefined_clusters;
+      leave_out(failing);
+      continue;
     }
     if (!attempt.bad.empty()) {
       leave_out(attempt.bad);
@@ -715,7 +770,7 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     attempt.assemble(out, origin_of, grid, trial);
     std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
     std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
-    trial.split_vertices = split_pinches(out, node, strand);
+    trial.split_vertices = split_pinches(out, node, strand, grid);
     std::vector<std::uint8_t> was_cut(nf, 0);
     for (const auto& pr : active) was_cut[pr[0]] = was_cut[pr[1]] = 1;
     // Where the kept patches do not close up (a cut line ending where the surface folds), those

@@ -42,6 +42,7 @@ struct SelfUnionStats {
   std::size_t inner_shells = 0;       ///< components of negative volume dropped
   std::size_t lumps = 0;              ///< other components without an anchor inside, dropped
   std::size_t left_out = 0;           ///< pairs left as they were: their patches could not be judged
+  std::size_t unrefined_clusters = 0; ///< attempts where CGAL could not refine some clusters (left out)
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
 

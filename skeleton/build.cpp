@@ -907,25 +907,7 @@ Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
   return s;
 }
 
-void validate_params(const SkeletonParams& p) {
-  const ParamChecker check{"skeleton"};
-  check.non_negative(p.merge_edge_ratio, "merge_edge_ratio");
-  check.non_negative(p.radius_floor, "radius_floor");
-  check.positive(p.max_child_ratio, "max_child_ratio");
-  // (Below one radius, resampling multiplies the nodes without adding shape: 1e-9 made
-  // 10,000 nodes of every edge.)
-  check.require(p.max_edge_ratio == 0 || (std::isfinite(p.max_edge_ratio) && p.max_edge_ratio >= 1), "max_edge_ratio",
-                "0 (off) or at least 1", p.max_edge_ratio);
-  check.non_negative(p.binarize_step_ratio, "binarize_step_ratio");
-  check.non_negative(p.collar_ratio, "collar_ratio");
-  check.non_negative(p.collar_max_child_ratio, "collar_max_child_ratio");
-  check.non_negative(p.collar_min_stub, "collar_min_stub");
-  check.within(p.max_lateral_angle, 0, 180, "max_lateral_angle");
-  check.within(p.max_turn_back, 0, 180, "max_turn_back");
-  check.non_negative(p.tight_bend_ratio, "tight_bend_ratio");
-  check.non_negative(p.branch_clearance, "branch_clearance");
-  check.within(p.max_node_move, 0, 1, "max_node_move");
-}
+void validate_params(const SkeletonParams& p) { check_params(p); }
 
 SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
   validate_params(params);

@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/param_table.h"
 #include "core/report.h"
 #include "skeleton/skeleton.h"
 
@@ -32,14 +33,15 @@ namespace sm {
 /// tree's size: a tree more than a million times as large as its thinnest branch (after the
 /// radius floor) cannot be meshed at the precision the contours need, and the costs of the
 /// later stages grow with that ratio (an edge of 1e6 m at radius 0.05 ran for hours).
-/// Georeferenced trees (UTM or ECEF coordinates, millions of metres) are fine: the stages
-/// work in double precision, which resolves 1e-7 of the thinnest radius up to a billion
-/// radii from the origin.
+/// Georeferenced trees (UTM or ECEF coordinates, millions of metres, with twigs of a
+/// millimetre or less) are fine: the stages work in double precision, which resolves 1e-5 of
+/// the thinnest radius up to 1e11 radii from the origin, and the float grid and the exported
+/// offsets are relative to the tree.
 struct SkeletonLimits {
   /// Largest |x|, |y|, |z| of any node plus its radius (metres): beyond any geographic frame.
   static constexpr double max_coordinate = 1e8;
   /// Largest |x|, |y|, |z| of any node plus its radius, over the thinnest radius.
-  static constexpr double max_offset_ratio = 1e9;
+  static constexpr double max_offset_ratio = 1e11;
   /// Largest extent (bounding box side, radii included) over the thinnest radius.
   static constexpr double max_extent_ratio = 1e6;
   /// Most children of one node. The contour stage's work at a hub grows with the square of
@@ -147,6 +149,10 @@ struct SkeletonParams {
   /// Gap the separation leaves between two such branches, relative to the sum of their radii.
   double branch_clearance = 0.15;
 };
+
+/// The config key, accepted range, unit and help of each field of SkeletonParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<SkeletonParams>& param_table(std::type_identity<SkeletonParams>);
 
 /// The counted repairs of one build_skeleton() run, for `strandmesh info` and the viewer.
 struct SkeletonReport {

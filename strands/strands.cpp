@@ -103,9 +103,7 @@ dvec3 StrandSet::derivative(const Skeleton& s, const ParticleField& f, NodeId n,
 }
 
 StrandSet build_strands(const Skeleton& sk, const ParticleField& f, const StrandParams& params) {
-  if (!(params.alpha >= 0.0 && params.alpha <= 1.0)) {
-    throw InvalidInputError("strand parameters: alpha must be in [0, 1], got " + std::to_string(params.alpha));
-  }
+  check_params(params);
   SM_CHECK(f.node_count() == sk.size(), "build_strands: particle field and skeleton differ in node count");
   Stopwatch watch;
   StrandSet out;

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/param_table.h"
 #include "core/ids.h"
 #include "core/math.h"
 #include "core/report.h"
@@ -27,6 +28,10 @@ struct StrandParams {
   /// no cusps or self-loops), 1 chordal.
   double alpha = 0.5;
 };
+
+/// The config key, accepted range, unit and help of each field of StrandParams, in header order
+/// (core/param_table.h; the defaults are the initializers above).
+const ParamTable<StrandParams>& param_table(std::type_identity<StrandParams>);
 
 struct StrandStats {
   std::size_t strands = 0;

@@ -46,6 +46,27 @@ TEST(Cli, PrintConfigNeedsNoSkeleton) {
   EXPECT_EQ(nlohmann::json::parse(r.out), shipped);  // every key, so a new parameter must be added there
 }
 
+TEST(Cli, ParamsReferenceInTheDocsIsCurrent) {
+  // docs/defaults.md carries `strandmesh params --markdown` between its markers.
+  const CmdResult r = run("params --markdown");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string doc = read_file(fs::path(STRANDMESH_SOURCE_DIR) / "docs/defaults.md");
+  const auto begin = doc.find("<!-- BEGIN strandmesh params --markdown");
+  const auto end = doc.find("<!-- END strandmesh params --markdown");
+  ASSERT_NE(begin, std::string::npos);
+  ASSERT_NE(end, std::string::npos);
+  const auto first = doc.find('\n', begin) + 1;
+  EXPECT_EQ(doc.substr(first, end - first), r.out) << "docs/defaults.md is out of date: run scripts/update_param_docs.sh";
+  // The skeleton flags take their help and range from the same table.
+  const CmdResult flag = run("info --max-edge-ratio 0.5 tree.json");
+  EXPECT_EQ(flag.code, 2);
+  EXPECT_NE(flag.err.find("--max-edge-ratio: must be 0 (off) or at least 1, got 0.5"), std::string::npos) << flag.err;
+  EXPECT_NE(run("info --help").out.find("[config: skeleton.max_edge_ratio; 0 (off) or at least 1]"), std::string::npos);
+  const CmdResult plain = run("params");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_NE(plain.out.find("contours.slice_step = 0.4  (> 0; x local radius)"), std::string::npos) << plain.out;
+}
+
 TEST(Cli, GrowIsDeterministicAcrossThreadCounts) {
   const fs::path dir = test::temp_dir("cli_grow");
   ASSERT_EQ(run("--threads 1 grow --seed 9 -o " + (dir / "a.json").string()).code, 0);

@@ -14,6 +14,7 @@
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
+#include "grow/messy_grower.h"
 #include "core/file_io.h"
 #include "skeleton/build.h"
 #include "grow/presets.h"
@@ -697,4 +698,44 @@ TEST(GrowCli, ListAndErrors) {
 #endif  // STRANDMESH_GROW_SLOW_TESTS
 
 }  // namespace
+
+TEST(MessyGrower, SameSeedSameTreeWithEveryKindOfMess) {
+  MessyGrowParams p;
+  p.seed = 7;
+  const RawSkeleton a = grow_messy(p), b = grow_messy(p);
+  EXPECT_EQ(a.position, b.position);
+  EXPECT_EQ(a.radius, b.radius);
+  EXPECT_EQ(a.parent_id, b.parent_id);
+  p.seed = 8;
+  EXPECT_NE(grow_messy(p).position, a.position);
+  // A hub, zero radii, a child thicker than its parent, a hairpin (a turn of over 120 degrees).
+  std::vector<int> children(a.size(), 0);
+  bool zero = false, thicker = false, hairpin = false;
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    const auto parent = std::size_t(a.parent_id[i]);
+    ++children[parent];
+    zero = zero || a.radius[i] == 0;
+    thicker = thicker || a.radius[i] > a.radius[parent] * 1.001;
+    if (a.parent_id[parent] >= 0) {
+      const dvec3 in = a.position[parent] - a.position[std::size_t(a.parent_id[parent])];
+      const dvec3 out = a.position[i] - a.position[parent];
+      hairpin = hairpin || glm::dot(in, out) < std::cos(2.0944) * glm::length(in) * glm::length(out);
+    }
+  }
+  EXPECT_GE(*std::max_element(children.begin(), children.end()), p.hub_twigs);
+  EXPECT_TRUE(zero);
+  EXPECT_TRUE(thicker);
+  EXPECT_TRUE(hairpin);
+  // Georeferenced: the whole tree moves with the origin.
+  MessyGrowParams g = p;
+  g.seed = 7;
+  g.origin = dvec3(500'000, 5'200'000, 300);
+  const RawSkeleton geo = grow_messy(g);
+  ASSERT_EQ(geo.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_LT(glm::length(geo.position[i] - g.origin - a.position[i]), 1e-8) << i;
+  EXPECT_NO_THROW(build_skeleton(geo));
+  g.limbs = 0;
+  EXPECT_THROW(grow_messy(g), InvalidInputError);
+}
+
 }  // namespace sm

@@ -17,11 +17,14 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <set>
 #include <tuple>
 
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
+#include "core/param_table.h"
 #include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
 #include "grow/presets.h"
@@ -900,7 +903,90 @@ TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {
     parse_params_json(R"({"particles": {"sed": 3}})", "cfg.json");
     FAIL();
   } catch (const InvalidInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("cfg.json: particles: unknown key \"sed\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cfg.json: particles: unknown key \"sed\" (did you mean \"seed\"?)"),
+              std::string::npos)
+        << e.what();
+  }
+  for (const auto& [config, message] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"particles": {"slice_step": 1}})", "unknown key \"slice_step\" (it belongs in section \"contours\")"},
+           {R"({"contour": {}})", "unknown section \"contour\" (did you mean \"contours\"?)"},
+           {R"({"strands": {"zzz": 1}})", "unknown key \"zzz\" (known keys: alpha)"},
+           {R"({"strands": {"alpha": 2}})", "strands.alpha must be in [0, 1], got 2"},
+           {R"({"particles": {"damping": 1}})", "particles.damping must be in [0, 1), got 1"},
+           {R"({"particles": {"min_particles": 4294967296}})", "particles.min_particles: must be a non-negative integer"},
+           {R"({"skeleton": {"thick_child_policy": "thin"}})", "\"clamp_child\", \"raise_parent\" or \"keep\""}}) {
+    SCOPED_TRACE(config);
+    try {
+      parse_params_json(config, "cfg.json");
+      ADD_FAILURE() << "accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
+}
+
+// The number of fields of an aggregate (counted by how many initializers it accepts).
+struct AnyInit {
+  template <class T>
+  operator T() const;  // NOLINT(google-explicit-constructor)
+};
+template <class T, class... A>
+constexpr std::size_t field_count() {
+  if constexpr (requires { T{A{}..., AnyInit{}}; }) {
+    return field_count<T, A..., AnyInit>();
+  } else {
+    return sizeof...(A);
+  }
+}
+
+template <class P>
+void expect_sound_table(std::size_t fields_not_in_table = 0) {
+  const ParamTable<P>& t = param_table_of<P>();
+  SCOPED_TRACE(t.section);
+  // A field added to a Params struct needs its row in the stage's table (<stage>/param_table.cpp).
+  EXPECT_EQ(t.fields.size() + fields_not_in_table, field_count<P>());
+  std::set<std::string> keys;
+  for (std::size_t i = 0; i < t.fields.size(); ++i) {
+    const ParamSpec<P>& s = t.fields[i];
+    EXPECT_TRUE(keys.insert(s.key).second) << "duplicate key " << s.key;
+    EXPECT_FALSE(std::string(s.help).empty()) << s.key;
+    const ParamKind kind = param_kind(s);
+    if (kind == ParamKind::real || kind == ParamKind::integer) {
+      EXPECT_NE(s.range.rule(), "any") << s.key;
+    }
+    // Two keys never name one member (a copy-paste slip would read one field twice).
+    for (std::size_t j = 0; j < i; ++j) {
+      if (kind != ParamKind::choice && param_kind(t.fields[j]) != ParamKind::choice) {
+        EXPECT_FALSE(s.field == t.fields[j].field) << s.key << " and " << t.fields[j].key;
+      }
+    }
+    // Each field is reached through its member: setting it changes that field only.
+    P p{};
+    const double old = param_value(p, s);
+    set_param_value(p, s, old == 0 ? 1 : 0);
+    EXPECT_NE(param_value(p, s), old) << s.key;
+  }
+  EXPECT_NO_THROW(check_params(P{}));  // the defaults are accepted
+}
+
+TEST(Pipeline, ParamTablesCoverEveryField) {
+  expect_sound_table<SkeletonParams>();
+  expect_sound_table<ParticleParams>();
+  expect_sound_table<StrandParams>();
+  expect_sound_table<ContourParams>(1);  // `local`: set by the fork retry, not a user parameter
+  expect_sound_table<MeshParams>();
+  expect_sound_table<RepairParams>();
+}
+
+TEST(Pipeline, ParamsReferenceListsEveryKey) {
+  const std::string md = params_reference(true);
+  const auto j = nlohmann::json::parse(params_to_json(PipelineParams{}));
+  for (const auto& [section, keys] : j.items()) {
+    if (section == "export") continue;
+    EXPECT_NE(md.find("### " + section + "\n"), std::string::npos) << section;
+    for (const auto& [key, value] : keys.items()) {
+      EXPECT_NE(md.find("| `" + key + "` | " + value.dump() + " |"), std::string::npos) << section << "." << key;
+    }
   }
 }
 

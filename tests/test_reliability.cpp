@@ -232,7 +232,7 @@ TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
        "nodes[1] (id 1)"},
       {"root_far", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e7],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
        "nodes[1] (id 1)"},
-      {"offset_1e9_radii", R"({"nodes":[{"id":0,"parent":-1,"position":[5e7,0,0],"radius":0.01},{"id":1,"parent":0,"position":[5e7,0,1],"radius":0.01}]})",
+      {"offset_1e11_radii", R"({"nodes":[{"id":0,"parent":-1,"position":[5e7,0,0],"radius":0.0001},{"id":1,"parent":0,"position":[5e7,0,1],"radius":0.0001}]})",
        "nodes[0] (id 0)"},
       {"root_1e200", R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,-1e200],"radius":0.1},{"id":1,"parent":0,"position":[0,0,1],"radius":0.05}]})",
        "nodes[0] (id 0)"},

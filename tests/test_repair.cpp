@@ -11,6 +11,7 @@
 #include "pipeline/pipeline.h"
 #include "repair/repair.h"
 #include "repair/self_union.h"
+#include "grow/messy_grower.h"
 #include "skeleton/build.h"
 
 namespace sm {
@@ -93,6 +94,113 @@ TEST(Repair, CrossingBranchesFuseWhereTheyAreWithAHandle) {
   EXPECT_EQ(r.repair.pairs_left, 0u);
   ASSERT_TRUE(rep.genus.has_value());
   EXPECT_EQ(*rep.genus, 1);
+}
+
+
+/// The pipeline with the input kept: no separation, radii as given.
+PipelineParams keep_input() {
+  PipelineParams p;
+  p.skeleton.separate = false;
+  p.skeleton.thick_child_policy = ThickChildPolicy::keep;
+  p.meshing.fork_retry = false;
+  p.meshing.outer_surface = false;
+  return p;
+}
+
+/// Closed, manifold, oriented, one part; no node moved beyond max_node_move; the thick nodes of
+/// the input inside; returns the report measured against the input skeleton.
+MeshCheckReport expect_faithful(const RawSkeleton& raw, const PipelineResult& r, const PipelineParams& p) {
+  EXPECT_LE(r.skeleton.report.max_move_radii, p.skeleton.max_node_move + 1e-9);
+  const Skeleton input = input_skeleton(raw);
+  const MeshCheckReport rep = check_mesh(r.mesh.mesh, {.skeleton = &input});
+  EXPECT_TRUE(rep.closed);
+  EXPECT_TRUE(rep.edge_manifold);
+  EXPECT_TRUE(rep.vertex_manifold);
+  EXPECT_TRUE(rep.oriented);
+  EXPECT_EQ(rep.components, 1u);
+  EXPECT_GT(rep.signed_volume, 0);
+  EXPECT_GE(double(rep.thick_nodes_inside), 0.97 * double(rep.thick_nodes));
+  return rep;
+}
+
+TEST(Repair, HairpinStaysWhereItIs) {
+  // A lateral that runs out and turns back by 150 degrees, past its own base: kept in place
+  // (not re-attached), meshed as one closed part.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0, 0, 0), 0.08);
+  raw.add(1, 0, dvec3(0, 0, 1.0), 0.07);
+  raw.add(2, 1, dvec3(0, 0, 2.0), 0.06);
+  raw.add(3, 1, dvec3(0.5, 0, 1.2), 0.03);
+  const double t = 150.0 * 3.14159265358979 / 180.0;  // the turn from the incoming edge
+  const dvec3 in = glm::normalize(dvec3(0.5, 0, 0.2));
+  const dvec3 side(0, 1, 0);  // it turns back beside the trunk, not into it
+  raw.add(4, 3, dvec3(0.5, 0, 1.2) + 0.4 * (std::cos(t) * in + std::sin(t) * side), 0.025);
+  raw.add(5, 4, raw.position[4] + 0.3 * (std::cos(t) * in + std::sin(t) * side), 0.02);
+  PipelineParams p = keep_input();
+  const PipelineResult r = run_pipeline(raw, p);
+  const MeshCheckReport rep = expect_faithful(raw, r, p);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  // (p50: on a tree this small the flat caps' inner vertices, up to a radius from the round
+  // cones' surface, are more than 5 % of the vertices.)
+  EXPECT_LE(rep.fidelity_p50, 0.05);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+}
+
+TEST(Repair, HubOfTwigsIsOnePartInPlace) {
+  // Twenty twigs from one trunk node, some crossing each other: one closed part, nothing
+  // moved beyond the bound.
+  RawSkeleton raw = test::star(20);
+  const PipelineParams p = keep_input();
+  const PipelineResult r = run_pipeline(raw, p);
+  const MeshCheckReport rep = expect_faithful(raw, r, p);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+}
+
+TEST(Repair, ZeroRadiusFirIsMeshedAtTheFloor) {
+  // A fir as Sapling writes it: whorls of near-horizontal branches whose outer nodes have
+  // radius 0, raised to the radius floor (not dropped): every node is kept.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.1);
+  std::int64_t id = 1, below = 0;
+  for (int w = 1; w <= 4; ++w) {
+    const double z = 0.8 * w, rt = 0.1 * (1.0 - 0.2 * w);
+    raw.add(id, below, dvec3(0, 0, z), rt);
+    const std::int64_t node = id++;
+    for (int k = 0; k < 4; ++k) {
+      const double a = 1.5707963 * k + 0.4 * w;
+      const dvec3 d(std::cos(a), std::sin(a), -0.05);
+      raw.add(id, node, dvec3(0, 0, z) + 0.3 * d, 0.3 * rt);
+      raw.add(id + 1, id, dvec3(0, 0, z) + 0.6 * d, 0.0);
+      raw.add(id + 2, id + 1, dvec3(0, 0, z) + 0.8 * d, 0.0);
+      id += 3;
+    }
+    below = node;
+  }
+  raw.add(id, below, dvec3(0, 0, 4.0), 0.01);
+  const PipelineParams p = keep_input();
+  const PipelineResult r = run_pipeline(raw, p);
+  EXPECT_EQ(r.skeleton.report.dropped_nodes, 0u);
+  const MeshCheckReport rep = expect_faithful(raw, r, p);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+}
+
+TEST(Repair, MessyTreesStayOnePartAndInPlace) {
+  // Generator trees (crossing and hanging limbs, zigzags, a hub, hairpins, zero radii, thick
+  // children) at fixed seeds, one of them georeferenced: the mesh is one closed part in place.
+  for (const std::uint64_t seed : {1u, 2u}) {
+    MessyGrowParams g;
+    g.seed = seed;
+    if (seed == 2) g.origin = dvec3(500'000, 5'200'000, 300);
+    const RawSkeleton raw = grow_messy(g);
+    const PipelineParams p = keep_input();
+    const PipelineResult r = run_pipeline(raw, p);
+    SCOPED_TRACE("messy seed " + std::to_string(seed));
+    // (Not yet every thick node inside, nor free of self-intersections: docs/repair.md.)
+    const MeshCheckReport rep = expect_faithful(raw, r, p);
+    EXPECT_LT(rep.self_intersecting_pairs, 1000u);
+  }
 }
 
 }  // namespace

@@ -475,9 +475,8 @@ TEST(ViewerImage, PngRoundTripAndFlip) {
 // ---- parameter table ------------------------------------------------------------------
 
 TEST(ViewerParams, TableCoversEveryConfigKey) {
-  // Every key params_to_json writes for a stage has exactly one field in the table (typed, or
-  // through the config file for keys the table does not know yet), and editing a field changes
-  // that key and no other section.
+  // Every key params_to_json writes for a stage has exactly one field (the repair section's in
+  // the meshing panel), and editing a field changes that key and no other section.
   PipelineParams p;
   const auto base = nlohmann::json::parse(params_to_json(p));
   for (Stage s : kStages) {
@@ -487,12 +486,14 @@ TEST(ViewerParams, TableCoversEveryConfigKey) {
     for (const auto& f : fields) keys.insert(f.key);
     EXPECT_EQ(keys.size(), fields.size()) << stage_name(s) << ": duplicate keys";
     for (const auto& [k, v] : section.items()) EXPECT_TRUE(keys.count(k)) << stage_name(s) << "." << k;
+    if (s == Stage::meshing) {
+      for (const auto& [k, v] : base.at("repair").items()) EXPECT_TRUE(keys.count("repair." + k)) << "repair." << k;
+    }
     for (const auto& f : fields) {
       PipelineParams q;
       auto qf = param_fields(q, s);
       const auto it = std::find_if(qf.begin(), qf.end(), [&](const ParamField& x) { return x.key == f.key; });
       ASSERT_NE(it, qf.end());
-      if (std::holds_alternative<ConfigRef>(it->value) && config_kind(*it) == ConfigKind::text) continue;
       const double old = field_value(*it);
       set_field_value(*it, old == 0 ? 1 : (old == 1 ? 0 : old * 0.5 + 0.3));
       EXPECT_NE(field_value(*it), old) << f.key;
@@ -512,27 +513,41 @@ TEST(ViewerParams, TableCoversEveryConfigKey) {
   EXPECT_FALSE(first_changed_stage(PipelineParams{}, PipelineParams{}));
 }
 
-TEST(ViewerParams, ConfigRefEditsThroughTheConfigFile) {
-  // The path a key takes when the typed table does not know it yet.
+TEST(ViewerParams, FieldsComeFromTheStageTables) {
+  // Key, help, unit, accepted range, slider and widget kind are the stage table's.
   PipelineParams p;
-  ParamField f;
-  f.key = "slice_step";
-  f.value = ConfigRef{&p, Stage::contours};
-  EXPECT_EQ(config_kind(f), ConfigKind::number);
-  EXPECT_DOUBLE_EQ(field_value(f), p.contours.slice_step);
-  set_field_value(f, 0.25);
+  const auto find = [](std::vector<ParamField>& fields, const std::string& key) {
+    const auto it = std::find_if(fields.begin(), fields.end(), [&](const ParamField& f) { return f.key == key; });
+    if (it == fields.end()) throw std::runtime_error("no field " + key);
+    return *it;
+  };
+  auto contours = param_fields(p, Stage::contours);
+  const ParamField step = find(contours, "slice_step");
+  EXPECT_EQ(step.kind, ParamKind::real);
+  EXPECT_NE(step.help.find("(x local radius); accepted: > 0"), std::string::npos) << step.help;
+  EXPECT_DOUBLE_EQ(step.min, 0.05);
+  EXPECT_DOUBLE_EQ(step.max, 2);
+  set_field_value(step, 0.25);
   EXPECT_DOUBLE_EQ(p.contours.slice_step, 0.25);
-  f.key = "max_steps";
-  f.value = ConfigRef{&p, Stage::particles};
-  EXPECT_EQ(config_kind(f), ConfigKind::integer);
-  set_field_value(f, 17.4);
-  EXPECT_EQ(p.particles.max_steps, 17u);
-  f.key = "uvs";
-  f.value = ConfigRef{&p, Stage::meshing};
-  EXPECT_EQ(config_kind(f), ConfigKind::boolean);
-  set_field_value(f, 0);
-  EXPECT_FALSE(p.meshing.uvs);
-  EXPECT_EQ(first_changed_stage(PipelineParams{}, p), Stage::particles);
+  EXPECT_EQ(find(contours, "split_nested_laterals").kind, ParamKind::flag);
+  EXPECT_EQ(find(contours, "max_slices_per_edge").kind, ParamKind::integer);
+  auto skeleton = param_fields(p, Stage::skeleton);
+  const ParamField policy = find(skeleton, "thick_child_policy");
+  EXPECT_EQ(policy.kind, ParamKind::choice);
+  EXPECT_EQ(policy.choices, (std::vector<std::string>{"clamp_child", "raise_parent", "keep"}));
+  set_field_value(policy, 2);
+  EXPECT_EQ(p.skeleton.thick_child_policy, ThickChildPolicy::keep);
+  // A range without a slider of its own: the slider spans it.
+  auto strands = param_fields(p, Stage::strands);
+  EXPECT_DOUBLE_EQ(find(strands, "alpha").max, 1);
+  auto meshing = param_fields(p, Stage::meshing);
+  set_field_value(find(meshing, "repair.self_union"), 0);
+  EXPECT_FALSE(p.repair.self_union);
+  EXPECT_EQ(first_changed_stage(PipelineParams{}, p), Stage::skeleton);
+  p.skeleton = {};
+  EXPECT_EQ(first_changed_stage(PipelineParams{}, p), Stage::contours);
+  p.contours = {};
+  EXPECT_EQ(first_changed_stage(PipelineParams{}, p), Stage::meshing);
 }
 
 TEST(ViewerParams, SetFieldClampsIntegers) {

@@ -70,73 +70,47 @@ bool stage_has_layer_data(const RunData* run, Layer l) {
   return false;
 }
 
-// One parameter row; returns true when an edit was completed this frame. A value the stage
-// rejects (through the config-file path) is reported in `error`.
-bool field_widget(const ParamField& f, const ParamField& applied, std::string& error) {
+// One parameter row, its widget chosen by the field's kind; returns true when an edit was
+// completed this frame.
+bool field_widget(const ParamField& f, const ParamField& applied) {
   const char* key = f.key.c_str();
   ImGui::PushID(key);
   const bool changed_from_applied = field_value(f) != field_value(applied);
   if (changed_from_applied) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(0.9f, 0.45f, 0.0f, 1.0f));
   bool instant = false;  // checkboxes and combos finish their edit in the frame they change
   ImGui::SetNextItemWidth(ImGui::GetFontSize() * 11.0f);
-  std::visit(
-      [&](auto p) {
-        using P = decltype(p);
-        if constexpr (std::is_same_v<P, double*>) {
-          ImGuiSliderFlags flags = f.logarithmic ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None;
-          const double lo = f.min, hi = f.max;
-          ImGui::SliderScalar(key, ImGuiDataType_Double, p, &lo, &hi, "%.4g", flags);
-        } else if constexpr (std::is_same_v<P, std::uint32_t*>) {
-          ImGuiSliderFlags flags = f.logarithmic ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None;
-          const std::uint32_t lo = static_cast<std::uint32_t>(f.min), hi = static_cast<std::uint32_t>(f.max);
-          ImGui::SliderScalar(key, ImGuiDataType_U32, p, &lo, &hi, "%u", flags);
-        } else if constexpr (std::is_same_v<P, std::uint64_t*>) {
-          ImGui::InputScalar(key, ImGuiDataType_U64, p);
-        } else if constexpr (std::is_same_v<P, SizeRef>) {
-          std::uint64_t v = *p.p;
-          if (ImGui::InputScalar(key, ImGuiDataType_U64, &v)) *p.p = static_cast<std::size_t>(v);
-        } else if constexpr (std::is_same_v<P, bool*>) {
-          ImGui::Checkbox(key, p);
-          instant = true;
-        } else if constexpr (std::is_same_v<P, ThickChildPolicy*>) {
-          int v = static_cast<int>(*p);
-          const char* items[] = {"clamp child", "raise parent", "keep"};
-          if (ImGui::Combo(key, &v, items, 3)) *p = static_cast<ThickChildPolicy>(v);
-          instant = true;
-        } else if constexpr (std::is_same_v<P, ConfigRef>) {
-          bool edited = false;
-          double v = field_value(f);
-          switch (config_kind(f)) {
-            case ConfigKind::boolean: {
-              bool b = v != 0.0;
-              edited = ImGui::Checkbox(key, &b);
-              v = b ? 1.0 : 0.0;
-              instant = true;
-              break;
-            }
-            case ConfigKind::integer: {
-              std::int64_t i = static_cast<std::int64_t>(v);
-              edited = ImGui::InputScalar(key, ImGuiDataType_S64, &i);
-              v = static_cast<double>(i);
-              break;
-            }
-            case ConfigKind::number:
-              edited = ImGui::InputDouble(key, &v, 0.0, 0.0, "%.4g");
-              break;
-            case ConfigKind::text:
-              ImGui::Text("%s (edit it in the config file)", key);
-              break;
-          }
-          if (edited) {
-            try {
-              set_field_value(f, v);
-            } catch (const std::exception& e) {
-              error = e.what();
-            }
-          }
-        }
-      },
-      f.value);
+  const ImGuiSliderFlags flags = f.logarithmic ? ImGuiSliderFlags_Logarithmic : ImGuiSliderFlags_None;
+  switch (f.kind) {
+    case ParamKind::real: {
+      double v = field_value(f);
+      const double lo = f.min, hi = f.max;
+      if (ImGui::SliderScalar(key, ImGuiDataType_Double, &v, &lo, &hi, "%.4g", flags)) set_field_value(f, v);
+      break;
+    }
+    case ParamKind::integer: {
+      auto v = static_cast<std::uint64_t>(field_value(f));
+      const auto lo = static_cast<std::uint64_t>(f.min), hi = static_cast<std::uint64_t>(f.max);
+      // Counts spanning decades (node and particle limits) are typed; small ones slide.
+      const bool edited = f.logarithmic || f.max > 1e6 ? ImGui::InputScalar(key, ImGuiDataType_U64, &v)
+                                                        : ImGui::SliderScalar(key, ImGuiDataType_U64, &v, &lo, &hi, "%llu");
+      if (edited) set_field_value(f, static_cast<double>(v));
+      break;
+    }
+    case ParamKind::flag: {
+      bool b = field_value(f) != 0.0;
+      if (ImGui::Checkbox(key, &b)) set_field_value(f, b ? 1.0 : 0.0);
+      instant = true;
+      break;
+    }
+    case ParamKind::choice: {
+      int v = static_cast<int>(field_value(f));
+      std::vector<const char*> items;
+      for (const auto& c : f.choices) items.push_back(c.c_str());
+      if (ImGui::Combo(key, &v, items.data(), static_cast<int>(items.size()))) set_field_value(f, v);
+      instant = true;
+      break;
+    }
+  }
   bool done = ImGui::IsItemDeactivatedAfterEdit() || (instant && ImGui::IsItemEdited());
   if (changed_from_applied) ImGui::PopStyleColor();
   help_marker(f.help.c_str());
@@ -291,11 +265,9 @@ void stages_panel(ViewerApp& app, PanelState& state, int width) {
       const auto fields = param_fields(app.edited_params(), s);
       const auto applied_fields = param_fields(applied, s);
       bool edit_done = false;
-      std::string field_error;
       for (std::size_t i = 0; i < fields.size() && i < applied_fields.size(); ++i) {
-        edit_done |= field_widget(fields[i], applied_fields[i], field_error);
+        edit_done |= field_widget(fields[i], applied_fields[i]);
       }
-      if (!field_error.empty()) app.show_error(field_error);
       if (!can_rerun) ImGui::BeginDisabled();
       char label[64];
       std::snprintf(label, sizeof label, "Re-run from %s", stage_name(s));

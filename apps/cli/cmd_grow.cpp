@@ -12,6 +12,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
+#include "grow/messy_grower.h"
 #include "grow/presets.h"
 #include "grow/random_grower.h"
 #include "grow/tree_grower.h"
@@ -60,6 +61,8 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
       std::string output;
       std::string preset;
       bool list = false;
+      bool messy = false;
+      std::vector<double> origin;
       CLI::Option* seed_option = nullptr;
     };
     auto o = std::make_shared<Opts>();
@@ -69,12 +72,30 @@ void add_grow_command(CLI::App& app, const GlobalOptions& global) {
                          ->check(kNotNegative);
     sub.add_option("--preset", o->preset,
                    "Grow with a preset: a name from configs/grow (see --list-presets) or a path to a .json file");
+    sub.add_flag("--messy", o->messy,
+                 "Grow a messy test tree (grow/messy_grower.h): crossing and hanging limbs, zigzags, a hub, "
+                 "hairpins, zero radii, children thicker than their parent");
+    sub.add_option("--origin", o->origin, "With --messy: position of the root, X Y Z in metres (georeferenced)")
+        ->expected(3);
     sub.add_flag("--list-presets", o->list, "List the grow presets with their node ranges and descriptions");
     sub.add_option("-o,--output", o->output, "Output skeleton file (.json), or - for standard output");
     return [o, &global] {
       if (o->list) return list_presets();
       if (o->output.empty()) throw UsageError("grow: -o FILE.json is required");
       if (o->output != "-") check_json_output(o->output, "-o");
+      if (o->messy) {
+        if (!o->preset.empty()) throw UsageError("grow: --messy and --preset exclude each other");
+        MessyGrowParams params;
+        params.seed = o->seed;
+        if (!o->origin.empty()) params.origin = dvec3(o->origin[0], o->origin[1], o->origin[2]);
+        const RawSkeleton raw = grow_messy(params);
+        build_skeleton(raw);  // rejects what the mesher could not take, before writing
+        write_output(o->output, raw_skeleton_to_json(raw));
+        log::info("grew a messy tree of " + std::to_string(raw.size()) + " nodes (seed " + std::to_string(o->seed) +
+                  ") -> " + o->output);
+        return int(kOk);
+      }
+      if (!o->origin.empty()) throw UsageError("grow: --origin needs --messy");
       if (o->preset.empty()) {
         RandomGrowParams params;
         params.seed = o->seed;

@@ -18,6 +18,7 @@ void register_commands(CLI::App& app, const GlobalOptions& global) {
   add_batch_command(app, global);
   add_check_command(app, global);
   add_bench_command(app, global);
+  add_params_command(app, global);
 }
 
 }  // namespace sm::cli

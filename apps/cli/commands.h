@@ -16,6 +16,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global);
 void add_bench_command(CLI::App& app, const GlobalOptions& global);
 void add_particles_command(CLI::App& app, const GlobalOptions& global);
 void add_batch_command(CLI::App& app, const GlobalOptions& global);
+void add_params_command(CLI::App& app, const GlobalOptions& global);
 
 /// The pipeline's stages in order, each with its phases' Timings where it has some (contours
 /// and meshing), as `mesh` and `bench` print them.

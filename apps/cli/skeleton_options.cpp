@@ -1,8 +1,12 @@
 #include "apps/cli/skeleton_options.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cstdio>
 #include <map>
+#include <string_view>
+#include <tuple>
 
 #include "core/errors.h"
 #include "core/file_io.h"
@@ -11,29 +15,56 @@
 
 namespace sm::cli {
 
+namespace {
+
+// A skeleton flag's help and accepted range are its config key's row in the skeleton table
+// (skeleton/param_table.cpp), so the flag and the config file cannot drift apart.
+const ParamSpec<SkeletonParams>& spec(std::string_view key) {
+  for (const auto& s : param_table_of<SkeletonParams>().fields) {
+    if (key == s.key) return s;
+  }
+  throw InternalError("no skeleton parameter " + std::string(key));
+}
+
+std::string help_of(std::string_view key, const std::string& more = "") {
+  const auto& s = spec(key);
+  std::string h = s.help;
+  if (!h.empty()) h[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(h[0])));
+  if (*s.unit) h += std::string(" (") + s.unit + ")";
+  return h + more + " [config: skeleton." + s.key + (param_kind(s) == ParamKind::choice ? "" : "; " + s.range.rule()) + "]";
+}
+
+CLI::Validator range_of(std::string_view key) {
+  const ParamRange r = spec(key).range;
+  return CLI::Validator(
+      [r](std::string& in) -> std::string {
+        char* end = nullptr;
+        const double x = std::strtod(in.c_str(), &end);
+        if (end == in.c_str() || *end != '\0') return {};  // not a number: the conversion reports it
+        return r.contains(x) ? std::string() : "must be " + r.rule() + ", got " + in;
+      },
+      "");
+}
+
+}  // namespace
+
 void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
-  sub.add_option("--max-nodes", p.max_nodes, "Reject skeletons with more nodes than this")
+  sub.add_option("--max-nodes", p.max_nodes, help_of("max_nodes"))
       ->capture_default_str()
-      ->check(kNotNegative);
-  sub.add_option("--merge-edge-ratio", p.merge_edge_ratio, "Merge edges shorter than this x radius into the parent")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  sub.add_option("--radius-floor", p.radius_floor, "Radius floor in metres (0 = automatic)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNotNegative)
+      ->check(range_of("max_nodes"));
+  for (const auto& [flag, key, member] : {std::tuple{"--merge-edge-ratio", "merge_edge_ratio", &p.merge_edge_ratio},
+                                          std::tuple{"--radius-floor", "radius_floor", &p.radius_floor},
+                                          std::tuple{"--max-child-ratio", "max_child_ratio", &p.max_child_ratio},
+                                          std::tuple{"--max-edge-ratio", "max_edge_ratio", &p.max_edge_ratio}}) {
+    sub.add_option(flag, *member, help_of(key))->capture_default_str()->check(range_of(key));
+  }
   const std::map<std::string, ThickChildPolicy> policies{{"clamp", ThickChildPolicy::clamp_child},
                                                          {"raise", ThickChildPolicy::raise_parent},
                                                          {"keep", ThickChildPolicy::keep}};
-  sub.add_option("--thick-child", p.thick_child_policy,
-                 "What to do with a child thicker than its parent: clamp (child), raise (parent), keep")
+  sub.add_option("--thick-child", p.thick_child_policy, help_of("thick_child_policy", ": clamp (child), raise (parent), keep"))
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
       ->default_str("clamp");
-  sub.add_option("--max-child-ratio", p.max_child_ratio, "Largest allowed child/parent radius ratio")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  sub.add_option("--max-edge-ratio", p.max_edge_ratio, "Split edges longer than this x radius (0 = off)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
   sub.add_flag("!--keep-input", p.separate,
                "Keep the input where it is: crossing branches are not swung apart nor hairpins re-attached; the "
                "repair stage fuses crossings where they are (with --thick-child keep, radii as given too)");
