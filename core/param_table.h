@@ -162,7 +162,7 @@ void set_param_value(P& p, const ParamSpec<P>& s, double v) {
             } else if (v >= hi) {
               p.*m = std::numeric_limits<T>::max();
             } else {
-              p.*m = static_cast<T>(std::llround(v));
+              p.*m = static_cast<T>(std::round(v));  // (llround overflows above 2^63)
             }
           }
         }

@@ -976,6 +976,19 @@ TEST(Pipeline, ParamTablesCoverEveryField) {
   expect_sound_table<ContourParams>(1);  // `local`: set by the fork retry, not a user parameter
   expect_sound_table<MeshParams>();
   expect_sound_table<RepairParams>();
+  // Setting an integer from a number rounds and clamps to its type, above 2^63 too.
+  ParticleParams p;
+  const auto& seed = *std::find_if(param_table_of<ParticleParams>().fields.begin(),
+                                   param_table_of<ParticleParams>().fields.end(),
+                                   [](const auto& s) { return std::string(s.key) == "seed"; });
+  set_param_value(p, seed, 1e19);
+  EXPECT_EQ(p.seed, 10'000'000'000'000'000'000u);
+  set_param_value(p, seed, 1e30);
+  EXPECT_EQ(p.seed, std::numeric_limits<std::uint64_t>::max());
+  set_param_value(p, seed, -3);
+  EXPECT_EQ(p.seed, 0u);
+  set_param_value(p, seed, 6.5);
+  EXPECT_EQ(p.seed, 7u);
 }
 
 TEST(Pipeline, ParamsReferenceListsEveryKey) {
