@@ -182,6 +182,16 @@ Grid voxelize(const VolumeShape& s, double cell, const std::string& where) {
   return g;
 }
 
+/// A uniform point of the unit cube. The draws are sequenced z, y, x: the order GCC gave the
+/// former `dvec3(rng.uniform(), rng.uniform(), rng.uniform())`, whose argument order C++ leaves
+/// unspecified (clang drew x first and grew other trees from the same seed).
+dvec3 unit_cube_point(Rng& rng) {
+  const double z = rng.uniform();
+  const double y = rng.uniform();
+  const double x = rng.uniform();
+  return {x, y, z};
+}
+
 }  // namespace
 
 bool shape_contains(const VolumeShape& s, const dvec3& p) {
@@ -286,7 +296,7 @@ std::vector<dvec3> scatter_points(const Volume& volume, std::size_t count, std::
       Rng rng(derive_seed(seed, kScatterStream, i));
       failed[i] = 1;
       for (int t = 0; t < kMaxTries; ++t) {
-        const dvec3 p = lo + dvec3(rng.uniform(), rng.uniform(), rng.uniform()) * size;
+        const dvec3 p = lo + unit_cube_point(rng) * size;
         if (volume.contains(p)) {
           points[i] = p;
           failed[i] = 0;
@@ -308,7 +318,7 @@ double estimate_volume(const Volume& volume, std::size_t samples, std::uint64_t 
   const dvec3 lo = volume.lower(), size = volume.upper() - volume.lower();
   std::size_t in = 0;
   for (std::size_t i = 0; i < samples; ++i) {
-    in += volume.contains(lo + dvec3(rng.uniform(), rng.uniform(), rng.uniform()) * size) ? 1 : 0;
+    in += volume.contains(lo + unit_cube_point(rng) * size) ? 1 : 0;
   }
   return size.x * size.y * size.z * double(in) / double(samples);
 }

@@ -62,6 +62,13 @@ class MeshAssembler {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
       throw InvalidInputError(name_ + ": " + std::string(where) + ": non-finite vertex coordinate");
     }
+    // Beyond float32's range no mesh format we write can hold it, and the checks' squared
+    // distances would overflow to infinity (a mesh 1e200 m away gave "fidelity p95 inf").
+    constexpr double kMax = double(std::numeric_limits<float>::max());
+    if (std::abs(p.x) > kMax || std::abs(p.y) > kMax || std::abs(p.z) > kMax) {
+      throw InvalidInputError(name_ + ": " + std::string(where) +
+                              ": vertex coordinate beyond float32's range (3.4e38 m)");
+    }
     const glm::dvec3 q = p + glm::dvec3(0.0);  // -0 + 0 = +0: both zeros weld
     const PositionKey key{
         {std::bit_cast<std::uint64_t>(q.x), std::bit_cast<std::uint64_t>(q.y), std::bit_cast<std::uint64_t>(q.z)}};

@@ -6,9 +6,11 @@ Mutates seed files (skeletons or meshes) and runs each through the given strandm
 Every run is classified: exit 0 / 1 / 2 / 4 are answers; exit 3 (internal error), a signal,
 a sanitizer report ("ERROR: AddressSanitizer", "runtime error:") or the time limit are
 findings, and so is a rejection (exit 1) whose message does not name the input file.
-Findings are copied to OUT/findings/. Deterministic for a seed.
+Findings are copied to OUT/findings/. Deterministic for a seed. With --reference (the
+Release binary), a sanitizer run over the limit counts as a hang only if the Release binary
+also takes longer; otherwise it is rerun under the sanitizers with --sanitizer-timeout.
 
-  scripts/mutation_campaign.py --binary build-asan/strandmesh --kind skeleton --count 3000 \\
+  scripts/mutation_campaign.py --binary build-asan/strandmesh --reference build/strandmesh --kind skeleton --count 3000 \\
       --seeds tests/data/skeletons fuzz/corpus/skeleton_json fuzz/corpus/skeleton_swc --out /tmp/campaign
   scripts/mutation_campaign.py --binary build-asan/strandmesh --kind mesh --count 1000 \\
       --seeds fuzz/corpus/mesh_glb fuzz/corpus/mesh_gltf fuzz/corpus/mesh_obj fuzz/corpus/mesh_ply --out /tmp/campaign
@@ -77,9 +79,12 @@ def classify(code, err, timed_out, name):
         return "signal"
     if code == 3:
         return "exit 3"
-    if code == 1 and name not in err:
+    if code == 1 and name + ":" not in err:  # "case000001.json: nodes[3] ..." or "case000001.json:12:5: ..."
         return "unnamed rejection"
     return "exit %d" % code
+
+
+slow_runs = []  # runs over --timeout under the sanitizers that the reference build finished in time
 
 
 def run_one(args, k, seed_path, out_root):
@@ -99,12 +104,26 @@ def run_one(args, k, seed_path, out_root):
             cmd = [args.binary, "-q", "mesh", path, "-o", os.path.join(work, "out.glb")]
     else:
         cmd = [args.binary, "check", path]
-    try:
-        p = subprocess.run(cmd, capture_output=True, timeout=args.timeout, cwd=work)
-        code, err, timed_out = p.returncode, p.stderr.decode("utf-8", "replace"), False
-    except subprocess.TimeoutExpired as e:
-        code, err, timed_out = None, (e.stderr or b"").decode("utf-8", "replace"), True
+    def attempt(binary, timeout):
+        try:
+            p = subprocess.run([binary] + cmd[1:], capture_output=True, timeout=timeout, cwd=work)
+            return p.returncode, p.stderr.decode("utf-8", "replace"), False
+        except subprocess.TimeoutExpired as e:
+            return None, (e.stderr or b"").decode("utf-8", "replace"), True
+
+    code, err, timed_out = attempt(args.binary, args.timeout)
+    slow = False
+    if timed_out and args.reference:
+        # The sanitizers make a run 2-5 times slower: an input the optimized build (--reference)
+        # finishes within the limit is no hang. It then gets --sanitizer-timeout to finish under
+        # the sanitizers, so that its sanitizer verdict is not lost.
+        _, _, ref_timed_out = attempt(args.reference, args.timeout)
+        if not ref_timed_out:
+            slow = True
+            code, err, timed_out = attempt(args.binary, args.sanitizer_timeout)
     outcome = classify(code, err, timed_out, name)
+    if slow and not timed_out:
+        slow_runs.append(k)
     finding = outcome in ("hang", "sanitizer", "signal", "exit 3", "unnamed rejection")
     if finding:
         dest = os.path.join(out_root, "findings")
@@ -113,7 +132,12 @@ def run_one(args, k, seed_path, out_root):
         with open(os.path.join(dest, name + ".txt"), "w") as f:
             f.write(" ".join(cmd) + "\n" + outcome + "\n" + err[-20000:])
     shutil.rmtree(work, ignore_errors=True)
-    return cmd[1] if cmd[1] != "-q" else "mesh", outcome, finding
+    # The rule a rejection names, with the place and numbers blanked, for the summary.
+    rule = None
+    if outcome == "exit 1":
+        line = next((l for l in err.splitlines() if name in l), "")
+        rule = re.sub(r"-?\d[\d.e+-]*", "N", line.split(name, 1)[-1])[:100]
+    return cmd[1] if cmd[1] != "-q" else "mesh", outcome, finding, rule
 
 
 def main():
@@ -126,10 +150,14 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=60)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--reference", help="optimized binary: a sanitizer run over --timeout is a hang only if this one is too")
+    ap.add_argument("--sanitizer-timeout", type=float, default=600,
+                    help="limit for a sanitizer run the reference finished within --timeout (s)")
     ap.add_argument("--mesh-every", type=int, default=10, help="skeletons: every Nth goes through `mesh` (0: none)")
     args = ap.parse_args()
     args.binary = os.path.abspath(args.binary)  # runs happen in their own folders
-    exts = {"skeleton": (".json", ".swc"), "mesh": (".glb", ".gltf", ".obj", ".ply")}[args.kind]
+    exts = {"skeleton": (".json", ".swc", ".csv", ".txt", ".mtg", ".mat"),
+            "mesh": (".glb", ".gltf", ".obj", ".ply")}[args.kind]
     seeds = []
     for s in args.seeds:
         if os.path.isdir(s):
@@ -143,16 +171,28 @@ def main():
     copy = os.path.join(args.out, "strandmesh-under-test")
     shutil.copy2(args.binary, copy)
     args.binary = copy
+    if args.reference:
+        ref = os.path.join(args.out, "strandmesh-reference")
+        shutil.copy2(os.path.abspath(args.reference), ref)
+        args.reference = ref
     table = collections.Counter()
+    rules = collections.Counter()
     findings = 0
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        futures = [pool.submit(run_one, args, k, seeds[k % len(seeds)], args.out) for k in range(args.count)]
+        # Seeds drawn at random (fixed for --seed), so that every Nth run through `mesh` does not
+        # always get the same few seeds.
+        pick = random.Random(args.seed)
+        futures = [pool.submit(run_one, args, k, seeds[pick.randrange(len(seeds))], args.out) for k in range(args.count)]
         for f in concurrent.futures.as_completed(futures):
-            command, outcome, finding = f.result()
+            command, outcome, finding, rule = f.result()
             table[(command, outcome)] += 1
             findings += finding
+            if rule is not None:
+                rules[rule] += 1
     summary = {"kind": args.kind, "runs": args.count, "seeds": len(seeds), "findings": findings,
-               "outcomes": {"%s: %s" % k: v for k, v in sorted(table.items())}}
+               "outcomes": {"%s: %s" % k: v for k, v in sorted(table.items())},
+               "slow under the sanitizers (over %g s; the reference build within it)" % args.timeout: len(slow_runs),
+               "distinct rejections": len(rules), "most common rejections": dict(rules.most_common(25))}
     print(json.dumps(summary, indent=2))
     with open(os.path.join(args.out, "summary_%s.json" % args.kind), "w") as f:
         json.dump(summary, f, indent=2)

@@ -25,6 +25,12 @@ args=(-S "$ROOT/examples/mesh_tree" -B "$WORK/build" -DCMAKE_BUILD_TYPE=Release 
 if command -v ninja >/dev/null 2>&1; then args+=(-G Ninja); fi
 if [ -n "$CXX_COMPILER" ]; then args+=(-DCMAKE_CXX_COMPILER="$CXX_COMPILER"); fi
 if [ -n "$LAUNCHER" ]; then args+=(-DCMAKE_CXX_COMPILER_LAUNCHER="$LAUNCHER"); fi
+# A sanitizer build (scripts/test.sh --sanitize) installs sanitized libraries: the example
+# must link the sanitizer runtimes too.
+SANITIZE="$(sed -n 's/^STRANDMESH_SANITIZE:STRING=//p' "$BUILD/CMakeCache.txt")"
+if [ -n "$SANITIZE" ]; then
+  args+=(-DCMAKE_CXX_FLAGS="-fsanitize=$SANITIZE" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=$SANITIZE")
+fi
 cmake "${args[@]}" >"$WORK/configure.log" || { cat "$WORK/configure.log"; exit 1; }
 cmake --build "$WORK/build" >"$WORK/build.log" || { cat "$WORK/build.log"; exit 1; }
 

@@ -891,6 +891,7 @@ Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
   const std::uint32_t root = validate(raw, params, index_of);
   const WorkTree t = make_tree(raw, root, index_of);
   const double floor = params.radius_floor > 0 ? params.radius_floor : auto_radius_floor(t);
+  check_magnitudes(raw, floor);  // `check --skeleton` measures against it: the same limits as meshing
   Skeleton s;
   s.up_axis = raw.up_axis;
   const std::size_t n = raw.size();

@@ -65,7 +65,10 @@ RawSkeleton random_whorl_tree(std::uint64_t seed) {
   std::int64_t below = 0;
   dvec3 p(0);
   for (int whorl = 0; whorl < 6; ++whorl) {
-    p += dvec3(rng.uniform(-0.015, 0.015), rng.uniform(-0.015, 0.015), rng.uniform(0.3, 0.5));
+    // Draws sequenced right to left (as GCC evaluated the former dvec3(...) arguments, whose
+    // order C++ leaves unspecified): the same tree from every compiler.
+    const double dz = rng.uniform(0.3, 0.5), dy = rng.uniform(-0.015, 0.015), dx = rng.uniform(-0.015, 0.015);
+    p += dvec3(dx, dy, dz);
     r *= 0.85;
     const std::int64_t hub = id++;
     raw.add(hub, below, p, r);
@@ -84,7 +87,8 @@ RawSkeleton random_whorl_tree(std::uint64_t seed) {
         raw.add(id, parent, q, rl);
         parent = id++;
         if (rng.chance(0.3)) {
-          const dvec3 e = glm::normalize(d + dvec3(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), 0.5));
+          const double ey = rng.uniform(-0.5, 0.5), ex = rng.uniform(-0.5, 0.5);  // (sequenced, as above)
+          const dvec3 e = glm::normalize(d + dvec3(ex, ey, 0.5));
           raw.add(id++, parent, q + 0.2 * e, 0.6 * rl);
         }
       }

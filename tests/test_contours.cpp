@@ -145,7 +145,8 @@ TEST(Boundary, NotStarShapedFallsBackToTheConcaveOutline) {
   const double h = 0.06;
   for (double x = -1; x <= 1; x += h) {
     for (double y = -1; y <= 1; y += h) {
-      const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(rng.uniform(-1, 1), rng.uniform(-1, 1));
+      const double jy = rng.uniform(-1, 1), jx = rng.uniform(-1, 1);  // sequenced: the same points from any compiler
+      const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(jx, jy);
       const double r = glm::length(q), a = std::atan2(q.y, q.x);
       if (r > 0.7 && r < 1 && std::abs(a) > 0.2 * kPi) p.push_back(q);
     }
@@ -195,7 +196,8 @@ TEST(Boundary, ConcaveHullOfRandomShapesIsOneSimpleLoop) {
       std::vector<dvec2> p;
       for (double x = -1; x <= 1; x += h) {
         for (double y = -1; y <= 1; y += h) {
-          const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(rng.uniform(-1, 1), rng.uniform(-1, 1));
+          const double jy = rng.uniform(-1, 1), jx = rng.uniform(-1, 1);  // sequenced: the same points from any compiler
+      const dvec2 q = dvec2(x, y) + 0.2 * h * dvec2(jx, jy);
           const bool in = shape == 0   ? (q.x < -0.4 || q.y < -0.4)
                           : shape == 1 ? (glm::length(q) < 1 && glm::length(q) > 0.6)
                                        : (glm::length(q - dvec2(0.5, 0)) < 0.4 || glm::length(q + dvec2(0.5, 0)) < 0.4);

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -28,6 +29,8 @@ namespace {
 namespace fs = std::filesystem;
 using test::CmdResult;
 CmdResult run(const std::string& args) { return test::run_cli(args); }
+
+#ifndef STRANDMESH_RELIABILITY_SLOW_TESTS
 
 /// `open` + `value` nested `depth` times + `close` ("[[[[1]]]]").
 std::string nested(int depth, const std::string& open = "[", const std::string& close = "]",
@@ -260,6 +263,23 @@ TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_FALSE(fs::exists(out));
   }
+  // A shipped sample scaled by 1e150 (positions and radii) hung in the inside test: rejected
+  // by `info`, `mesh` and `check --skeleton`, naming a node.
+  RawSkeleton huge = read_skeleton(fs::path(STRANDMESH_SAMPLE_DIR) / "sapling_small_pine.json");
+  for (auto& p : huge.position) p *= 1e150;
+  for (auto& r : huge.radius) r *= 1e150;
+  huge.where.clear();
+  write_file_atomically(dir / "scaled.json", raw_skeleton_to_json(huge));
+  const std::string scaled = (dir / "scaled.json").string();
+  const std::string mesh = std::string(STRANDMESH_SOURCE_DIR) + "/fuzz/corpus/mesh_obj/y_fork.obj";
+  for (const std::string& args : {"info " + scaled, "mesh " + scaled + " -o " + (dir / "scaled.glb").string(),
+                                  "check " + mesh + " --skeleton " + scaled}) {
+    SCOPED_TRACE(args);
+    const CmdResult r = run(args);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("scaled.json: nodes["), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "scaled.glb"));
   // Just inside the limits: accepted, georeferenced trees (UTM coordinates) included.
   EXPECT_NO_THROW(build_skeleton(parse_skeleton_json(
       R"({"nodes":[{"id":0,"parent":-1,"position":[0,0,0],"radius":0.1},{"id":1,"parent":0,"position":[0,0,90000],"radius":0.1}]})")));
@@ -283,7 +303,9 @@ TEST(Reliability, HubsBeyondTheChildLimitAreRejected) {
   const fs::path dir = test::temp_dir("rel_hub");
   write_file_atomically(dir / "star.json", raw_skeleton_to_json(test::star(20'000)));
   const std::string tree = (dir / "star.json").string();
-  for (const std::string& args : {"mesh " + tree + " -o " + (dir / "star.glb").string(), "info " + tree}) {
+  const std::string mesh = std::string(STRANDMESH_SOURCE_DIR) + "/fuzz/corpus/mesh_obj/y_fork.obj";
+  for (const std::string& args :
+       {"mesh " + tree + " -o " + (dir / "star.glb").string(), "info " + tree, "check " + mesh + " --skeleton " + tree}) {
     const CmdResult r = run(args);
     EXPECT_EQ(r.code, 1) << args;
     EXPECT_NE(r.err.find("star.json: nodes[1] (id 1): 20000 children"), std::string::npos) << r.err;
@@ -303,6 +325,25 @@ TEST(Reliability, ZeroLengthToleranceIsRelativeToTheTree) {
   const SkeletonResult b = build_skeleton(there, p);
   EXPECT_EQ(a.report.merged_edges, b.report.merged_edges);
   EXPECT_EQ(a.skeleton.size(), b.skeleton.size());
+}
+
+TEST(Reliability, CheckOfAMeshFarFromItsSkeletonEnds) {
+  // `check --skeleton` on a mesh 1e200 m from the origin hung in the inside test. Such a
+  // mesh cannot be held in float32: rejected naming the file. A tetrahedron 1,000 km away
+  // is measured against the skeleton (every node outside it) and fails the check.
+  const fs::path dir = test::temp_dir("rel_far_mesh");
+  write_file_atomically(dir / "six.json", kSixNodes);
+  // x from `near` to `next` (one unit further).
+  auto tetra_at = [&](const std::string& name, const std::string& near, const std::string& next) {
+    write_file_atomically(dir / name, "v " + near + " 0 0\nv " + next + " 0 0\nv " + near + " 1 0\nv " + near +
+                                          " 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+    return run("check " + (dir / name).string() + " --skeleton " + (dir / "six.json").string());
+  };
+  const CmdResult far = tetra_at("far.obj", "1e200", "1.0000000001e200");
+  EXPECT_EQ(far.code, 1) << far.out << far.err;
+  EXPECT_NE(far.err.find("far.obj"), std::string::npos) << far.err;
+  const CmdResult away = tetra_at("away.obj", "1000000", "1000001");
+  EXPECT_EQ(away.code, 4) << away.out << away.err;
 }
 
 // ---- Options -------------------------------------------------------------------------------
@@ -513,6 +554,30 @@ TEST(Reliability, InterruptedMeshLeavesNoTemporaryFile) {
     fs::remove(dir / "s.json");
   }
 }
+
+#else  // STRANDMESH_RELIABILITY_SLOW_TESTS (label slow: test_reliability_slow)
+
+TEST(ReliabilitySlow, MillionNodeChainThroughMeshAndCheck) {
+  // `check --skeleton` on a 1,000,000-node chain did not finish in 40 min (one CGAL inside
+  // query per node); the inside test is now one pass. A helix of 1 cm steps (10 km, radius
+  // 2 cm: within the extent limit of 1e6 radii) meshes, and its mesh passes its checks.
+  const fs::path dir = test::temp_dir("rel_chain");
+  RawSkeleton chain;
+  chain.source = "chain of 1,000,000 nodes";
+  for (int i = 0; i < 1'000'000; ++i) {
+    const double t = 0.01 * i;
+    chain.add(i, i - 1, dvec3(0.2 * std::cos(t), 0.2 * std::sin(t), 0.01 * i), 0.02);
+  }
+  write_file_atomically(dir / "chain.json", raw_skeleton_to_json(chain));
+  const std::string tree = (dir / "chain.json").string(), out = (dir / "chain.glb").string();
+  const CmdResult m = run("-q mesh " + tree + " -o " + out);
+  ASSERT_EQ(m.code, 0) << m.err;
+  const CmdResult c = run("check " + out + " --skeleton " + tree);
+  EXPECT_EQ(c.code, 0) << c.out << c.err;
+  fs::remove_all(dir);
+}
+
+#endif  // STRANDMESH_RELIABILITY_SLOW_TESTS
 
 }  // namespace
 }  // namespace sm
