@@ -330,8 +330,24 @@ class Walker {
     return g;
   }
 
-  /// slice_step x the local radius, at least min_slice_step x the neighbour distance.
+  /// The target edge length of a loop (ContourParams::ring_edge; metres), 0 when off.
+  [[nodiscard]] double ring_edge() const {
+    return p_.ring_edge > 0 ? p_.ring_edge * spacing_ / p_.resolution : 0.0;
+  }
+  /// Vertices a loop of this perimeter keeps (ContourParams::ring_edge) at most.
+  [[nodiscard]] std::size_t ring_vertices(double perimeter) const {
+    const auto fewest = std::max<std::size_t>(3, static_cast<std::size_t>(std::lround(p_.min_ring_vertices * p_.resolution)));
+    return std::max(fewest, static_cast<std::size_t>(std::ceil(perimeter / ring_edge())));
+  }
+  /// The slice step: with ring_edge, the height of an equilateral triangle on the edge of a
+  /// round section of the local radius (times the node's local factor); else slice_step x the
+  /// local radius. At least min_slice_step x the neighbour distance (over the resolution).
   [[nodiscard]] double fine_step(const SliceGeometry& g) const {
+    if (ring_edge() > 0) {
+      const double circumference = 2.0 * std::numbers::pi * g.radius;
+      const double edge = circumference / double(ring_vertices(circumference));
+      return std::max(local(g.node).slice_step * 0.8660254037844386 * edge, p_.min_slice_step * spacing_ / p_.resolution);
+    }
     return std::max(slice_step(g.node) * g.radius, p_.min_slice_step * spacing_);
   }
   /// Distance to the next slice from a slice with geometry g: slice_step x the local radius,
@@ -615,7 +631,9 @@ class Walker {
     std::vector<CutEdge> cut_a, cut_b, cut_n;
     std::vector<dvec2> flat, moved, edge_normal;
     std::vector<dvec3> lift;
-    std::vector<std::uint32_t> loop;
+    std::vector<std::uint32_t> loop, keep, more;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> gaps;
+    std::vector<double> arc;
     std::vector<std::uint8_t> strand_side;  ///< per strand, for loop_sides (0xff between calls)
   };
   static Scratch& thread_scratch() {
@@ -806,9 +824,68 @@ std::uint32_t Walker::add_loop_vertices(const SlicePoints& pts, const std::vecto
       }
     }
   }
+  // Ring resolution (ContourParams::ring_edge): the vertices nearest to evenly spaced marks
+  // along the loop, in order, the first kept.
+  std::vector<std::uint32_t>& keep = scratch_.keep;
+  keep.clear();
+  if (ring_edge() > 0) {
+    std::vector<double>& arc = scratch_.arc;
+    arc.resize(m + 1);
+    arc[0] = 0;
+    for (std::size_t k = 0; k < m; ++k) arc[k + 1] = arc[k] + glm::length(moved[(k + 1) % m] - moved[k]);
+    const std::size_t n = std::min(m, ring_vertices(arc[m]));
+    if (n < m) {
+      std::size_t i = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double mark = arc[m] * double(k) / double(n);
+        // Advance while the next vertex is nearer the mark and leaves room for the rest.
+        while (i + 1 < m - (n - 1 - k) && std::abs(arc[i + 1] - mark) <= std::abs(arc[i] - mark)) ++i;
+        keep.push_back(static_cast<std::uint32_t>(i));
+        ++i;
+      }
+      // Shape kept: between two kept vertices, the dropped vertex farthest from their chord
+      // comes back while it is farther than the tolerance (Douglas-Peucker), so a thin bundle's
+      // bump on a fused outline is not cut off. The tolerance is above the sag of a round
+      // section's chords, so round loops are left as sampled.
+      const double edge = arc[m] / double(n), round_radius = arc[m] / (2.0 * std::numbers::pi);
+      const double tol = std::max(0.25 * spacing_, 1.5 * edge * edge / (8.0 * round_radius));
+      std::vector<std::uint32_t>& more = scratch_.more;
+      more.clear();
+      std::vector<std::pair<std::uint32_t, std::uint32_t>>& gaps = scratch_.gaps;
+      gaps.clear();
+      for (std::size_t k = 0; k < n; ++k) gaps.emplace_back(keep[k], k + 1 < n ? keep[k + 1] : keep[0] + std::uint32_t(m));
+      while (!gaps.empty()) {
+        const auto [a, b] = gaps.back();
+        gaps.pop_back();
+        const dvec2 pa = moved[a % m], pb = moved[b % m];
+        const dvec2 d = pb - pa;
+        const double l2 = glm::dot(d, d);
+        double worst = tol;
+        std::uint32_t at = 0;
+        for (std::uint32_t x = a + 1; x < b; ++x) {
+          const dvec2 q = moved[x % m] - pa;
+          const double t = l2 > 0 ? std::clamp(glm::dot(q, d) / l2, 0.0, 1.0) : 0.0;
+          const double e = glm::length(q - t * d);
+          if (e > worst) {
+            worst = e;
+            at = x;
+          }
+        }
+        if (at == 0) continue;
+        more.push_back(at % std::uint32_t(m));
+        gaps.emplace_back(a, at);
+        gaps.emplace_back(at, b);
+      }
+      keep.insert(keep.end(), more.begin(), more.end());
+      std::sort(keep.begin(), keep.end());
+    }
+  }
+  if (keep.empty()) {
+    for (std::size_t k = 0; k < m; ++k) keep.push_back(static_cast<std::uint32_t>(k));
+  }
   ContourSet& store = *store_;
   const auto loop_index = static_cast<std::uint32_t>(store.loop_kind.size());
-  for (std::size_t k = 0; k < m; ++k) {
+  for (const std::uint32_t k : keep) {
     store.point.push_back(g.center + g.frame.to_world(moved[k]) + lift[k]);
     store.strand.push_back(pts.strand[loop[k]]);
   }

@@ -68,10 +68,27 @@ struct LocalContourScale {
 };
 
 struct ContourParams {
-  /// Distance between consecutive slices along a branch, relative to the local radius.
+  /// Target length of a loop's edges, relative to the neighbour distance of the particles (the
+  /// spacing of the strands on an outline): a loop keeps about perimeter / this of its boundary
+  /// strands, evenly spaced along it, and slices follow each other at the height of an
+  /// equilateral triangle on an edge of its round section (circumference / vertices), so
+  /// triangles are close to isotropic: trunks get fine rings and close slices, thin twigs
+  /// min_ring_vertices and slices about a radius apart. 0 = every boundary strand and
+  /// slice_step (the loops as the strands give them, needle triangles on thick branches; the
+  /// default for now: configs/closeup.json sets 6, docs/quality.md).
+  double ring_edge = 0.0;
+  /// Fewest vertices a loop keeps where its boundary has more (thin twigs stay round).
+  std::uint32_t min_ring_vertices = 6;
+  /// Scales the ring resolution and the slice spacing together (2 = edges half as long, twice
+  /// min_ring_vertices, slices at least half of min_slice_step apart: about 4 times the
+  /// triangles); with ring_edge > 0 only.
+  double resolution = 1.0;
+  /// Distance between consecutive slices along a branch, relative to the local radius (with
+  /// ring_edge = 0; otherwise the slices follow the rings).
   double slice_step = 0.4;
   /// Most slices on one edge away from forks (a count; 0 = no limit): a long thin twig is a
-  /// straight round cone between its nodes and needs no more.
+  /// straight round cone between its nodes and needs no more (but its triangles are needles:
+  /// configs/closeup.json sets 0).
   std::uint32_t max_slices_per_edge = 4;
   /// Where a branch bends at a node, the straight strip between the loops on either side
   /// passes this far from the node at most (relative to its radius); farther, the node's own

@@ -9,6 +9,13 @@ namespace {
 using C = ContourParams;
 
 const ParamSpec<C> kFields[] = {
+    {.key = "ring_edge", .field = &C::ring_edge, .range = {.min = 0}, .unit = "x neighbour distance",
+     .help = "target loop edge length, slices matched to it (0 = every boundary strand, slice_step)",
+     .slider = {0, 20}},
+    {.key = "min_ring_vertices", .field = &C::min_ring_vertices, .range = {.min = 3}, .unit = "count",
+     .help = "fewest vertices a loop keeps with ring_edge", .slider = {3, 32}},
+    {.key = "resolution", .field = &C::resolution, .range = {.min = 0, .min_open = true}, .unit = "factor",
+     .help = "scales ring resolution and slice spacing together (with ring_edge)", .slider = {0.1, 4}},
     {.key = "slice_step", .field = &C::slice_step, .range = {.min = 0, .min_open = true}, .unit = "x local radius",
      .help = "distance between consecutive slices along a branch", .slider = {0.05, 2}},
     {.key = "max_slices_per_edge", .field = &C::max_slices_per_edge, .range = {.min = 0}, .unit = "count",

@@ -5,12 +5,15 @@
 #
 #   scripts/quality_table.sh [BUILD_DIR] [SKELETON_DIR]   # defaults: build, ../shared/skeletons
 #   PRESETS="oak conifer" SEEDS="1" scripts/quality_table.sh   # fewer grown trees (PRESETS="": none)
+#   CONFIG=configs/closeup.json scripts/quality_table.sh        # with a config
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 SM="${1:-$ROOT/build}/strandmesh"
 SKELETONS="${2:-$ROOT/../shared/skeletons}"
 PRESETS="${PRESETS-broadleaf conifer oak bush}"
 SEEDS="${SEEDS-1 2 3}"
+CONFIG_ARGS=()
+[ -n "${CONFIG:-}" ] && CONFIG_ARGS=(--config "$CONFIG")
 OUT="$(mktemp -d)"
 trap 'rm -rf "$OUT"' EXIT
 
@@ -28,7 +31,7 @@ echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for f in "${inputs[@]}"; do
   name="$(basename "$f" .json)"
   start=$(date +%s.%N)
-  if ! "$SM" -q mesh "$f" -o "$OUT/$name.glb" 2> "$OUT/$name.err"; then
+  if ! "$SM" -q mesh "$f" "${CONFIG_ARGS[@]}" -o "$OUT/$name.glb" 2> "$OUT/$name.err"; then
     echo "| $name | mesh failed: $(tail -1 "$OUT/$name.err") |"
     continue
   fi

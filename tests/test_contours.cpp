@@ -356,6 +356,47 @@ void expect_well_formed(const test::UpToContours& u) {
   }
 }
 
+TEST(Contours, RingEdgeSetsTheLoopsAndMatchedSlices) {
+  // With a target edge length, loops keep about perimeter / edge of their boundary strands (at
+  // least min_ring_vertices) and slices follow at the height of an equilateral triangle on the
+  // edge of the round section: distance to the next slice sqrt(3)/2 x 2 pi r / N(r), N(r) =
+  // max(6, ceil(2 pi r / edge)), at least min_slice_step neighbour distances.
+  ContourParams p;
+  p.ring_edge = 6;
+  p.max_slices_per_edge = 0;
+  const auto u = test::up_to_contours(test::straight_branch(6), 1, p);
+  expect_well_formed(u);
+  const ContourSet& c = u.contours;
+  const double d = u.particles.neighbour_distance, edge = 6 * d;
+  ASSERT_GT(d, 0);
+  ASSERT_EQ(c.tubes.size(), 1u);
+  std::size_t kept = 0, marks = 0;
+  for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
+    kept += c.loop_size(l);
+    EXPECT_GE(c.loop_size(l), 3u) << "loop " << l;  // fewer than 6 where the outline has fewer strands
+    // Evenly spaced marks, plus the few vertices of the particles' uneven outline farther than
+    // the tolerance from their chord.
+    double perimeter = 0;
+    for (std::uint32_t k = 0; k < c.loop_size(l); ++k) {
+      const std::uint32_t a = c.loop_begin[l] + k, b = c.loop_begin[l] + (k + 1) % c.loop_size(l);
+      perimeter += glm::length(c.point[b] - c.point[a]);
+    }
+    marks += std::max<std::size_t>(6, std::size_t(std::ceil(perimeter / edge)));
+  }
+  EXPECT_LE(kept, marks + marks / 4) << "kept " << kept << ", marks " << marks;
+  for (std::uint32_t l = 1; l + 1 < c.loop_count(); ++l) {
+    const double r = c.loop_radius[l - 1], circumference = 2 * std::numbers::pi * r;
+    const double n = std::max(6.0, std::ceil(circumference / edge));
+    const double step = std::max(std::sqrt(3.0) / 2 * circumference / n, p.min_slice_step * d);
+    EXPECT_NEAR(c.loop_distance[l] - c.loop_distance[l - 1], step, 1e-9) << "loop " << l;
+  }
+  // resolution 2 halves the edge: more vertices, closer slices.
+  p.resolution = 2;
+  const auto fine = test::up_to_contours(test::straight_branch(6), 1, p);
+  EXPECT_GT(fine.contours.loop_count(), c.loop_count());
+  EXPECT_GT(fine.contours.point.size(), c.point.size());
+}
+
 TEST(Contours, StraightBranchIsOneTubeOfEvenSlices) {
   // Edges of 0.4 m at radii 0.1 to 0.05 m: the step (0.4 x radius) would give 5 to 10 slices
   // per edge, capped at max_slices_per_edge; with the root's loop and the tip's, 2 + 5 x cap.
