@@ -75,17 +75,6 @@ std::size_t components(const Mesh& m) {
   return n;
 }
 
-/// Signed volume (m^3; > 0 when the triangles face outward), about the first vertex.
-double signed_volume(const Mesh& m) {
-  if (m.positions.empty()) return 0;
-  const glm::dvec3 o = m.positions[0];
-  double v = 0;
-  for (const auto& t : m.triangles) {
-    v += glm::dot(m.positions[t[0]] - o, glm::cross(m.positions[t[1]] - o, m.positions[t[2]] - o));
-  }
-  return v / 6;
-}
-
 /// Vertices at the same position as another (a collapse or a cut line ending on a vertex can
 /// leave two): readers weld them, pinching the surface there. Every one but the first of each
 /// position moves two grid steps (or 1 % of the way, if longer) towards the centroid of its

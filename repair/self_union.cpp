@@ -673,17 +673,6 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
   return severed;
 }
 
-/// Signed volume of a closed surface (m^3; > 0 facing outward), about its first vertex.
-double total_volume(const Mesh& m) {
-  if (m.triangles.empty()) return 0;
-  const glm::dvec3 o = m.positions[m.triangles.front()[0]];
-  double v = 0;
-  for (const auto& t : m.triangles) {
-    v += glm::dot(m.positions[t[0]] - o, glm::cross(m.positions[t[1]] - o, m.positions[t[2]] - o));
-  }
-  return v / 6;
-}
-
 /// Where CGAL cannot refine a set of pairs, the crossings it fails on: the pairs are split into
 /// clusters (joined through shared vertices), the clusters into at most 64 batches refined one
 /// by one, and the clusters of a failing batch one by one. Returns the triangles of the failing
@@ -722,6 +711,16 @@ std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
 }
 
 }  // namespace
+
+double signed_volume(const Mesh& m) {
+  if (m.triangles.empty()) return 0;
+  const glm::dvec3 o = m.positions[m.triangles.front()[0]];
+  double v = 0;
+  for (const auto& t : m.triangles) {
+    v += glm::dot(m.positions[t[0]] - o, glm::cross(m.positions[t[1]] - o, m.positions[t[2]] - o));
+  }
+  return v / 6;
+}
 
 SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs, double grid,
                           std::span<const glm::dvec3> anchors, std::vector<std::uint32_t>& origin_out) {
@@ -807,7 +806,7 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     }
     // A large part judged turned inside out and flipped turns the whole surface over: those
     // crossings are left out too.
-    if (!(total_volume(out) > 0)) {
+    if (!(signed_volume(out) > 0)) {
       const std::vector<std::uint32_t> flipped = attempt.flipped();
       if (flipped.empty()) break;
       leave_out(flipped);

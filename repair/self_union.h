@@ -46,6 +46,9 @@ struct SelfUnionStats {
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
 
+/// Signed volume of a closed surface (m^3; > 0 when its triangles face outward).
+double signed_volume(const Mesh& mesh);
+
 /// Replaces the triangles of `pairs` (and the triangles inside other parts that they bound)
 /// by the boundary of the union, in place. `grid` > 0 puts new vertices on that float grid
 /// (core/mesh.h float_grid). New triangles keep their origin triangle's branch and
