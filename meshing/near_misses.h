@@ -4,11 +4,9 @@
 /// each (MeshParams::cover_near_misses).
 ///
 /// Where a twig leaves a fork at a steep angle or off a thick trunk, the crotch's loops can
-/// pass a fraction of the twig's radius on the wrong side of a node at its base: on the grown
-/// presets at grow seeds 1-10, one such node in 4 of 50 trees (conifer seeds 3, 4, 6: 0.03 to
-/// 0.42 of the radius outside; broadleaf seed 1: 0.64), and one on the 3.4 M-triangle bench
-/// tree (0.33). The fork retry re-slices the forks around them, but on a large tree each of its
-/// runs costs most of a second, and the outer surface's sphere union a whole-mesh CGAL run.
+/// pass a fraction of the twig's radius on the wrong side of a node at its base. The fork
+/// retry re-slices the forks around them, but on a large tree each of its runs costs most of a
+/// second, and the outer surface's sphere union a whole-mesh CGAL run.
 /// Here the surface nearest the node is moved instead, no triangle added or removed:
 ///  - the nearest point q of the surface (at most kMaxMiss x the node's radius away: farther
 ///    is not a near miss) and the direction from q to the node;
@@ -16,10 +14,7 @@
 ///    (a quarter of the radius, else a tenth, else 0.03, the first that passes the checks
 ///    below: q passes the node by that margin), and the vertices around q joined to
 ///    them over the surface less with their distance from q, to nothing at the radius plus
-///    twice that move (smoothstep), each onto the float grid (MeshResult::grid). Moving every
-///    vertex within the nearest triangle's reach instead (its corners can lie 3-9 radii from
-///    q on a thick branch's long triangles) moved 1,060 vertices at agraf's one near miss and
-///    raised its fidelity p95 from 0.108 to 0.118; now 3-6 vertices move per push;
+///    twice that move (smoothstep), each onto the float grid (MeshResult::grid);
 ///  - the push is kept if no triangle it moves turns over or degenerates, the triangles near
 ///    the moved ones have no more self-intersecting pairs than before (exact tests,
 ///    intersections.h), the node is then inside and no thick node near it has left (the
@@ -27,17 +22,10 @@
 ///    inside_closed_mesh where that is ambiguous or a node may have left); otherwise its
 ///    vertices go back.
 /// A push whose neighbourhood overlaps an earlier one's waits for the next round (up to 4).
-/// Grown presets at grow seeds 1-10 (50 trees) and the bench tree: every such node inside
-/// (conifer seeds 3, 4, 6, broadleaf seed 1, the bench tree: one each), 3-6 vertices moved,
-/// fidelity p95 unchanged to three places. Samples at particle seeds 1-3, after the fork
-/// retry: the one node boutdenoylum2 leaves outside at each seed, and agraf's at seed 1 (at a
-/// smaller margin), are pushed inside, so the outer surface needs no sphere there. With
-/// configs/preview.json (no outer surface): agraf 14 -> 5 thick nodes outside (a quarter
-/// radius only and no rounds: 14 -> 10), boutdenoylum2 4 -> 0. Normals are recomputed at the
-/// vertices of the moved triangles (core/mesh.h update_normals); UVs stay. Every mesh pays
-/// one inside test of every thick node (12-20 ms on the grown presets, 57 ms on the bench
-/// tree, where the step takes 0.07 s in all with its push). The triangles within kGather radii of each node outside are gathered in
-/// one pass; the pushes' neighbourhoods come from them where they fit.
+/// Normals are recomputed at the vertices of the moved triangles (core/mesh.h update_normals);
+/// UVs stay. Every mesh pays one inside test of every thick node. The triangles within kGather
+/// radii of each node outside are gathered in one pass; the pushes' neighbourhoods come from
+/// them where they fit.
 
 #include <cstddef>
 #include <string>

@@ -14,9 +14,7 @@
 /// are not parts inside parts, are where CGAL's choice of patches goes wrong (a surface of
 /// negative volume, refused): there the patches are chosen again by winding numbers
 /// (outer_surface_by_winding, intersections.h), which keeps those bounding the union of the
-/// solids the surface wraps. Over the sample skeletons at particle seeds 1-10, this mended
-/// the 4 meshes (of 60) that CGAL's choice left with pairs (2 to 14 each; agraf seeds 6 and 9,
-/// boutdenoylum2 seeds 8 and 10). Where that is refused too, it is tried cluster by cluster
+/// solids the surface wraps. Where that is refused too, it is tried cluster by cluster
 /// (WindingPatches), each cluster of crossings kept if the mesh does better with it.
 ///
 /// Thick nodes outside (a stub's base in the crotch between two tubes, a tip just past its

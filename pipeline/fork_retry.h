@@ -6,9 +6,7 @@
 /// The pairs the fold repair cannot untangle sit at crotches (stubs, whorls, three-way hubs),
 /// and whether a crotch folds, or swallows a stub's tip, depends on exactly where its slices
 /// and split fall: changing the split gap, the fork transition or the slice step there moves
-/// the pairs (samples x particle seeds 1-3, each setting changed for the whole tree: 135 pairs
-/// with the defaults, 133-174 with each of five other settings, but 37 counting per crotch the
-/// best of the six). So the retry meshes the tree once per variant, the variant applied only
+/// the pairs, and the best setting differs from crotch to crotch. So the retry meshes the tree once per variant, the variant applied only
 /// at the forks around the problems (ContourParams::local), and counts per group of forks:
 ///  - the forks of a pair are those on the tree paths between the nodes of its corners
 ///    (Crossing::nodes) within kReach of their radii of it; those of a thick node outside the
@@ -25,25 +23,8 @@
 /// kept; ties keep the earlier run, so a clean mesh or a failed retry leaves the output as it
 /// was. Deterministic: every run is, and the choices are made in a fixed order.
 ///
-/// Samples x particle seeds 1-3: 135 -> 44 pairs (boutdenoylum2 2 -> 0, agraf 61 -> 8,
-/// small_pine 48 -> 24, rtwig 24 -> 12), thick nodes inside 7,495 -> 7,511 of 7,524
-/// (boutdenoylum2 137 / 138 / 137 -> 140 each, agraf 579 -> 582 / 582 / 581). It costs up
-/// to 10 more runs of contours and meshing (12 before two variants that no longer won were
-/// dropped), one per thread at a time: agraf 0.5 -> 4.8 s,
-/// boutdenoylum2 0.4 -> 4.6 s, rtwig 0.2 -> 2.5 s, small_pine 0.7 -> 6.7 s in all (2-core AMD
-/// EPYC VM, 2 threads); clean meshes pay one inside test (callistemon 0.05 s). On a tangle of 2,000 twigs
-/// from one node (10,544 triangles): 2.5 -> 25 s, 89 -> 16 pairs, 1,312 -> 995 thick nodes
-/// outside. The pairs left are mostly where a branch runs into its own sub-branch or a
-/// near-parallel sibling away from the fork (agraf 395 / 496, 934 / 960), which no variant
-/// changes.
-///
-/// Not adopted: no node guard (69 pairs, but small_pine seed 1's node 997 and one of agraf
-/// seed 3 lost); trials that repair folds only near the groups, plus one full run of the
-/// groups' choices (two thirds of the time, 68 pairs); a second round from the kept result
-/// (69 -> 68, five variants, no guard); grouping by distance to the forks instead of tree paths
-/// (77 against 69, likewise); two parameters changed at once (no gain); with
-/// meshing.fold_repair_variants on as well, five variants: 73 pairs instead of 82 at 1.9 x the
-/// time.
+/// It costs up to 10 more runs of contours and meshing, one per thread at a time; the
+/// figures and the variants not adopted are in docs/defaults.md.
 ///
 /// It runs only where the meshing stage counted the pairs (MeshResult::crossings_counted) and
 /// found some pairs or thick nodes outside. On meshes of more than meshing.count_pairs_up_to

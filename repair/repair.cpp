@@ -75,6 +75,17 @@ std::size_t components(const Mesh& m) {
   return n;
 }
 
+/// Signed volume (m^3; > 0 when the triangles face outward), about the first vertex.
+double signed_volume(const Mesh& m) {
+  if (m.positions.empty()) return 0;
+  const glm::dvec3 o = m.positions[0];
+  double v = 0;
+  for (const auto& t : m.triangles) {
+    v += glm::dot(m.positions[t[0]] - o, glm::cross(m.positions[t[1]] - o, m.positions[t[2]] - o));
+  }
+  return v / 6;
+}
+
 /// Vertices at the same position as another (a collapse or a cut line ending on a vertex can
 /// leave two): readers weld them, pinching the surface there. Every one but the first of each
 /// position moves two grid steps (or 1 % of the way, if longer) towards the centroid of its
@@ -202,8 +213,11 @@ RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairPar
     const std::size_t parts = components(mesh), parts_before = components(before.mesh);
     if (open == 0 && parts <= parts_before) after = all_pairs();
     st.timings.add("self_union", clock.lap());
-    if (open > 0 || parts > parts_before || after.size() >= pairs.size()) {
+    // (A part turned inside out and kept as it was can turn the whole surface over.)
+    const bool inverted = open == 0 && !(signed_volume(mesh) > 0);
+    if (open > 0 || inverted || parts > parts_before || after.size() >= pairs.size()) {
       st.problem = open > 0 ? "the union left " + std::to_string(open) + " unpaired half-edges"
+                   : inverted ? std::string("the union turned the surface inside out")
                    : parts > parts_before
                        ? "the union split the mesh into " + std::to_string(parts) + " parts"
                        : "the union left " + std::to_string(after.size()) + " pairs of " + std::to_string(pairs.size());

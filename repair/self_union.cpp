@@ -172,6 +172,14 @@ class Attempt {
   /// CGAL fails; otherwise `bad` lists the cut triangles (mesh indices) whose patches could not
   /// be judged consistently (empty: the union can be assembled).
   bool run(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  /// The cut triangles (mesh indices) with a piece kept flipped.
+  [[nodiscard]] std::vector<std::uint32_t> flipped() const {
+    std::vector<std::uint32_t> f;
+    for (const Piece& p : pieces_) {
+      if (keep_[p.patch] == kFlip) f.push_back(p.origin);
+    }
+    return f;
+  }
   /// Only the refinement of run(): whether CGAL can refine the triangles of `pairs`.
   bool refines(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
     choose(pairs);
@@ -665,6 +673,17 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
   return severed;
 }
 
+/// Signed volume of a closed surface (m^3; > 0 facing outward), about its first vertex.
+double total_volume(const Mesh& m) {
+  if (m.triangles.empty()) return 0;
+  const glm::dvec3 o = m.positions[m.triangles.front()[0]];
+  double v = 0;
+  for (const auto& t : m.triangles) {
+    v += glm::dot(m.positions[t[0]] - o, glm::cross(m.positions[t[1]] - o, m.positions[t[2]] - o));
+  }
+  return v / 6;
+}
+
 /// Where CGAL cannot refine a set of pairs, the crossings it fails on: the pairs are split into
 /// clusters (joined through shared vertices), the clusters into at most 64 batches refined one
 /// by one, and the clusters of a failing batch one by one. Returns the triangles of the failing
@@ -784,6 +803,14 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     const std::vector<std::uint32_t> severed = drop_loose_parts(out, origin_of, anchors, was_cut, trial);
     if (!severed.empty()) {
       leave_out(severed);
+      continue;
+    }
+    // A large part judged turned inside out and flipped turns the whole surface over: those
+    // crossings are left out too.
+    if (!(total_volume(out) > 0)) {
+      const std::vector<std::uint32_t> flipped = attempt.flipped();
+      if (flipped.empty()) break;
+      leave_out(flipped);
       continue;
     }
     st.new_vertices = trial.new_vertices;

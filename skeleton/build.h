@@ -78,13 +78,8 @@ struct SkeletonParams {
   /// Step between the extra nodes of a binarized whorl (an input node with 3 to
   /// max_chain_forks + 1 children), relative to the node's radius; hubs with more children
   /// and the cluster nodes grouping them keep their forks a merge tolerance apart (2 x
-  /// merge_edge_ratio, also the least step). 0.2 rather than 0.02 (which the merge tolerance
-  /// made 0.1): at a whorl of near-equal children (rtwig's node 118) the lateral leaving first
-  /// then comes apart from the rest before the next fork's union is sliced along another
-  /// child, instead of being carried off with it and pinched (samples x particle seeds 1-3:
-  /// 36 -> 24 pairs, rtwig 12 -> 0; fidelity p95 <= 0.108, all thick nodes inside; grown
-  /// trees unchanged: they have no n-ary nodes). For hubs too, a star of 300 twigs went from
-  /// 64 to 1,337 pairs: hence whorls only.
+  /// merge_edge_ratio, also the least step). Large enough that at a whorl of near-equal
+  /// children the lateral leaving first comes apart from the rest before the next fork.
   double binarize_step_ratio = 0.2;
   /// A node with more children than this (a hub: a QSM's or an L-system's fan of hundreds of
   /// twigs) first gets its laterals grouped by direction under at most this many cluster
@@ -99,24 +94,14 @@ struct SkeletonParams {
   bool merge_inner_branches = true;
   /// Where a lateral much thinner than its fork leaves, insert a node at this distance from
   /// the fork (relative to the fork's radius: 1 = on the parent's surface) so the lateral's
-  /// round cone does not flare from the fork's full radius; 0 disables. 0.7 rather than 1:
-  /// a collar on the parent's surface sits in the crotch, where the mesh cuts the corner, and
-  /// was often just outside it (by 1-2% of its radius). Samples x seeds 1-3 (with tight
-  /// bends): pairs 187 -> 161, thick nodes outside (seed 1) agraf 4 -> 7, boutdenoylum2 4 ->
-  /// 4, rtwig 2 -> 0, small_pine 4 -> 1; fidelity p95 lower on all (aspen 0.069 -> 0.039,
-  /// boutdenoylum2 0.106-0.122 -> 0.100). 0.85 gave 177 pairs, 0.5 182.
+  /// round cone does not flare from the fork's full radius; 0 disables. Less than 1: a collar
+  /// on the parent's surface sits in the crotch, where the mesh cuts the corner.
   double collar_ratio = 0.7;
   /// Only laterals thinner than this fraction of the fork's radius get a collar node.
   double collar_max_child_ratio = 0.7;
   /// ... and only those reaching at least this many of their own radii beyond the collar.
   /// Without a collar a short stub's round cone flares from the fork's full radius, wider
-  /// than the stub, and the mesh (whose stub has the stub's girth) lies inside it:
-  /// boutdenoylum2's pruned stubs (r 40-50 mm, 0.09-0.16 m long on a trunk of r 87 mm)
-  /// gave fidelity p95 0.187 / 0.186 / 0.189 (particle seeds 1-3) with 2 (the value before),
-  /// 0.137 / 0.149 / 0.158 with 0.75. (Measured against the skeleton without the new collars,
-  /// the mesh moved closer too: 0.139 / 0.157 / 0.166, before the fold repair's side guard.)
-  /// 1 gave 0.141 / 0.140 / 0.152, 0.5 0.150 / 0.140 / 0.134, all with about as many
-  /// self-intersecting pairs.
+  /// than the stub, and the mesh (whose stub has the stub's girth) lies inside it.
   double collar_min_stub = 0.75;
   /// A lateral leaving its fork at more than this angle from the parent's direction
   /// (degrees; horizontal and drooping branches) gets a base node just outside the parent's
