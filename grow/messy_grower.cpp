@@ -62,7 +62,10 @@ class MessyGrower {
       double r = r0 + (r1 - r0) * t;
       if (thick_noise && rng_.chance(p_.thick_child_share)) r = std::max(r, radius(prev)) * rng_.uniform(1.0, 1.25);
       at += dir * length;
-      const dvec3 jitter = random_perpendicular(dir, rng_) * (p_.zigzag * length * rng_.uniform(0.0, 1.0));
+      // Draws sequenced (C++ leaves the order of an operator's operands unspecified, and clang
+      // chose another one than GCC: another tree from the same seed); this is GCC's order.
+      const double amount = rng_.uniform(0.0, 1.0);
+      const dvec3 jitter = random_perpendicular(dir, rng_) * (p_.zigzag * length * amount);
       prev = add(prev, at + jitter, r);
       nodes.push_back(prev);
       dir = normalize_or(dir + bend, dir);
@@ -114,8 +117,9 @@ class MessyGrower {
     const dvec3 along = normalize_or(pos(n) - pos(raw_.parent_id[std::size_t(n)]), dvec3(0, 0, 1));
     const dvec3 dir = normalize_or(along + 1.2 * random_perpendicular(along, rng_), along);
     const double r0 = std::max(radius(n), 1e-3) * rng_.uniform(0.3, 0.6);
-    const auto nodes = polyline(n, dir, 2 + int(rng_.below(3)), rng_.uniform(4.0, 7.0) * r0, r0, 0.4 * r0,
-                                dvec3(0, 0, 0.1), false);
+    const double length = rng_.uniform(4.0, 7.0) * r0;  // (drawn first: GCC's order of the arguments)
+    const int edges = 2 + int(rng_.below(3));
+    const auto nodes = polyline(n, dir, edges, length, r0, 0.4 * r0, dvec3(0, 0, 0.1), false);
     for (const std::int64_t t : nodes) {
       if (rng_.chance(p_.zero_radius_share)) raw_.radius[std::size_t(t)] = 0.0;
     }
