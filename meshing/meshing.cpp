@@ -462,12 +462,13 @@ class Builder {
   /// The cap's ring and apex are the vertices first .. first + loop size (allocated by run()).
   void tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t first, Part& out);
   void root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t centre, Part& out);
-  void set_vertex(std::uint32_t i, const glm::dvec3& p, NodeId node, double u, double v) {
+  void set_vertex(std::uint32_t i, const glm::dvec3& p, NodeId node, double u, double v, double period) {
     mesh_.positions[i] = p;
     mesh_.vertex_strand[i] = StrandId{};
     mesh_.vertex_node[i] = node;
     vertex_u_[i] = u;
     vertex_v_[i] = v;
+    vertex_period_[i] = period;
   }
   void compute_uvs();
   void check_topology(const VertexCorners& corners);
@@ -479,6 +480,7 @@ class Builder {
   MeshStats stats_;
   std::vector<double> loop_v_;               // per loop
   std::vector<double> vertex_u_, vertex_v_;  // per vertex
+  std::vector<double> vertex_period_;        // per vertex: u once around its loop (MeshParams::uv_metres)
   std::vector<double> vertex_angle_;         // per loop vertex: angle around its loop's centroid
   /// Per junction: the triangles of its k-way fusion when stacked junctions above it were
   /// merged into it (plan_stacked_junctions), else empty.
@@ -797,6 +799,7 @@ void Builder::drop_unused_vertices() {
         mesh_.vertex_node[to] = mesh_.vertex_node[from];
         vertex_u_[to] = vertex_u_[from];
         vertex_v_[to] = vertex_v_[from];
+        vertex_period_[to] = vertex_period_[from];
         moves.emplace_back(static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to));
       });
   if (kept == nv) return;
@@ -807,6 +810,7 @@ void Builder::drop_unused_vertices() {
   mesh_.vertex_node.resize(kept);
   vertex_u_.resize(kept);
   vertex_v_.resize(kept);
+  vertex_period_.resize(kept);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 1 << 16),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t f = r.begin(); f != r.end(); ++f) {
@@ -834,15 +838,16 @@ void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t fi
   const double h = p_.tip_dome * r;
   const NodeId node = c_.loop_node[loop];
   const double v0 = loop_v_[loop];
-  const double dv = p_.uv_repeat_u / (kTwoPi * std::max(r, 1e-12));
+  const double dv = p_.uv_metres > 0 ? 1.0 / p_.uv_metres : p_.uv_repeat_u / (kTwoPi * std::max(r, 1e-12));
   // One intermediate ring on the sphere (37 degrees up), then the apex.
   std::vector<std::uint32_t> ring(ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k) {
     ring[k] = first + static_cast<std::uint32_t>(k);
-    set_vertex(ring[k], c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv);
+    set_vertex(ring[k], c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv,
+               vertex_period_[ids[k]]);
   }
   const std::uint32_t apex = first + static_cast<std::uint32_t>(ids.size());
-  set_vertex(apex, c + h * t, node, 0.5 * p_.uv_repeat_u, v0 + h * dv);
+  set_vertex(apex, c + h * t, node, 0.5 * vertex_period_[ids[0]], v0 + h * dv, vertex_period_[ids[0]]);
   out.scratch.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const std::size_t k1 = (k + 1) % ids.size();
@@ -862,7 +867,8 @@ void Builder::root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t c
   // A very shallow dome downwards (5% of the radius), so the root node lies strictly inside
   // the mesh rather than exactly on its base, where float32 export could put it either side.
   c -= f.tangent * (0.05 * c_.loop_radius[loop]);
-  set_vertex(centre, c, c_.loop_node[loop], 0.5 * p_.uv_repeat_u, loop_v_[loop]);
+  const double period = vertex_period_[ids[0]];
+  set_vertex(centre, c, c_.loop_node[loop], 0.5 * period, loop_v_[loop], period);
   out.scratch.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) out.scratch.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
   out.emit(branch, TriangleKind::root_cap);
@@ -880,7 +886,8 @@ void Builder::compute_uvs() {
     for (std::uint32_t l : t.loops) {
       if (prev != UINT32_MAX) {
         const double r = std::max(0.5 * (c_.loop_radius[prev] + c_.loop_radius[l]), 1e-12);
-        v = loop_v_[prev] + repeat * std::abs(c_.loop_distance[l] - c_.loop_distance[prev]) / (kTwoPi * r);
+        const double along = std::abs(c_.loop_distance[l] - c_.loop_distance[prev]);
+        v = loop_v_[prev] + (p_.uv_metres > 0 ? along / p_.uv_metres : repeat * along / (kTwoPi * r));
       }
       loop_v_[l] = v;
       prev = l;
@@ -891,18 +898,28 @@ void Builder::compute_uvs() {
   vertex_u_.assign(c_.point.size(), 0.0);
   vertex_v_.assign(c_.point.size(), 0.0);
   vertex_angle_.assign(c_.point.size(), 0.0);
+  vertex_period_.assign(c_.point.size(), repeat);
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, c_.loop_count(), 1024),
                     [&](const tbb::blocked_range<std::uint32_t>& range) {
                       for (std::uint32_t l = range.begin(); l != range.end(); ++l) {
                         const glm::dvec3 centre = loop_centroid(l);
                         const Frame& f = c_.loop_frame[l];
+                        // In metres: one turn is the loop's circumference (its mean radius).
+                        double period = repeat;
+                        if (p_.uv_metres > 0) {
+                          double r = 0;
+                          for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v)
+                            r += glm::length(c_.point[v] - centre);
+                          period = kTwoPi * r / double(c_.loop_begin[l + 1] - c_.loop_begin[l]) / p_.uv_metres;
+                        }
                         for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
                           const dvec2 q = f.to_local(c_.point[v] - centre);
                           vertex_angle_[v] = fast_atan2(q.y, q.x);  // (std::atan2: most of this pass)
                           double a = vertex_angle_[v] / kTwoPi;
                           if (a < 0) a += 1;
-                          vertex_u_[v] = a * repeat;
+                          vertex_u_[v] = a * period;
                           vertex_v_[v] = loop_v_[l];
+                          vertex_period_[v] = period;
                         }
                       }
                     });
@@ -947,11 +964,13 @@ MeshResult Builder::run(const ProgressFn& progress) {
                     });
   vertex_u_.reserve(nv);
   vertex_v_.reserve(nv);
+  vertex_period_.reserve(nv);
   compute_uvs();
   mesh_.positions.resize(nv);
   mesh_.vertex_strand.resize(nv);
   vertex_u_.resize(nv);
   vertex_v_.resize(nv);
+  vertex_period_.resize(nv);
   plan_stacked_junctions();
   stats_.timings.add("setup", clock.lap());
 
@@ -1037,21 +1056,23 @@ MeshResult Builder::run(const ProgressFn& progress) {
   if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_, corners);
   if (p_.uvs) {
     mesh_.corner_uvs.resize(mesh_.triangles.size());
-    const double repeat = p_.uv_repeat_u;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 8192),
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         for (std::size_t f = range.begin(); f != range.end(); ++f) {
                           const auto& t = mesh_.triangles[f];
-                          double u[3], v[3];
+                          double u[3], v[3], turn[3], period[3];
                           for (int k = 0; k < 3; ++k) {
                             u[k] = vertex_u_[t[std::size_t(k)]];
                             v[k] = vertex_v_[t[std::size_t(k)]];
+                            period[k] = vertex_period_[t[std::size_t(k)]];
+                            turn[k] = period[k] > 0 ? u[k] / period[k] : 0.0;
                           }
-                          // Seam: a triangle spanning the u wrap gets its small u values lifted by one turn.
-                          const double lo = std::min({u[0], u[1], u[2]}), hi = std::max({u[0], u[1], u[2]});
-                          if (hi - lo > 0.5 * repeat) {
-                            for (double& x : u) {
-                              if (x < 0.5 * repeat) x += repeat;
+                          // Seam: a triangle spanning the u wrap gets its small u values lifted by
+                          // one turn (its own vertex's: in metres, loops of different radii differ).
+                          const double lo = std::min({turn[0], turn[1], turn[2]}), hi = std::max({turn[0], turn[1], turn[2]});
+                          if (hi - lo > 0.5) {
+                            for (int k = 0; k < 3; ++k) {
+                              if (turn[k] < 0.5) u[k] += period[k];
                             }
                           }
                           for (int k = 0; k < 3; ++k)

@@ -38,6 +38,10 @@ struct MeshParams {
   double tip_dome = 0.9;
   /// Texture repeats around the branch (u runs over [0, uv_repeat_u) once around).
   double uv_repeat_u = 1.0;
+  /// Texture size in metres; 0 = u once around every branch (uv_repeat_u times). Otherwise u is
+  /// the distance around the branch and v the distance along it over this size, so texel
+  /// density does not depend on the radius (uv_repeat_u unused; one seam per loop still).
+  double uv_metres = 0.0;
   /// Compute per-corner UVs.
   bool uvs = true;
   /// Compute smooth vertex normals.

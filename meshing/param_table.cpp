@@ -13,6 +13,8 @@ const ParamSpec<M> kFields[] = {
      .help = "height of the tip caps (0 = flat)", .slider = {0, 2}},
     {.key = "uv_repeat_u", .field = &M::uv_repeat_u, .range = {.min = 0, .min_open = true}, .unit = "count",
      .help = "texture repeats around the branch", .slider = {0.25, 8}},
+    {.key = "uv_metres", .field = &M::uv_metres, .range = {.min = 0}, .unit = "m",
+     .help = "texture size: u and v in metres over this (0 = u once around every branch)", .slider = {0, 1}},
     {.key = "uvs", .field = &M::uvs, .help = "compute per-corner UVs"},
     {.key = "normals", .field = &M::normals, .help = "compute smooth vertex normals"},
     {.key = "merge_stacked_junctions", .field = &M::merge_stacked_junctions,

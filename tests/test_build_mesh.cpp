@@ -124,6 +124,42 @@ TEST(BuildMesh, StraightBranchIsAClosedTubeFacingOutwards) {
   }
 }
 
+TEST(BuildMesh, UvsInMetresKeepTexelDensityWhateverTheRadius) {
+  // The straight branch tapers from 0.1 to 0.05 m. Once around, a strip triangle's UV area
+  // over its area grows as 1 / r^2 up the branch; in metres it is 1 / uv_metres^2 everywhere.
+  const test::UpToContours up = test::up_to_contours(test::straight_branch(6), 1);
+  MeshParams metres;
+  metres.uv_metres = 0.05;
+  for (const bool in_metres : {false, true}) {
+    SCOPED_TRACE(in_metres ? "metres" : "once around");
+    const MeshResult r = build_mesh(up.skeleton, up.contours, in_metres ? metres : MeshParams{});
+    const Mesh& m = r.mesh;
+    ASSERT_EQ(m.corner_uvs.size(), m.triangle_count());
+    double lo = 1e300, hi = 0;
+    for (std::size_t f = 0; f < m.triangle_count(); ++f) {
+      if (r.triangle_kind[f] != TriangleKind::strip) continue;
+      const auto& t = m.triangles[f];
+      const auto& uv = m.corner_uvs[f];
+      const glm::vec2 a = uv[1] - uv[0], b = uv[2] - uv[0];
+      const double uv_area = 0.5 * std::abs(double(a.x) * b.y - double(a.y) * b.x);
+      const double area = 0.5 * glm::length(m.face_normal(t));
+      ASSERT_GT(area, 0);
+      const double ratio = uv_area / area;
+      lo = std::min(lo, ratio);
+      hi = std::max(hi, ratio);
+      // No triangle spans the seam the long way round: at most a third of a turn wide.
+      const float du = std::max({uv[0].x, uv[1].x, uv[2].x}) - std::min({uv[0].x, uv[1].x, uv[2].x});
+      EXPECT_LT(du, (in_metres ? 2 * std::numbers::pi * 0.1 / 0.05 : 1.0) / 3) << "triangle " << f;
+    }
+    if (in_metres) {
+      EXPECT_GT(lo, 0.8 / (0.05 * 0.05));
+      EXPECT_LT(hi, 1.25 / (0.05 * 0.05));
+    } else {
+      EXPECT_GT(hi / lo, 3.0);  // (0.1 / 0.05)^2 = 4, less the ends' averaging
+    }
+  }
+}
+
 TEST(BuildMesh, ForksGetPantsAndEveryTipADome) {
   struct Case {
     const char* name;
