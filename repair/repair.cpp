@@ -105,12 +105,7 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
     }
   }
   for (const std::uint32_t v : moving) {
-    const glm::dvec3 p = mesh.positions[v], towards = sum[v] / count[v] - p;
-    const double length = glm::length(towards);
-    if (!(length > 0)) continue;
-    glm::dvec3 q = p + towards * std::min(1.0, std::max(0.01, grid > 0 ? 2 * grid / length : 0.0));
-    if (grid > 0) q = snap_to_grid(q, grid);
-    mesh.positions[v] = q;
+    mesh.positions[v] = step_towards(mesh.positions[v], sum[v] / count[v], grid);
   }
   return moving.size();
 }

@@ -132,14 +132,7 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
         count += 2;
       }
       const auto copy = static_cast<std::uint32_t>(mesh.positions.size());
-      const glm::dvec3 p = mesh.positions[v], towards = sum / count - p;
-      glm::dvec3 q = p + 0.01 * towards;
-      if (grid > 0) {
-        const double length = glm::length(towards);
-        if (0.01 * length < 2 * grid && length > 0) q = p + towards * std::min(1.0, 2 * grid / length);
-        q = snap_to_grid(q, grid);
-      }
-      mesh.positions.push_back(q);
+      mesh.positions.push_back(step_towards(mesh.positions[v], sum / count, grid));
       if (node) node->push_back((*node)[v]);
       if (strand) strand->push_back(StrandId{});
       for (std::uint32_t i = 0; i < n; ++i) {
@@ -711,6 +704,14 @@ std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
 }
 
 }  // namespace
+
+glm::dvec3 step_towards(const glm::dvec3& p, const glm::dvec3& target, double grid) {
+  const glm::dvec3 towards = target - p;
+  const double length = glm::length(towards);
+  if (!(length > 0)) return grid > 0 ? snap_to_grid(p, grid) : p;
+  const glm::dvec3 q = p + towards * std::min(1.0, std::max(0.01, grid > 0 ? 2 * grid / length : 0.0));
+  return grid > 0 ? snap_to_grid(q, grid) : q;
+}
 
 double signed_volume(const Mesh& m) {
   if (m.triangles.empty()) return 0;

@@ -46,6 +46,10 @@ struct SelfUnionStats {
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
 
+/// A point 1 % of the way from p to `target`, but at least two steps of `grid` (when > 0) and at
+/// most all the way, on that grid: a copy of a vertex that the float32 file keeps apart from it.
+glm::dvec3 step_towards(const glm::dvec3& p, const glm::dvec3& target, double grid);
+
 /// Signed volume of a closed surface (m^3; > 0 when its triangles face outward).
 double signed_volume(const Mesh& mesh);
 
