@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "core/errors.h"
+#include "lod/simplify.h"
 
 namespace sm {
 
@@ -85,16 +86,33 @@ LodLevel lod_level(const RawSkeleton& raw, const PipelineParams& params, std::ui
 }
 
 PipelineResult mesh_lod(const RawSkeleton& raw, const PipelineParams& params, std::uint32_t level,
-                        const LodParams& lod, const ProgressFn& progress, LodLevel* used) {
+                        const LodParams& lod, const ProgressFn& progress, LodLevel* used,
+                        const PipelineResult* finer) {
   LodLevel l = lod_level(raw, params, level, lod);
   PipelineResult r = run_pipeline(l.skeleton, l.params, progress);
   if (r.repair.pairs_left > 0 && l.params.contours.slice_step != params.contours.slice_step) {
-    LodLevel finer = l;
-    finer.params.contours.slice_step = params.contours.slice_step;
-    PipelineResult again = run_pipeline(finer.skeleton, finer.params, progress);
+    LodLevel finer_slices = l;
+    finer_slices.params.contours.slice_step = params.contours.slice_step;
+    PipelineResult again = run_pipeline(finer_slices.skeleton, finer_slices.params, progress);
     if (again.repair.pairs_left < r.repair.pairs_left) {
       r = std::move(again);
-      l = std::move(finer);
+      l = std::move(finer_slices);
+    }
+  }
+  l.rerun_pairs = r.repair.pairs_left;
+  // A clean finer level stays clean when simplified by collapses that refuse every crossing.
+  if (r.repair.pairs_left > 0 && finer != nullptr) {
+    SimplifyStats st;
+    Mesh simpler = simplify_mesh(finer->mesh.mesh, {.target_triangles = r.mesh.mesh.triangle_count()}, &st);
+    if (st.pairs_after < r.repair.pairs_left) {
+      PipelineResult s = *finer;
+      s.mesh.mesh = std::move(simpler);
+      s.mesh.triangle_kind.clear();
+      s.mesh.stats.triangles = s.mesh.mesh.triangle_count();
+      s.mesh.stats.vertices = s.mesh.mesh.vertex_count();
+      s.repair.pairs_left = st.pairs_after;
+      r = std::move(s);
+      l.simplified = true;
     }
   }
   if (used != nullptr) *used = std::move(l);

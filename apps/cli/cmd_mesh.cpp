@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include "apps/cli/commands.h"
@@ -156,6 +157,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       // Levels of detail: the pipeline again on a pruned skeleton with coarser parameters (lod/lod.h).
       std::vector<std::string> lod_lines;
+      std::optional<PipelineResult> previous;  // level k - 1 when k > 1 (a level may be it simplified)
       for (std::uint32_t k = 1; k < lods; ++k) {
         Stopwatch lod_clock;
         LodLevel level;
@@ -163,7 +165,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         PipelineResult lr = mesh_lod(raw, params, k, {}, [&](std::string_view phase, double f) {
           std::lock_guard lock(m);
           lod_bar.update(phase, f);
-        }, &level);
+        }, &level, previous ? &*previous : &r);
         if (lr.mesh.stats.bad_edges > 0) {
           log::error("internal error: level of detail " + std::to_string(k) + " has " +
                      std::to_string(lr.mesh.stats.bad_edges) + " edges not shared by exactly two triangles");
@@ -174,17 +176,26 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         write_mesh(lr.mesh.mesh, lod_path(o->output, k), lp, [&](std::string_view phase, double f) { lod_bar.update(phase, f); });
         lod_bar.finish();
         char text[320];
-        std::snprintf(text, sizeof text,
-                      "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step %.2g) "
-                      "in %.2f s -> %s",
-                      k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
-                      level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
-                      lod_path(o->output, k).c_str());
+        if (level.simplified) {
+          std::snprintf(text, sizeof text,
+                        "  level %u: %zu triangles (level %u simplified: the pipeline's run kept %zu self-intersecting "
+                        "pairs) in %.2f s -> %s",
+                        k, lr.mesh.mesh.triangle_count(), k - 1, level.rerun_pairs, lod_clock.elapsed(),
+                        lod_path(o->output, k).c_str());
+        } else {
+          std::snprintf(text, sizeof text,
+                        "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step "
+                        "%.2g) in %.2f s -> %s",
+                        k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
+                        level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
+                        lod_path(o->output, k).c_str());
+        }
         if (lr.repair.pairs_left > 0) {
           log::warn("level of detail " + std::to_string(k) + " keeps " + std::to_string(lr.repair.pairs_left) +
                     " self-intersecting triangle pairs");
         }
         lod_lines.emplace_back(text);
+        previous = std::move(lr);
       }
       outputs.commit();
       if (to_stdout) {
