@@ -39,6 +39,7 @@ struct LodLevel {
   double min_radius = 0;    ///< twigs thinner than this were pruned (metres)
   std::size_t pruned = 0;   ///< nodes pruned
   std::size_t rerun_pairs = 0;  ///< self-intersecting pairs the pipeline's run left (before any fallback)
+  std::size_t pairs = 0;        ///< self-intersecting pairs of the level's mesh (counted over the whole mesh)
   bool simplified = false;  ///< the level is the finer level simplified (the run kept pairs)
 };
 
