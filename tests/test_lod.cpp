@@ -1,6 +1,7 @@
 // Levels of detail (lod/lod.h): pruning keeps a valid tree, and every level of a grown tree and
-// of the sample skeletons comes out of the pipeline closed, manifold and free of
-// self-intersections, with fewer triangles level by level.
+// of the sample skeletons comes out closed, manifold and free of self-intersections, with fewer
+// triangles level by level; the simplification a level falls back to (lod/simplify.h) keeps a
+// clean mesh clean. The slow build (test_lod_slow) runs every level of every sample.
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,8 @@
 
 namespace sm {
 namespace {
+
+#ifndef STRANDMESH_LOD_SLOW_TESTS
 
 TEST(Lod, PruningDropsThinSubtreesAndKeepsTheRest) {
   // Root r 1 -> a r 0.5 -> b r 0.05 -> c r 0.5 (beyond a thin node: dropped too); a -> d r 0.3.
@@ -110,6 +113,34 @@ TEST(Lod, LevelsAreCoarserAndEachPassesTheChecks) {
     }
   }
 }
+
+#else  // STRANDMESH_LOD_SLOW_TESTS
+
+// Every level of every sample, each level made from the one before where its own run keeps
+// pairs (as `strandmesh mesh --lods 4` does): closed, manifold, oriented, no pairs.
+TEST(LodSlow, EveryLevelOfEverySamplePassesTheChecks) {
+  for (const auto& path : test::sample_skeletons()) {
+    const RawSkeleton raw = read_skeleton(path);
+    const PipelineParams params;
+    std::vector<PipelineResult> levels;
+    levels.push_back(run_pipeline(raw, params));
+    for (std::uint32_t k = 1; k <= 3; ++k) {
+      SCOPED_TRACE(path.filename().string() + " level " + std::to_string(k));
+      LodLevel level;
+      levels.push_back(mesh_lod(raw, params, k, {}, {}, &level, &levels.back()));
+      const Mesh& m = levels.back().mesh.mesh;
+      EXPECT_EQ(level.pairs, 0u);
+      const MeshCheckReport c = check_mesh(m);
+      EXPECT_TRUE(c.ok()) << to_text(c);
+      EXPECT_LT(m.triangle_count(), levels[k - 1].mesh.mesh.triangle_count());
+      if (level.simplified) {
+        EXPECT_GT(level.rerun_pairs, 0u);
+      }
+    }
+  }
+}
+
+#endif  // STRANDMESH_LOD_SLOW_TESTS
 
 }  // namespace
 }  // namespace sm
