@@ -192,6 +192,7 @@ class Attempt {
   };
   void choose(const std::vector<std::array<std::uint32_t, 2>>& pairs);
   bool refine();
+  void canonicalize();
   void judge();
   [[nodiscard]] std::uint32_t mesh_vertex(std::uint32_t r) const { return r < n_sub_ ? mesh_vertex_of_sub_[r] : kNone; }
 
@@ -326,7 +327,55 @@ bool Attempt::refine() {
     const Point& q = sm.point(v);
     refined_pos_[v.idx()] = glm::dvec3(q.x(), q.y(), q.z());
   }
+  canonicalize();
   return true;
+}
+
+// CGAL hands back its new vertices and faces in an order that depends on heap addresses (which
+// differ from run to run when other threads allocate): new vertices are put in the order of
+// their positions, pieces in the order of their origins and corners, patches in the order of
+// their first piece, so that what follows depends on the geometry only.
+void Attempt::canonicalize() {
+  const auto nv = static_cast<std::uint32_t>(refined_pos_.size());
+  std::vector<std::array<std::uint32_t, 2>> touching(nv, {kNone, 0});  // (least, greatest) origin
+  for (const Piece& p : pieces_) {
+    for (const std::uint32_t v : p.v) {
+      touching[v][0] = std::min(touching[v][0], p.origin);
+      touching[v][1] = std::max(touching[v][1], p.origin);
+    }
+  }
+  std::vector<std::uint32_t> added(nv - n_sub_);
+  std::iota(added.begin(), added.end(), n_sub_);
+  const auto key = [&](std::uint32_t v) {
+    const glm::dvec3& p = refined_pos_[v];
+    return std::tuple(p.x, p.y, p.z, touching[v][0], touching[v][1]);
+  };
+  std::sort(added.begin(), added.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  std::vector<std::uint32_t> renumber(nv);
+  std::iota(renumber.begin(), renumber.begin() + n_sub_, 0u);
+  std::vector<glm::dvec3> pos(refined_pos_.begin(), refined_pos_.begin() + n_sub_);
+  for (const std::uint32_t v : added) {
+    renumber[v] = static_cast<std::uint32_t>(pos.size());
+    pos.push_back(refined_pos_[v]);
+  }
+  refined_pos_ = std::move(pos);
+  for (Piece& p : pieces_) {
+    for (std::uint32_t& v : p.v) v = renumber[v];
+    std::rotate(p.v.begin(), std::min_element(p.v.begin(), p.v.end()), p.v.end());  // keeps the orientation
+  }
+  std::sort(pieces_.begin(), pieces_.end(),
+            [](const Piece& a, const Piece& b) { return std::tie(a.origin, a.v) < std::tie(b.origin, b.v); });
+  std::vector<std::uint32_t> patch(patches, kNone);
+  std::vector<std::uint8_t> dangling(patches, 0);
+  std::uint32_t next = 0;
+  for (Piece& p : pieces_) {
+    if (patch[p.patch] == kNone) {
+      dangling[next] = dangling_[p.patch];
+      patch[p.patch] = next++;
+    }
+    p.patch = patch[p.patch];
+  }
+  dangling_ = std::move(dangling);
 }
 
 // Winding numbers: a point just in front of and one just behind the roundest piece of every
