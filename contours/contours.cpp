@@ -178,12 +178,14 @@ struct Fragment {
 
 /// Read-only per-node tables every walk uses, computed once.
 struct Tables {
-  Tables(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p);
+  Tables(const Skeleton& s, const ParticleField& f, const StrandSet& st, const ContourParams& p,
+         std::span<const LocalContourScale> local);
 
   const Skeleton& s;
   const ParticleField& f;
   const StrandSet& st;
   const ContourParams& p;
+  std::span<const LocalContourScale> local;     // #N factors, or empty (compute_contours)
   double spacing;                               // distance between neighbouring particles (metres)
   double median_radius;                         // the skeleton's median radius: thick nodes reach it
   std::vector<double> root_distance;            // #N distance from the root along the tree (for UV distances)
@@ -197,11 +199,13 @@ struct Tables {
   }
 };
 
-Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_, const ContourParams& p_)
+Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_, const ContourParams& p_,
+               std::span<const LocalContourScale> local_)
     : s(s_),
       f(f_),
       st(st_),
       p(p_),
+      local(local_),
       spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)),
       median_radius(s_.median_radius()) {
   const std::size_t n = s.size();
@@ -298,10 +302,10 @@ class Walker {
  private:
   // --- geometry helpers -------------------------------------------------------------------
   [[nodiscard]] double len(NodeId n) const { return s_.edge_length(n); }
-  // The parameters with their local factors (ContourParams::local) at node n.
+  // The parameters with their local factors (compute_contours' `local`) at node n.
   [[nodiscard]] const LocalContourScale& local(NodeId n) const {
     static const LocalContourScale kOne{};
-    return n.idx() < p_.local.size() ? p_.local[n.idx()] : kOne;
+    return n.idx() < tables_.local.size() ? tables_.local[n.idx()] : kOne;
   }
   [[nodiscard]] double split_gap(NodeId fork) const { return p_.split_gap * local(fork).split_gap; }
   [[nodiscard]] double fork_transition(NodeId fork) const {
@@ -1503,19 +1507,23 @@ void uncross_loops(ContourSet& c, double tol) {
 
 }  // namespace
 
-void validate_params(const ContourParams& p) {
-  check_params(p);
+void validate_params(const ContourParams& p) { check_params(p); }
+
+ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
+                            const ContourParams& params, const ProgressFn& progress) {
+  return compute_contours(skeleton, field, strands, params, {}, progress);
+}
+
+ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
+                            const ContourParams& params, std::span<const LocalContourScale> local,
+                            const ProgressFn& progress) {
+  validate_params(params);
   const ParamChecker check{"contours"};
-  for (const LocalContourScale& l : p.local) {
+  for (const LocalContourScale& l : local) {
     check.positive(l.split_gap, "local split_gap factor");
     check.non_negative(l.fork_transition, "local fork_transition factor");
     check.positive(l.slice_step, "local slice_step factor");
   }
-}
-
-ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
-                            const ContourParams& params, const ProgressFn& progress) {
-  validate_params(params);
   SM_CHECK(field.node_count() == skeleton.size(), "particle field does not match the skeleton");
   SM_CHECK(strands.point.size() == field.position.size(), "strand set does not match the particle field");
   Stopwatch clock;
@@ -1524,7 +1532,7 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
     out.loop_begin.assign(1, 0);
     return out;
   }
-  const Tables tables(skeleton, field, strands, params);
+  const Tables tables(skeleton, field, strands, params, local);
   const double t_tables = clock.lap();
 
   // Walk the tubes as tasks: each junction spawns its two child tubes.

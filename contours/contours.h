@@ -46,6 +46,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/param_table.h"
@@ -59,7 +60,7 @@
 
 namespace sm {
 
-/// Factors on three contour parameters at one node (ContourParams::local).
+/// Factors on three contour parameters at one node (compute_contours' `local`).
 struct LocalContourScale {
   double split_gap = 1.0;
   double fork_transition = 1.0;
@@ -138,13 +139,6 @@ struct ContourParams {
   /// edges longer than this, relative to the median nearest-neighbour distance of the
   /// slice's points, are carved away (0 = fall back to the convex hull).
   double fallback_max_edge = 3.0;
-
-  /// Local factors on split_gap, fork_transition and slice_step, per node of the sanitized
-  /// skeleton (#N, or empty for 1 everywhere). Not a config key: the pipeline sets them where
-  /// it re-slices the forks around self-intersections of the mesh (pipeline/fork_retry.h).
-  /// A fork's split test and transition use its own factors; a slice on the edge of node n,
-  /// n's slice step factor.
-  std::vector<LocalContourScale> local;
 };
 
 /// The config key, accepted range, unit and help of each field of ContourParams, in header order
@@ -230,6 +224,13 @@ void validate_params(const ContourParams& params);
 /// Preconditions: `field` and `strands` were computed for `skeleton`.
 ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
                             const ContourParams& params = {}, const ProgressFn& progress = {});
+/// The same with factors on split_gap, fork_transition and slice_step per node of the
+/// sanitized skeleton (#N, or empty for 1 everywhere): the repair stage slices the forks
+/// around self-intersections again with them (repair/fork_retry.h). A fork's split test and
+/// transition use its own factors; a slice on the edge of node n, n's slice step factor.
+ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field, const StrandSet& strands,
+                            const ContourParams& params, std::span<const LocalContourScale> local,
+                            const ProgressFn& progress = {});
 
 /// Boundary selection on its own (exposed for tests and the viewer): indices into `points` of
 /// the outer loop, counter-clockwise, at least 3 when the points are not all collinear.

@@ -1,5 +1,4 @@
 // ContourParams' table (core/param_table.h): config key, range, unit and help of each field.
-// ContourParams::local is not a parameter: the fork retry sets it (pipeline/fork_retry.h).
 
 #include "contours/contours.h"
 

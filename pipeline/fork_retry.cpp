@@ -324,14 +324,13 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   };
   // One run of the contour and meshing stages; `seconds` gets the time of each.
   auto run = [&](const std::vector<LocalContourScale>& scale, std::array<double, 2>& seconds) {
-    PipelineParams q = p;
-    q.contours.local = local_for(scale);
+    const std::vector<LocalContourScale> local = local_for(scale);
     Run out;
     out.scale = scale;
     Stopwatch clock;
-    out.contours = compute_contours(s, r.particles, r.strands, q.contours);
+    out.contours = compute_contours(s, r.particles, r.strands, p.contours, local);
     seconds[0] = clock.lap();
-    out.mesh = build_mesh(s, out.contours, q.meshing);
+    out.mesh = build_mesh(s, out.contours, p.meshing);
     // A trial mesh that is not closed (a bug) counts every node as outside: never kept.
     out.outside = out.mesh.stats.bad_edges > 0 ? std::vector<std::size_t>(groups.count, s.size())
                                                : watched.outside(s, out.mesh.mesh, groups.count);

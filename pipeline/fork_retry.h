@@ -7,7 +7,7 @@
 /// and whether a crotch folds, or swallows a stub's tip, depends on exactly where its slices
 /// and split fall: changing the split gap, the fork transition or the slice step there moves
 /// the pairs, and the best setting differs from crotch to crotch. So the retry meshes the tree once per variant, the variant applied only
-/// at the forks around the problems (ContourParams::local), and counts per group of forks:
+/// at the forks around the problems (compute_contours' `local`), and counts per group of forks:
 ///  - the forks of a pair are those on the tree paths between the nodes of its corners
 ///    (Crossing::nodes) within kReach of their radii of it; those of a thick node outside the
 ///    first mesh (radius at least the median, found as `strandmesh check` finds them) are the

@@ -38,12 +38,28 @@ TEST(Cli, UsageErrorsExitTwo) {
 }
 
 TEST(Cli, PrintConfigNeedsNoSkeleton) {
-  // The printed config is the built-in default set, which configs/default.json spells out.
+  // The printed config is the built-in default set, which configs/default.json spells out:
+  // the same text after its description line (every key, no other, in the printed order, each
+  // value written as printed: 1.0 is not 1), so neither can drift from the other.
   const CmdResult r = run("mesh --print-config");
   ASSERT_EQ(r.code, 0) << r.err;
-  nlohmann::json shipped = nlohmann::json::parse(read_file(fs::path(STRANDMESH_SOURCE_DIR) / "configs/default.json"));
-  shipped.erase("description");
-  EXPECT_EQ(nlohmann::json::parse(r.out), shipped);  // every key, so a new parameter must be added there
+  const std::string shipped = read_file(fs::path(STRANDMESH_SOURCE_DIR) / "configs/default.json");
+  const std::string description = "\n  \"description\": ";
+  const auto line = shipped.find(description);
+  ASSERT_EQ(line, 1u) << "configs/default.json must start with its description";
+  const std::string rest = shipped.substr(0, line + 1) + shipped.substr(shipped.find('\n', line + 1) + 1);
+  EXPECT_EQ(rest, r.out) << "configs/default.json is out of date: run scripts/update_param_docs.sh";
+  EXPECT_EQ(nlohmann::json::parse(shipped).size(), nlohmann::json::parse(r.out).size() + 1);
+}
+
+TEST(Cli, SkeletonFlagsOverrideTheConfig) {
+  // --keep-input turns skeleton.separate off for `mesh` as for `info` (it was once ignored there).
+  const CmdResult r = run("mesh --keep-input --max-edge-ratio 2 --print-config");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["skeleton"]["separate"], false);
+  EXPECT_EQ(j["skeleton"]["max_edge_ratio"], 2.0);
+  EXPECT_EQ(nlohmann::json::parse(run("mesh --print-config").out)["skeleton"]["separate"], true);
 }
 
 TEST(Cli, ParamsReferenceInTheDocsIsCurrent) {
@@ -220,6 +236,38 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   for (const char* f : {"skeleton.json", "particles.json", "strands.json", "contours.json", "stats.json", "t.ply"}) {
     EXPECT_TRUE(fs::exists(dump / f)) << f;
   }
+}
+
+TEST(Cli, LevelsOfDetailInOneGltfFileOrOneFileEach) {
+  const fs::path dir = test::temp_dir("cli_lods");
+  const std::string tree = (dir / "t.json").string();
+  ASSERT_EQ(run("grow --seed 7 -o " + tree).code, 0);
+  // glTF: one file, MSFT_lod on the scene's node; every level passes `check --lod K`.
+  const CmdResult one = run("-q mesh " + tree + " -o " + (dir / "t.glb").string() + " --lods 3");
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_FALSE(fs::exists(dir / "t_lod1.glb"));
+  std::size_t previous = SIZE_MAX;
+  for (int k = 0; k < 3; ++k) {
+    const CmdResult c = run("check " + (dir / "t.glb").string() + " --lod " + std::to_string(k) + " --json");
+    ASSERT_EQ(c.code, 0) << c.out << c.err;
+    const auto report = nlohmann::json::parse(c.out);
+    EXPECT_EQ(report["self_intersecting_pairs"], 0);
+    EXPECT_LT(report["triangles"].get<std::size_t>(), previous);
+    previous = report["triangles"].get<std::size_t>();
+  }
+  const CmdResult beyond = run("check " + (dir / "t.glb").string() + " --lod 3");
+  EXPECT_EQ(beyond.code, 1);
+  EXPECT_NE(beyond.err.find("level of detail 3 does not exist"), std::string::npos) << beyond.err;
+  // One file, so standard output takes it too.
+  const CmdResult piped = run("-q mesh " + tree + " -o - --lods 2");
+  ASSERT_EQ(piped.code, 0) << piped.err;
+  EXPECT_NE(piped.out.find("MSFT_lod"), std::string::npos);
+  // --lod-files (and OBJ, PLY always): OUT_lodK.EXT beside OUT, not to standard output.
+  ASSERT_EQ(run("-q mesh " + tree + " -o " + (dir / "f.glb").string() + " --lods 3 --lod-files").code, 0);
+  ASSERT_EQ(run("-q mesh " + tree + " -o " + (dir / "f.ply").string() + " --lods 2").code, 0);
+  for (const char* f : {"f.glb", "f_lod1.glb", "f_lod2.glb", "f.ply", "f_lod1.ply"}) EXPECT_TRUE(fs::exists(dir / f)) << f;
+  EXPECT_EQ(read_file(dir / "f.glb").find("MSFT_lod"), std::string::npos);
+  EXPECT_EQ(run("-q mesh " + tree + " -o - --output-format ply --lods 2").code, 2);
 }
 
 TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {

@@ -584,7 +584,7 @@ TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
 }
 
 TEST(Pipeline, LocalContourFactorsChangeOnlyTheirFork) {
-  // ContourParams::local (the fork retry's tool): a wider split gap at one fork moves that
+  // compute_contours' `local` factors (the fork retry's tool): a wider split gap at one fork moves that
   // fork's split up; the junctions of forks outside its subtree stay where they were.
   PipelineResult r;
   run_and_check(test::grown_tree(1), &r);
@@ -596,10 +596,9 @@ TEST(Pipeline, LocalContourFactorsChangeOnlyTheirFork) {
   ASSERT_NE(plain, r.contours.junctions.rend());
   const NodeId fork = plain->fork;
   const double split = plain->split_distance;
-  ContourParams p;
-  p.local.resize(s.size());
-  p.local[fork.idx()].split_gap = 2.0;
-  const ContourSet c = compute_contours(s, r.particles, r.strands, p);
+  std::vector<LocalContourScale> local(s.size());
+  local[fork.idx()].split_gap = 2.0;
+  const ContourSet c = compute_contours(s, r.particles, r.strands, {}, local);
   auto in_subtree = [&](NodeId n) {
     for (; n.valid(); n = s.parent[n.idx()]) {
       if (n == fork) return true;
@@ -624,8 +623,8 @@ TEST(Pipeline, LocalContourFactorsChangeOnlyTheirFork) {
   EXPECT_TRUE(found);
   EXPECT_GT(same, 10u);
   // All factors 1: the same contours as without any.
-  p.local.assign(s.size(), LocalContourScale{});
-  EXPECT_EQ(compute_contours(s, r.particles, r.strands, p).point, r.contours.point);
+  local.assign(s.size(), LocalContourScale{});
+  EXPECT_EQ(compute_contours(s, r.particles, r.strands, {}, local).point, r.contours.point);
 }
 
 TEST(Pipeline, TwigForksSplitOnTheTwigsScale) {
@@ -978,7 +977,7 @@ TEST(Pipeline, ParamTablesCoverEveryField) {
   expect_sound_table<SkeletonParams>();
   expect_sound_table<ParticleParams>();
   expect_sound_table<StrandParams>();
-  expect_sound_table<ContourParams>(1);  // `local`: set by the fork retry, not a user parameter
+  expect_sound_table<ContourParams>();
   expect_sound_table<MeshParams>();
   expect_sound_table<RepairParams>();
   // Setting an integer from a number rounds and clamps to its type, above 2^63 too.
