@@ -241,6 +241,29 @@ TEST(Repair, KinkOfAFractionOfARadiusMeshesWithoutCrossingLoops) {
   EXPECT_GT(check_mesh(f.mesh.mesh).self_intersecting_pairs, 0u);
 }
 
+TEST(Repair, FaithfulConfigMeshesTheTreeAsGiven) {
+  // configs/faithful.json: no separation, radii as given, no collar nodes, no raised lateral
+  // bases. A messy tree meshes as one closed part within 0.15 of the local radius of the input's
+  // round cones at the 95th percentile, no node moved beyond max_node_move.
+  const PipelineParams p = load_params(std::filesystem::path(STRANDMESH_SOURCE_DIR) / "configs/faithful.json");
+  EXPECT_FALSE(p.skeleton.separate);
+  EXPECT_EQ(p.skeleton.thick_child_policy, ThickChildPolicy::keep);
+  EXPECT_EQ(p.skeleton.collar_ratio, 0.0);
+  EXPECT_EQ(p.skeleton.max_lateral_angle, 0.0);
+  MessyGrowParams g;
+  g.seed = 1;
+  const RawSkeleton raw = grow_messy(g);
+  const PipelineResult r = run_pipeline(raw, p);
+  EXPECT_LE(r.skeleton.report.max_move_radii, p.skeleton.max_node_move + 1e-9);
+  const Skeleton input = input_skeleton(raw);
+  const MeshCheckReport rep = check_mesh(r.mesh.mesh, {.skeleton = &input});
+  EXPECT_TRUE(rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented);
+  EXPECT_EQ(rep.components, 1u);
+  EXPECT_LE(rep.fidelity_p95, 0.15);
+  // (Not yet free of self-intersections on every tree: docs/repair.md.)
+  EXPECT_LT(rep.self_intersecting_pairs, 100u);
+}
+
 TEST(Repair, MessyTreesStayOnePartAndInPlace) {
   // Generator trees (crossing and hanging limbs, zigzags, a hub, hairpins, zero radii, thick
   // children) at fixed seeds, one of them georeferenced: the mesh is one closed part in place.
