@@ -260,6 +260,13 @@ void reference_section(std::string& out, const P& defaults, bool markdown) {
     out += "| `" + std::string(s.key) + "` | " + values.at(s.key).dump() + " | " + accepted(s) + " | " + s.unit + " | " +
            s.help + " |\n";
   }
+  if (t.moved.empty()) return;
+  out += "\nKeys that moved here (still read, with a warning):";
+  for (std::size_t i = 0; i < t.moved.size(); ++i) {
+    const ParamMoved& m = t.moved[i];
+    out += std::string(i == 0 ? " " : ", ") + "`" + m.section + "." + m.key + "` as `" + m.now + "`";
+  }
+  out += ".\n";
 }
 
 }  // namespace
