@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <unordered_map>
 
 #include "core/errors.h"
+#include "lod/simplify.h"
+#include "meshcheck/intersections.h"
 
 namespace sm {
 
@@ -84,19 +87,54 @@ LodLevel lod_level(const RawSkeleton& raw, const PipelineParams& params, std::ui
   return l;
 }
 
+namespace {
+
+/// The self-intersecting pairs of a run's mesh: the repair stage's count, or (on meshes it did
+/// not count, above repair.count_pairs_up_to) a count over the whole mesh.
+std::size_t pairs_left(const PipelineResult& r) {
+  if (r.repair.counted) return r.repair.pairs_left;
+  std::vector<std::uint32_t> all(r.mesh.mesh.triangles.size());
+  std::iota(all.begin(), all.end(), 0u);
+  return TriangleIntersections(r.mesh.mesh).pairs(all).size();
+}
+
+}  // namespace
+
 PipelineResult mesh_lod(const RawSkeleton& raw, const PipelineParams& params, std::uint32_t level,
-                        const LodParams& lod, const ProgressFn& progress, LodLevel* used) {
+                        const LodParams& lod, const ProgressFn& progress, LodLevel* used,
+                        const PipelineResult* finer) {
   LodLevel l = lod_level(raw, params, level, lod);
   PipelineResult r = run_pipeline(l.skeleton, l.params, progress);
-  if (r.repair.pairs_left > 0 && l.params.contours.slice_step != params.contours.slice_step) {
-    LodLevel finer = l;
-    finer.params.contours.slice_step = params.contours.slice_step;
-    PipelineResult again = run_pipeline(finer.skeleton, finer.params, progress);
-    if (again.repair.pairs_left < r.repair.pairs_left) {
+  std::size_t pairs = pairs_left(r);
+  if (pairs > 0 && l.params.contours.slice_step != params.contours.slice_step) {
+    LodLevel finer_slices = l;
+    finer_slices.params.contours.slice_step = params.contours.slice_step;
+    PipelineResult again = run_pipeline(finer_slices.skeleton, finer_slices.params, progress);
+    if (const std::size_t p = pairs_left(again); p < pairs) {
+      pairs = p;
       r = std::move(again);
-      l = std::move(finer);
+      l = std::move(finer_slices);
     }
   }
+  l.rerun_pairs = pairs;
+  // A clean finer level stays clean when simplified by collapses that refuse every crossing.
+  if (pairs > 0 && finer != nullptr) {
+    SimplifyStats st;
+    Mesh simpler = simplify_mesh(finer->mesh.mesh, {.target_triangles = r.mesh.mesh.triangle_count()}, &st);
+    if (st.pairs_after < pairs) {
+      PipelineResult s = *finer;
+      s.mesh.mesh = std::move(simpler);
+      s.mesh.triangle_kind.clear();
+      s.mesh.stats.triangles = s.mesh.mesh.triangle_count();
+      s.mesh.stats.vertices = s.mesh.mesh.vertex_count();
+      s.repair.counted = true;
+      s.repair.pairs_left = st.pairs_after;
+      r = std::move(s);
+      l.simplified = true;
+      pairs = st.pairs_after;
+    }
+  }
+  l.pairs = pairs;
   if (used != nullptr) *used = std::move(l);
   return r;
 }

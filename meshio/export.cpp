@@ -28,6 +28,7 @@
 #include <limits>
 #include <memory>
 #include <ostream>
+#include <span>
 #include <sstream>
 #include <streambuf>
 #include <string_view>
@@ -619,29 +620,58 @@ std::string meshopt_encode(const Stream& s, const std::vector<std::uint32_t>& in
   return out;
 }
 
-PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Placement& place, bool binary) {
+// The screen coverage below which each level gives way to the next (MSFT_screencoverage, one
+// value per level, decreasing): a level's triangles are worth drawing while its density on
+// the screen is at least that of the full mesh at half the screen, so level k is shown down to
+// half of the next level's share of the full mesh's triangles; the last level is never culled.
+std::vector<double> screen_coverage(const std::vector<std::size_t>& triangles) {
+  std::vector<double> c;
+  for (std::size_t k = 0; k + 1 < triangles.size(); ++k) {
+    c.push_back(0.5 * double(triangles[k + 1]) / double(std::max<std::size_t>(triangles[0], 1)));
+  }
+  c.push_back(0.0);
+  return c;
+}
+
+// One level's data in a glTF file: its export buffers, tree attributes and streams.
+struct GltfLevel {
+  std::shared_ptr<const ExportBuffers> buffers;
+  std::vector<Stream> streams;
+  glm::dvec4 dequant{0, 0, 0, 1};
+  std::shared_ptr<const TreeAttributes> tree;
+};
+
+GltfLevel gltf_level(const Mesh& mesh, const Skeleton* skeleton, const ExportParams& params, const Placement& place) {
+  GltfLevel l;
   ExportBuffers b = build_export_buffers(mesh, params);
-  const std::size_t n = b.positions.size();
   const auto too_big = std::find_if(b.branch.begin(), b.branch.end(), [](std::uint32_t id) { return id > kMaxExactFloatInt; });
   if (too_big != b.branch.end()) {
     throw InvalidInputError("mesh: branch id " + std::to_string(*too_big) +
                             " exceeds 2^24, the largest id _BRANCH_ID (a float attribute) stores exactly; "
                             "export without branch ids");
   }
-  const auto shared = std::make_shared<const ExportBuffers>(std::move(b));
-  const bool compress = params.compress == Compression::meshopt;
-  glm::dvec4 dequant;
-  std::shared_ptr<const TreeAttributes> tree;
+  l.buffers = std::make_shared<const ExportBuffers>(std::move(b));
   const bool wants_tree = params.branch_level || params.root_distance || params.branch_pivot || params.branch_direction ||
                           params.branch_phase || params.thickness || params.color || params.uv1;
   if (wants_tree) {
-    if (params.skeleton == nullptr) {
+    if (skeleton == nullptr) {
       throw InvalidInputError("the tree attributes (level, root_distance, pivot, direction, phase, thickness, color, "
                               "uv1) need the skeleton the mesh was made from");
     }
-    tree = std::make_shared<const TreeAttributes>(compute_tree_attributes(mesh, *params.skeleton));
+    l.tree = std::make_shared<const TreeAttributes>(compute_tree_attributes(mesh, *skeleton));
   }
-  std::vector<Stream> streams = gltf_streams(shared, place, params, tree, dequant);
+  l.streams = gltf_streams(l.buffers, place, params, l.tree, l.dequant);
+  return l;
+}
+
+// A glTF file of one mesh, or of levels of detail: one node (and mesh) per level, level 0 in
+// the scene with MSFT_lod naming the others (lod.h), which are outside the scene so that a
+// client without the extension shows level 0 alone.
+PreparedFile prepare_gltf(std::span<const ExportLevel> levels, const ExportParams& params, const Placement& place,
+                          bool binary) {
+  const bool compress = params.compress == Compression::meshopt;
+  std::vector<GltfLevel> data;
+  for (const ExportLevel& level : levels) data.push_back(gltf_level(*level.mesh, level.skeleton, params, place));
 
   auto model = std::make_shared<tinygltf::Model>();
   model->asset.version = "2.0";
@@ -653,28 +683,6 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   model->asset.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh", tinygltf::Value(std::move(record))}});
   model->buffers.emplace_back();
 
-  // Lay out the views (uncompressed: the layout a meshopt decoder restores), one per stream.
-  std::size_t size = 0;
-  tinygltf::Primitive prim;
-  prim.mode = TINYGLTF_MODE_TRIANGLES;
-  for (Stream& st : streams) {
-    const bool index = st.attribute.empty();
-    st.data.offset = add_view(*model, size, st.data.count * st.data.bytes, index ? kGlElementArrayBuffer : kGlArrayBuffer);
-    const std::size_t element = static_cast<std::size_t>(tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(st.component_type)) *
-                                                         tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(st.type)));
-    if (!index && (st.stride != element || compress)) model->bufferViews.back().byteStride = st.stride;
-    const int acc = add_accessor(*model, st.data.count, st.component_type, st.type);
-    model->accessors.back().normalized = st.normalized;
-    model->accessors.back().minValues = st.min;
-    model->accessors.back().maxValues = st.max;
-    if (index) {
-      prim.indices = acc;
-    } else {
-      prim.attributes[st.attribute] = acc;
-    }
-  }
-  prim.material = 0;
-
   tinygltf::Material material;
   material.name = "bark";
   material.pbrMetallicRoughness.baseColorFactor = {0.36, 0.25, 0.17, 1.0};
@@ -682,45 +690,98 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   material.pbrMetallicRoughness.roughnessFactor = 0.9;
   model->materials.push_back(std::move(material));
 
-  tinygltf::Mesh gmesh;
-  gmesh.name = "tree";
-  if (tree) {  // the maxima the packed attributes (COLOR_0) were divided by
-    tinygltf::Value::Object ranges;
-    ranges["max_root_distance"] = tinygltf::Value(double(tree->max_root_distance) * place.scale);
-    ranges["max_thickness"] = tinygltf::Value(double(tree->max_thickness) * place.scale);
-    ranges["max_level"] = tinygltf::Value(int(tree->max_level));
-    gmesh.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh_attributes", tinygltf::Value(std::move(ranges))}});
-  }
-  gmesh.primitives.push_back(std::move(prim));
-  model->meshes.push_back(std::move(gmesh));
+  // Lay out the views (uncompressed: the layout a meshopt decoder restores), one per stream,
+  // level after level.
+  std::size_t size = 0;
+  std::vector<int> level_nodes;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    GltfLevel& level = data[k];
+    tinygltf::Primitive prim;
+    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    for (Stream& st : level.streams) {
+      const bool index = st.attribute.empty();
+      st.data.offset = add_view(*model, size, st.data.count * st.data.bytes, index ? kGlElementArrayBuffer : kGlArrayBuffer);
+      const std::size_t element = static_cast<std::size_t>(tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(st.component_type)) *
+                                                           tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(st.type)));
+      if (!index && (st.stride != element || compress)) model->bufferViews.back().byteStride = st.stride;
+      const int acc = add_accessor(*model, st.data.count, st.component_type, st.type);
+      model->accessors.back().normalized = st.normalized;
+      model->accessors.back().minValues = st.min;
+      model->accessors.back().maxValues = st.max;
+      if (index) {
+        prim.indices = acc;
+      } else {
+        prim.attributes[st.attribute] = acc;
+      }
+    }
+    prim.material = 0;
 
-  // Node 0 "tree" sits at the pivot (its translation, kept in double precision: positions are
-  // float32 offsets from it). Quantized positions are scaled back by a child node.
-  const glm::dvec3 origin = place.translation();
-  tinygltf::Node node;
-  node.name = "tree";
-  if (origin != glm::dvec3(0)) node.translation = {origin.x, origin.y, origin.z};
+    const std::string name = k == 0 ? std::string("tree") : "tree_lod" + std::to_string(k);
+    tinygltf::Mesh gmesh;
+    gmesh.name = name;
+    if (level.tree) {  // the maxima the packed attributes (COLOR_0) were divided by
+      tinygltf::Value::Object ranges;
+      ranges["max_root_distance"] = tinygltf::Value(double(level.tree->max_root_distance) * place.scale);
+      ranges["max_thickness"] = tinygltf::Value(double(level.tree->max_thickness) * place.scale);
+      ranges["max_level"] = tinygltf::Value(int(level.tree->max_level));
+      gmesh.extras = tinygltf::Value(tinygltf::Value::Object{{"strandmesh_attributes", tinygltf::Value(std::move(ranges))}});
+    }
+    gmesh.primitives.push_back(std::move(prim));
+    const int mesh_index = static_cast<int>(model->meshes.size());
+    model->meshes.push_back(std::move(gmesh));
+
+    // The level's node sits at the pivot (its translation, kept in double precision: positions
+    // are float32 offsets from it). Quantized positions are scaled back by a child node.
+    const glm::dvec3 origin = place.translation();
+    tinygltf::Node node;
+    node.name = name;
+    if (origin != glm::dvec3(0)) node.translation = {origin.x, origin.y, origin.z};
+    level_nodes.push_back(static_cast<int>(model->nodes.size()));
+    if (params.quantize) {
+      node.children.push_back(static_cast<int>(model->nodes.size()) + 1);
+      tinygltf::Node inner;
+      inner.name = name + "_mesh";
+      inner.mesh = mesh_index;
+      inner.translation = {level.dequant.x, level.dequant.y, level.dequant.z};
+      inner.scale = {level.dequant.w, level.dequant.w, level.dequant.w};
+      model->nodes.push_back(std::move(node));
+      model->nodes.push_back(std::move(inner));
+    } else {
+      node.mesh = mesh_index;
+      model->nodes.push_back(std::move(node));
+    }
+  }
   if (params.quantize) {
-    node.children.push_back(1);
-    tinygltf::Node inner;
-    inner.name = "tree_mesh";
-    inner.mesh = 0;
-    inner.translation = {dequant.x, dequant.y, dequant.z};
-    inner.scale = {dequant.w, dequant.w, dequant.w};
-    model->nodes.push_back(std::move(node));
-    model->nodes.push_back(std::move(inner));
     model->extensionsUsed.push_back("KHR_mesh_quantization");
     model->extensionsRequired.push_back("KHR_mesh_quantization");
-  } else {
-    node.mesh = 0;
-    model->nodes.push_back(std::move(node));
+  }
+  if (data.size() > 1) {
+    tinygltf::Value::Array ids, coverage;
+    for (std::size_t k = 1; k < level_nodes.size(); ++k) ids.emplace_back(level_nodes[k]);
+    std::vector<std::size_t> triangles;
+    for (const ExportLevel& level : levels) triangles.push_back(level.mesh->triangle_count());
+    for (const double c : screen_coverage(triangles)) coverage.emplace_back(c);
+    tinygltf::Node& top = model->nodes[static_cast<std::size_t>(level_nodes[0])];
+    top.extensions["MSFT_lod"] = tinygltf::Value(tinygltf::Value::Object{{"ids", tinygltf::Value(std::move(ids))}});
+    top.extras = tinygltf::Value(tinygltf::Value::Object{{"MSFT_screencoverage", tinygltf::Value(std::move(coverage))}});
+    model->extensionsUsed.push_back("MSFT_lod");  // used, not required: level 0 alone is the whole tree
   }
 
   tinygltf::Scene scene;
-  scene.nodes.push_back(0);
+  scene.nodes.push_back(level_nodes[0]);
   model->scenes.push_back(std::move(scene));
   model->defaultScene = 0;
 
+  std::vector<Stream> streams;
+  std::vector<std::size_t> stream_level;
+  std::vector<std::shared_ptr<const ExportBuffers>> shared;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    for (Stream& st : data[k].streams) {
+      streams.push_back(std::move(st));
+      stream_level.push_back(k);
+    }
+    shared.push_back(data[k].buffers);
+  }
   std::vector<ViewData> views;
   for (const Stream& st : streams) views.push_back(st.data);
   if (!compress) {
@@ -747,8 +808,9 @@ PreparedFile prepare_gltf(const Mesh& mesh, const ExportParams& params, const Pl
   // is the fallback of the decoded size, without data (so the extension is required).
   auto packed = std::make_shared<std::string>();
   std::vector<std::pair<std::size_t, std::size_t>> at;  // offset, length in buffer 0
-  for (const Stream& st : streams) {
-    const std::string enc = meshopt_encode(st, shared->indices, n);
+  for (std::size_t k = 0; k < streams.size(); ++k) {
+    const ExportBuffers& b = *shared[stream_level[k]];
+    const std::string enc = meshopt_encode(streams[k], b.indices, b.positions.size());
     packed->resize((packed->size() + 3) / 4 * 4, '\0');
     at.emplace_back(packed->size(), enc.size());
     packed->append(enc);
@@ -968,14 +1030,19 @@ PreparedFile prepare_ply(const Mesh& mesh, const ExportParams& params, const Pla
   return file;
 }
 
-PreparedFile prepare_file(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
+PreparedFile prepare_file(std::span<const ExportLevel> levels, MeshFormat format, const ExportParams& params) {
+  if (levels.empty()) throw InvalidInputError("export: no mesh to write");
+  if (levels.size() > 1 && format != MeshFormat::glb && format != MeshFormat::gltf) {
+    throw InvalidInputError("levels of detail in one file need glTF (.glb or .gltf); OBJ and PLY take one file per level");
+  }
+  const Mesh& mesh = *levels[0].mesh;
   ExportParams p = params;
   const Placement place = export_placement(mesh, format, params);
   switch (format) {
     case MeshFormat::glb:
-      return prepare_gltf(mesh, p, place, true);
+      return prepare_gltf(levels, p, place, true);
     case MeshFormat::gltf:
-      return prepare_gltf(mesh, p, place, false);
+      return prepare_gltf(levels, p, place, false);
     case MeshFormat::obj:
       p.branch_ids = false;  // not stored in OBJ: no reason to split at branch boundaries
       return prepare_obj(mesh, p, place);
@@ -1157,7 +1224,12 @@ MeshFormat mesh_format_from_path(const std::filesystem::path& path) {
 }
 
 std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams& params) {
-  const PreparedFile file = prepare_file(mesh, format, params);
+  const ExportLevel level{&mesh, params.skeleton};
+  return encode_mesh_levels({&level, 1}, format, params);
+}
+
+std::string encode_mesh_levels(std::span<const ExportLevel> levels, MeshFormat format, const ExportParams& params) {
+  const PreparedFile file = prepare_file(levels, format, params);
   StringSink sink(file.size_hint);
   std::ostream out(&sink);
   out.exceptions(std::ios::badbit);  // a failed allocation propagates instead of only failing the stream
@@ -1205,11 +1277,17 @@ class ProgressSink : public std::streambuf {
 
 void write_mesh(const Mesh& mesh, const std::filesystem::path& path, const ExportParams& params,
                 const ProgressFn& progress) {
+  const ExportLevel level{&mesh, params.skeleton};
+  write_mesh_levels({&level, 1}, path, params, progress);
+}
+
+void write_mesh_levels(std::span<const ExportLevel> levels, const std::filesystem::path& path, const ExportParams& params,
+                       const ProgressFn& progress) {
   if (progress) progress("export", 0);
   const MeshFormat format = mesh_format_from_path(path);
   PreparedFile file;
   try {
-    file = prepare_file(mesh, format, params);
+    file = prepare_file(levels, format, params);
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(path.string() + ": " + e.what());
   }

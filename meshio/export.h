@@ -41,6 +41,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,7 @@ struct ExportParams {
   bool uv1 = false;               ///< TEXCOORD_1 = (root distance, thickness) in file units (default false)
   bool tangents = false;          ///< TANGENT from the UVs (u around the branch), w the handedness (default false)
   std::uint32_t lods = 1;  ///< levels of detail `strandmesh mesh` writes, the full mesh included (lod/lod.h; default 1: none)
+  bool lod_files = false;  ///< `strandmesh mesh`: each level in a file of its own (OUT_lodK.EXT) rather than one glTF file with MSFT_lod (default false; OBJ and PLY always)
   const Skeleton* skeleton = nullptr;  ///< the skeleton the mesh was made from (not owned; for the attributes above)
   Compression compress = Compression::none;  ///< glTF: buffer compression (default none)
   bool quantize = false;       ///< glTF: KHR_mesh_quantization, 16-bit positions and 8-bit normals (default false)
@@ -125,6 +127,27 @@ MeshFormat mesh_format_from_path(const std::filesystem::path& path);
 
 /// The bytes of the file `write_mesh` would write in `format`.
 std::string encode_mesh(const Mesh& mesh, MeshFormat format, const ExportParams& params = {});
+
+/// One level of detail of a tree for write_mesh_levels: its mesh and the skeleton it was made
+/// from (for the tree attributes; may differ between levels, which prune twigs).
+struct ExportLevel {
+  const Mesh* mesh = nullptr;
+  const Skeleton* skeleton = nullptr;
+};
+
+/// Levels of detail in one glTF file (.glb or .gltf), finest first: one mesh and node per
+/// level ("tree", "tree_lod1", ...), all placed by level 0 (the same pivot). Node "tree" is
+/// the scene's only node and carries the `MSFT_lod` extension (`ids`: the other levels' nodes,
+/// coarser and coarser) and `extras.MSFT_screencoverage` (per level, the screen coverage it is
+/// shown down to: half the next level's share of level 0's triangles; 0 for the last, never
+/// culled). The extension is used, not required: a client without it shows level 0, the whole
+/// tree. Each level has its own buffers (split, quantized, compressed as ExportParams says).
+/// One level gives write_mesh's file. Throws InvalidInputError for more than one level in an
+/// OBJ or PLY file.
+void write_mesh_levels(std::span<const ExportLevel> levels, const std::filesystem::path& path,
+                       const ExportParams& params, const ProgressFn& progress = {});
+/// The bytes write_mesh_levels would write in `format`.
+std::string encode_mesh_levels(std::span<const ExportLevel> levels, MeshFormat format, const ExportParams& params = {});
 
 /// Writes the mesh to `path` in the format given by its extension, atomically.
 /// Throws InvalidInputError (unknown extension, invalid mesh) or IoError (cannot write).

@@ -157,6 +157,7 @@ void read_export_json(const json& section, const std::string& where, ExportParam
          if (n < 1 || n > 8) throw InvalidInputError("must be 1 (no levels of detail) to 8");
          p.lods = static_cast<std::uint32_t>(n);
        }},
+      {"lod_files", [&](const json& v) { p.lod_files = v.get<bool>(); }},
   };
   std::vector<std::string> known;
   for (const auto& [k, f] : keys) known.push_back(k);
@@ -188,6 +189,7 @@ json export_to_json(const ExportParams& p) {
   j["compress"] = p.compress == Compression::meshopt ? "meshopt" : "none";
   j["quantize"] = p.quantize;
   j["lods"] = p.lods;
+  j["lod_files"] = p.lod_files;
   return j;
 }
 

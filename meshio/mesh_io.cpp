@@ -933,6 +933,27 @@ glm::dmat4 node_matrix(const tinygltf::Node& node) {
   return m;
 }
 
+// The node of level of detail `level` (>= 1): the `level`-th id of the MSFT_lod extension on
+// the scene's first root node that has it.
+int lod_node(const tinygltf::Model& model, const std::vector<int>& roots, std::uint32_t level, const std::string& name) {
+  for (const int n : roots) {
+    if (n < 0 || static_cast<std::size_t>(n) >= model.nodes.size()) continue;
+    const auto& ext = model.nodes[static_cast<std::size_t>(n)].extensions;
+    const auto it = ext.find("MSFT_lod");
+    if (it == ext.end() || !it->second.IsObject() || !it->second.Has("ids") || !it->second.Get("ids").IsArray()) continue;
+    const tinygltf::Value& ids = it->second.Get("ids");
+    if (level > ids.ArrayLen()) {
+      throw InvalidInputError(name + ": level of detail " + std::to_string(level) + " does not exist (the file has " +
+                              std::to_string(ids.ArrayLen() + 1) + " levels, 0 to " + std::to_string(ids.ArrayLen()) + ")");
+    }
+    const tinygltf::Value& id = ids.Get(static_cast<int>(level - 1));
+    if (!id.IsInt()) throw InvalidInputError(name + ": MSFT_lod ids must be node indices");
+    return id.Get<int>();
+  }
+  throw InvalidInputError(name + ": level of detail " + std::to_string(level) +
+                          " asked for, but the scene has no levels of detail (no MSFT_lod extension)");
+}
+
 Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path& source,
                 const MeshReadParams& params) {
   const std::string name = source.string();
@@ -972,7 +993,8 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
                           : 0;
     std::vector<std::uint8_t> visited(model.nodes.size(), 0);
     std::vector<std::pair<int, glm::dmat4>> stack;
-    const auto& roots = model.scenes[static_cast<std::size_t>(scene)].nodes;
+    std::vector<int> roots = model.scenes[static_cast<std::size_t>(scene)].nodes;
+    if (params.lod > 0) roots = {lod_node(model, roots, params.lod, name)};
     for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, glm::dmat4(1.0));
     while (!stack.empty()) {
       const auto [n, parent] = stack.back();
@@ -1111,6 +1133,9 @@ Mesh unplace(Mesh mesh, std::string_view bytes, const MeshReadParams& params) {
 Mesh parse_mesh(std::string_view bytes, MeshFormat format, const std::filesystem::path& source,
                 const MeshReadParams& params) {
   const std::string name = source.string();
+  if (params.lod > 0 && format != MeshFormat::glb && format != MeshFormat::gltf) {
+    throw InvalidInputError(name + ": levels of detail are read from glTF files (MSFT_lod); an OBJ or PLY file holds one");
+  }
   switch (format) {
     case MeshFormat::glb:
       return parse_gltf(bytes, true, source, params);

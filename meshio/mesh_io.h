@@ -8,7 +8,8 @@
 ///    every mesh when there is no scene), with the node transforms applied; POSITION (float),
 ///    NORMAL (float), TEXCOORD_0 (float or normalized unsigned byte/short) and `_BRANCH_ID`
 ///    (float or unsigned byte/short, per vertex; a triangle takes its first corner's id); indices
-///    unsigned byte/short/int or none.
+///    unsigned byte/short/int or none. With MeshReadParams::lod = k > 0, the node tree of the
+///    k-th id of the `MSFT_lod` extension on the scene's node instead (levels of detail).
 ///  - OBJ: `v` (extra components such as w or colours ignored), `vt`, `vn`, `f` with `v`, `v/vt`,
 ///    `v//vn`, `v/vt/vn` corners and negative (relative) indices; polygons are fan-triangulated;
 ///    other statements (`o`, `g`, `s`, `usemtl`, `mtllib`, `l`, ...) are ignored.
@@ -33,6 +34,7 @@
 /// non-numeric values, unsupported encodings); an unknown extension is an InvalidInputError
 /// listing the accepted ones. Never crashes on garbage.
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -47,6 +49,7 @@ namespace sm {
 struct MeshReadParams {
   UpAxis up_axis = UpAxis::z;    ///< up axis wanted in the result (default z)
   bool file_coordinates = false;  ///< keep the file's own coordinates: no placement undone, no axes changed (default false)
+  std::uint32_t lod = 0;          ///< glTF: the level of detail to read (MSFT_lod; 0 the scene itself, the finest) (default 0)
 };
 
 /// Reads the mesh file at `path`; the format is taken from the extension.

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # three.js client check (ctest label `clients`): meshes a sample tree with the wind attributes
-# as plain, quantized and meshopt-compressed .glb, loads all three in headless Chromium with
+# as plain, quantized and meshopt-compressed .glb, and with three levels of detail in one .glb
+# (MSFT_lod), loads them all in headless Chromium with
 # three.js (GLTFLoader + MeshoptDecoder, npm package `three`, installed on first use into the
 # git-ignored folder .tools/threejs/) through examples/wind/index.html, and checks that each loaded
-# with its vertex and triangle counts and wind attributes and that the tree was drawn.
+# with its vertex and triangle counts and wind attributes, that the levels of detail load from
+# their nodes, coarser and coarser, and that the tree was drawn.
 #
 #   scripts/check_threejs.sh STRANDMESH [SCREENSHOT.png]
 #
@@ -42,13 +44,14 @@ ATTR="normal,uv,branch_id,wind,tangent"
 "$STRANDMESH" mesh "$TREE" -o "$WORK/plain.glb" --attributes "$ATTR" -q
 "$STRANDMESH" mesh "$TREE" -o "$WORK/quantized.glb" --attributes "$ATTR" --quantize -q
 "$STRANDMESH" mesh "$TREE" -o "$WORK/meshopt.glb" --attributes "$ATTR" --quantize --compress meshopt -q
+"$STRANDMESH" mesh "$TREE" -o "$WORK/lods.glb" --attributes "$ATTR" --quantize --compress meshopt --lods 3 -q
 "$STRANDMESH" mesh "$TREE" -o "$WORK/stats.glb" --stats "$WORK/stats.json" -q
 
 PORT="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
 (cd "$WORK" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >/dev/null 2>&1) &
 SERVER=$!
 for _ in $(seq 1 50); do python3 -c "import socket; socket.create_connection(('127.0.0.1', $PORT), 0.2)" 2>/dev/null && break; sleep 0.1; done
-URL="http://127.0.0.1:$PORT/index.html?models=plain.glb,quantized.glb,meshopt.glb&time=1.3"
+URL="http://127.0.0.1:$PORT/index.html?models=lods.glb,plain.glb,quantized.glb,meshopt.glb&time=1.3"
 FLAGS=(--headless --no-sandbox --disable-gpu-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader
        --ignore-gpu-blocklist --window-size=900,1000 --virtual-time-budget=60000 --user-data-dir="$WORK/profile")
 # A loaded machine may not finish within the virtual time budget: try up to three times.
@@ -73,11 +76,19 @@ for r in status["models"]:
     if r["triangles"] != triangles: bad.append(f'{r["name"]}: {r["triangles"]} triangles, --stats says {triangles}')
     if not r["wind"]: bad.append(f'{r["name"]}: wind attributes missing ({r["attributes"]})')
 if status["centre_pixel"][:3] == [0xdf, 0xe8, 0xef]: bad.append("nothing drawn at the centre of the view")
-if len(status["models"]) != 3: bad.append("not every model loaded")
+if len(status["models"]) != 4: bad.append("not every model loaded")
+for r in status["models"]:
+    lods = r.get("lod_triangles", [])
+    if r["name"] == "lods.glb":
+        # MSFT_lod: level 0 in the scene (what three.js shows), levels 1 and 2 beside it, coarser.
+        if len(lods) != 2 or not (triangles > lods[0] > lods[1] > 0): bad.append(f"lods.glb: levels {lods}")
+        if "MSFT_lod" not in r["extensions"]: bad.append("lods.glb: MSFT_lod not in extensionsUsed")
+        if len(r.get("screen_coverage", [])) != 3: bad.append(f'lods.glb: MSFT_screencoverage {r.get("screen_coverage")}')
+    elif lods: bad.append(f'{r["name"]}: levels of detail {lods} in a file without them')
 if bad: sys.exit("check_threejs: " + "; ".join(bad))
-print("check_threejs: plain, quantized and meshopt .glb loaded and drawn")
+print("check_threejs: plain, quantized, meshopt and levels-of-detail .glb loaded and drawn")
 PY
 if [ -n "$SHOT" ]; then
-  timeout 120 "$CHROMIUM" "${FLAGS[@]}" --screenshot="$SHOT" "${URL/models=plain.glb,quantized.glb,meshopt.glb/models=meshopt.glb}" 2>/dev/null || true
+  timeout 120 "$CHROMIUM" "${FLAGS[@]}" --screenshot="$SHOT" "${URL/models=lods.glb,plain.glb,quantized.glb,meshopt.glb/models=meshopt.glb}" 2>/dev/null || true
   [ -s "$SHOT" ] && say "screenshot: $SHOT"
 fi

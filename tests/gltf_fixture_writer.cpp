@@ -28,6 +28,13 @@ int main(int argc, char** argv) {
     sm::write_mesh(tube, dir / "tube_meshopt.glb", {.compress = sm::Compression::meshopt});
     sm::write_mesh(tube, dir / "tube_quantized.glb", {.quantize = true});
     sm::write_mesh(tube, dir / "tube_quantized_meshopt.gltf", {.compress = sm::Compression::meshopt, .quantize = true});
+    // Levels of detail in one file (MSFT_lod on the scene's node), plain and quantized + meshopt.
+    const sm::Mesh lod1 = capped_tube({0, 0, 0}, {0.2, 0.1, 1.5}, 0.1, 12, 6, true, 5);
+    const sm::Mesh lod2 = capped_tube({0, 0, 0}, {0.2, 0.1, 1.5}, 0.1, 6, 2, true, 5);
+    const sm::ExportLevel levels[] = {{&tube, nullptr}, {&lod1, nullptr}, {&lod2, nullptr}};
+    sm::write_mesh_levels(levels, dir / "tube_lods.glb", {});
+    sm::write_mesh_levels(levels, dir / "tube_lods_quantized_meshopt.glb",
+                          {.compress = sm::Compression::meshopt, .quantize = true});
     // Text glTF with an embedded buffer, y-up input, no UVs or branch ids.
     sm::write_mesh(sm::test::icosphere(3, 0.5), dir / "sphere.gltf", {.up_axis = sm::UpAxis::y});
   } catch (const std::exception& e) {

@@ -238,6 +238,38 @@ TEST(Cli, MeshWritesEveryFormatAndStats) {
   }
 }
 
+TEST(Cli, LevelsOfDetailInOneGltfFileOrOneFileEach) {
+  const fs::path dir = test::temp_dir("cli_lods");
+  const std::string tree = (dir / "t.json").string();
+  ASSERT_EQ(run("grow --seed 7 -o " + tree).code, 0);
+  // glTF: one file, MSFT_lod on the scene's node; every level passes `check --lod K`.
+  const CmdResult one = run("-q mesh " + tree + " -o " + (dir / "t.glb").string() + " --lods 3");
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_FALSE(fs::exists(dir / "t_lod1.glb"));
+  std::size_t previous = SIZE_MAX;
+  for (int k = 0; k < 3; ++k) {
+    const CmdResult c = run("check " + (dir / "t.glb").string() + " --lod " + std::to_string(k) + " --json");
+    ASSERT_EQ(c.code, 0) << c.out << c.err;
+    const auto report = nlohmann::json::parse(c.out);
+    EXPECT_EQ(report["self_intersecting_pairs"], 0);
+    EXPECT_LT(report["triangles"].get<std::size_t>(), previous);
+    previous = report["triangles"].get<std::size_t>();
+  }
+  const CmdResult beyond = run("check " + (dir / "t.glb").string() + " --lod 3");
+  EXPECT_EQ(beyond.code, 1);
+  EXPECT_NE(beyond.err.find("level of detail 3 does not exist"), std::string::npos) << beyond.err;
+  // One file, so standard output takes it too.
+  const CmdResult piped = run("-q mesh " + tree + " -o - --lods 2");
+  ASSERT_EQ(piped.code, 0) << piped.err;
+  EXPECT_NE(piped.out.find("MSFT_lod"), std::string::npos);
+  // --lod-files (and OBJ, PLY always): OUT_lodK.EXT beside OUT, not to standard output.
+  ASSERT_EQ(run("-q mesh " + tree + " -o " + (dir / "f.glb").string() + " --lods 3 --lod-files").code, 0);
+  ASSERT_EQ(run("-q mesh " + tree + " -o " + (dir / "f.ply").string() + " --lods 2").code, 0);
+  for (const char* f : {"f.glb", "f_lod1.glb", "f_lod2.glb", "f.ply", "f_lod1.ply"}) EXPECT_TRUE(fs::exists(dir / f)) << f;
+  EXPECT_EQ(read_file(dir / "f.glb").find("MSFT_lod"), std::string::npos);
+  EXPECT_EQ(run("-q mesh " + tree + " -o - --output-format ply --lods 2").code, 2);
+}
+
 TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {
   // Over repair.count_pairs_up_to triangles the pairs are counted only where the fold repair
   // looked (near the junctions): the run says so with -v, and --stats records it. Within the limit it

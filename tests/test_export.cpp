@@ -385,6 +385,70 @@ TEST(Compression, EveryVariantReadsBackWithItsTopology) {
   EXPECT_TRUE(check_mesh(parse_mesh(encode_mesh(big, MeshFormat::glb, {.compress = Compression::meshopt}), MeshFormat::glb, "b")).ok());
 }
 
+TEST(Lods, LevelsInOneGltfFileWithMsftLod) {
+  // Three levels of one tube at a georeferenced place, finest first.
+  const dvec3 at{500000, 5200000, 300};
+  const std::vector<Mesh> meshes{test::translated(test::capped_tube({0, 0, 0}, {0, 0, 2}, 0.1, 24, 12), at),
+                                 test::translated(test::capped_tube({0, 0, 0}, {0, 0, 2}, 0.1, 12, 6), at),
+                                 test::translated(test::capped_tube({0, 0, 0}, {0, 0, 2}, 0.1, 6, 2), at)};
+  std::vector<ExportLevel> levels;
+  for (const Mesh& m : meshes) levels.push_back({&m, nullptr});
+  for (const bool quantize : {false, true}) {
+    for (const Compression c : {Compression::none, Compression::meshopt}) {
+      SCOPED_TRACE(std::to_string(quantize) + " " + std::to_string(int(c)));
+      const ExportParams p{.root = at, .compress = c, .quantize = quantize};
+      const std::string text = encode_mesh_levels(levels, MeshFormat::gltf, p);
+      EXPECT_EQ(text, encode_mesh_levels(levels, MeshFormat::gltf, p));  // deterministic
+      const nlohmann::json j = nlohmann::json::parse(text);
+      // Level 0's node is the scene; MSFT_lod on it names the others, which are outside the scene.
+      ASSERT_EQ(j["scenes"][0]["nodes"], nlohmann::json::array({0}));
+      const nlohmann::json& top = j["nodes"][0];
+      EXPECT_EQ(top["name"], "tree");
+      const std::vector<int> ids = top["extensions"]["MSFT_lod"]["ids"];
+      EXPECT_EQ(ids, quantize ? std::vector<int>({2, 4}) : std::vector<int>({1, 2}));
+      EXPECT_EQ(j["nodes"][ids[0]]["name"], "tree_lod1");
+      EXPECT_EQ(j["nodes"][ids[1]]["name"], "tree_lod2");
+      EXPECT_EQ(j["meshes"].size(), 3u);
+      // Screen coverage per level, decreasing, the last level never culled.
+      const std::vector<double> cover = top["extras"]["MSFT_screencoverage"];
+      ASSERT_EQ(cover.size(), 3u);
+      EXPECT_GT(cover[0], cover[1]);
+      EXPECT_GT(cover[1], cover[2]);
+      EXPECT_EQ(cover[2], 0.0);
+      EXPECT_NEAR(cover[0], 0.5 * double(meshes[1].triangle_count()) / double(meshes[0].triangle_count()), 1e-12);
+      // Used, not required: a client without it shows level 0.
+      const auto used = j["extensionsUsed"].get<std::vector<std::string>>();
+      EXPECT_NE(std::find(used.begin(), used.end(), "MSFT_lod"), used.end());
+      if (j.contains("extensionsRequired")) {
+        const auto required = j["extensionsRequired"].get<std::vector<std::string>>();
+        EXPECT_EQ(std::find(required.begin(), required.end(), "MSFT_lod"), required.end());
+      }
+      // Every level reads back with its own triangles, in place (the same pivot).
+      for (std::size_t k = 0; k < meshes.size(); ++k) {
+        for (const MeshFormat f : {MeshFormat::gltf, MeshFormat::glb}) {
+          const std::string bytes = f == MeshFormat::gltf ? text : encode_mesh_levels(levels, f, p);
+          const Mesh back = parse_mesh(bytes, f, "t", {.lod = static_cast<std::uint32_t>(k)});
+          EXPECT_EQ(back.triangle_count(), meshes[k].triangle_count());
+          EXPECT_TRUE(check_mesh(back).ok()) << to_text(check_mesh(back));
+          double worst = 0;  // every vertex read back lies on one of the level's own
+          for (const dvec3& q : back.positions) {
+            double best = 1e300;
+            for (const dvec3& x : meshes[k].positions) best = std::min(best, glm::length(q - x));
+            worst = std::max(worst, best);
+          }
+          EXPECT_LT(worst, quantize ? 3e-5 : 1e-5);
+        }
+      }
+      EXPECT_THROW((void)parse_mesh(text, MeshFormat::gltf, "t", {.lod = 3}), InvalidInputError);
+    }
+  }
+  // One level is the plain file; without MSFT_lod a level > 0 is an error; OBJ and PLY hold one level.
+  EXPECT_EQ(encode_mesh_levels({levels.data(), 1}, MeshFormat::glb), encode_mesh(meshes[0], MeshFormat::glb));
+  EXPECT_THROW((void)parse_mesh(encode_mesh(meshes[0], MeshFormat::glb), MeshFormat::glb, "t", {.lod = 1}), InvalidInputError);
+  EXPECT_THROW((void)encode_mesh_levels(levels, MeshFormat::obj), InvalidInputError);
+  EXPECT_THROW((void)parse_mesh(encode_mesh(meshes[0], MeshFormat::ply), MeshFormat::ply, "t", {.lod = 1}), InvalidInputError);
+}
+
 TEST(Compression, MalformedMeshoptDataIsAnErrorNotACrash) {
   const Mesh m = test::capped_tube();
   std::string bytes = encode_mesh(m, MeshFormat::glb, {.compress = Compression::meshopt});

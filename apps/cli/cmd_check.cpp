@@ -31,6 +31,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           bool quality_limits = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
           std::size_t examples = MeshCheckParams{}.max_examples;
+          std::uint32_t lod = 0;
           InputOptions input_options;  ///< how to read --skeleton
         };
         auto o = std::make_shared<Opts>();
@@ -39,6 +40,10 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
                        "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg): also measure fidelity to its "
                        "radii; its up axis is used to read the mesh");
         add_input_options(sub, o->input_options);
+        sub.add_option("--lod", o->lod,
+                       "Check level of detail K of a glTF file written with --lods (MSFT_lod; 0, the default, is the "
+                       "full mesh)")
+            ->check(CLI::Range(0, 7));
         sub.add_flag("--json", o->json, "Print the report as JSON");
         sub.add_flag("--no-self-intersections", o->no_self_intersections,
                      "Skip the self-intersection test (the slowest check)");
@@ -63,6 +68,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
                                  .max_examples = o->examples};
           if (o->quality_limits) params.quality_limits = QualityLimits{};
           MeshReadParams read;
+          read.lod = o->lod;
           // Measured against the skeleton as the file gives it (radii below the floor raised
           // to it), never against our own sanitized copy.
           Skeleton skeleton;

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include "apps/cli/commands.h"
@@ -121,8 +122,15 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       if (!to_stdout) check_output_path(o->output);
       const std::uint32_t lods = params.output.lods;
-      if (lods > 1 && to_stdout) throw UsageError("levels of detail (--lods) are written to files, not to standard output");
-      for (std::uint32_t k = 1; k < lods; ++k) check_output_path(lod_path(o->output, k));
+      // glTF holds every level in one file (MSFT_lod) unless --lod-files; OBJ and PLY cannot.
+      const bool one_file =
+          lods > 1 && !params.output.lod_files && (format == MeshFormat::glb || format == MeshFormat::gltf);
+      if (lods > 1 && !one_file && to_stdout) {
+        throw UsageError("levels of detail in files of their own (--lod-files, or OBJ and PLY) cannot go to standard output");
+      }
+      if (!one_file) {
+        for (std::uint32_t k = 1; k < lods; ++k) check_output_path(lod_path(o->output, k));
+      }
       if (!o->stats_path.empty()) check_output_path(o->stats_path);
       OutputTransaction outputs;
       const RawSkeleton raw = read_skeleton_arg(o->input, read_options(o->input_options));
@@ -139,17 +147,18 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       ep.up_axis = r.skeleton.skeleton.up_axis;
       ep.root = r.skeleton.skeleton.position[0];
       ep.skeleton = &r.skeleton.skeleton;  // for the tree attributes
-      // Streamed: the file is never held whole in memory; the bar goes on through it.
+      // Streamed: the file is never held whole in memory; the bar goes on through it. With the
+      // levels of detail in one file, it is written once they are all made.
       std::string mesh_bytes;  // for standard output, written once everything succeeded
-      if (to_stdout) {
+      if (one_file) {
+      } else if (to_stdout) {
         mesh_bytes = encode_mesh(r.mesh.mesh, format, ep);
       } else {
         write_mesh(r.mesh.mesh, o->output, ep, [&](std::string_view phase, double f) { bar.update(phase, f); });
       }
-      const double export_seconds = export_clock.elapsed();
+      double export_seconds = export_clock.elapsed();
       bar.finish();
       print_warnings(r.warnings(), global.verbose, raw.grown ? kExpectedOfGrownTrees : std::set<std::string>{});
-      if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       if (r.mesh.stats.bad_edges > 0) {
         log::error("internal error: the mesh has " + std::to_string(r.mesh.stats.bad_edges) +
                    " edges not shared by exactly two triangles; please report this skeleton");
@@ -157,6 +166,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       // Levels of detail: the pipeline again on a pruned skeleton with coarser parameters (lod/lod.h).
       std::vector<std::string> lod_lines;
+      std::vector<PipelineResult> levels;  // 1, 2, ...: each is made from the one before where it needs to be
       for (std::uint32_t k = 1; k < lods; ++k) {
         Stopwatch lod_clock;
         LodLevel level;
@@ -164,29 +174,55 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         PipelineResult lr = mesh_lod(raw, params, k, {}, [&](std::string_view phase, double f) {
           std::lock_guard lock(m);
           lod_bar.update(phase, f);
-        }, &level);
+        }, &level, levels.empty() ? &r : &levels.back());
         if (lr.mesh.stats.bad_edges > 0) {
           log::error("internal error: level of detail " + std::to_string(k) + " has " +
                      std::to_string(lr.mesh.stats.bad_edges) + " edges not shared by exactly two triangles");
           return int(kInternal);
         }
-        ExportParams lp = ep;
-        lp.skeleton = &lr.skeleton.skeleton;  // the same root: the pivot does not move between levels
-        write_mesh(lr.mesh.mesh, lod_path(o->output, k), lp, [&](std::string_view phase, double f) { lod_bar.update(phase, f); });
+        const std::string file = one_file ? o->output + " (node tree_lod" + std::to_string(k) + ")" : lod_path(o->output, k);
+        if (!one_file) {
+          ExportParams lp = ep;
+          lp.skeleton = &lr.skeleton.skeleton;  // the same root: the pivot does not move between levels
+          write_mesh(lr.mesh.mesh, lod_path(o->output, k), lp, [&](std::string_view phase, double f) { lod_bar.update(phase, f); });
+        }
         lod_bar.finish();
         char text[320];
-        std::snprintf(text, sizeof text,
-                      "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step %.2g) "
-                      "in %.2f s -> %s",
-                      k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
-                      level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
-                      lod_path(o->output, k).c_str());
-        if (lr.repair.pairs_left > 0) {
-          log::warn("level of detail " + std::to_string(k) + " keeps " + std::to_string(lr.repair.pairs_left) +
+        if (level.simplified) {
+          std::snprintf(text, sizeof text,
+                        "  level %u: %zu triangles (level %u simplified: the pipeline's run kept %zu self-intersecting "
+                        "pairs) in %.2f s -> %s",
+                        k, lr.mesh.mesh.triangle_count(), k - 1, level.rerun_pairs, lod_clock.elapsed(),
+                        file.c_str());
+        } else {
+          std::snprintf(text, sizeof text,
+                        "  level %u: %zu triangles (twigs under %.4g m pruned: %zu nodes; %u root strands, slice step "
+                        "%.2g) in %.2f s -> %s",
+                        k, lr.mesh.mesh.triangle_count(), level.min_radius, level.pruned,
+                        level.params.particles.max_root_strands, level.params.contours.slice_step, lod_clock.elapsed(),
+                        file.c_str());
+        }
+        if (level.pairs > 0) {
+          log::warn("level of detail " + std::to_string(k) + " keeps " + std::to_string(level.pairs) +
                     " self-intersecting triangle pairs");
         }
         lod_lines.emplace_back(text);
+        levels.push_back(std::move(lr));
       }
+      if (one_file) {  // every level in one glTF file: MSFT_lod on level 0's node (meshio/export.h)
+        Stopwatch clock;
+        std::vector<ExportLevel> all{{&r.mesh.mesh, &r.skeleton.skeleton}};
+        for (const PipelineResult& l : levels) all.push_back({&l.mesh.mesh, &l.skeleton.skeleton});
+        if (to_stdout) {
+          mesh_bytes = encode_mesh_levels(all, format, ep);
+        } else {
+          ProgressBar export_bar(!global.quiet);
+          write_mesh_levels(all, o->output, ep, [&](std::string_view phase, double f) { export_bar.update(phase, f); });
+          export_bar.finish();
+        }
+        export_seconds += clock.elapsed();
+      }
+      if (!o->stats_path.empty()) write_file_atomically(o->stats_path, stats_to_json(r, export_seconds, total.elapsed()));
       outputs.commit();
       if (to_stdout) {
         std::fwrite(mesh_bytes.data(), 1, mesh_bytes.size(), stdout);

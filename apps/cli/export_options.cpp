@@ -28,8 +28,10 @@ void add_export_options(CLI::App& sub, ExportOptions& o) {
       ->group(group);
   sub.add_option("--lods", o.lods,
                  "Levels of detail in all (1-8), each a closed mesh from the pipeline run again on coarser settings "
-                 "with thin twigs pruned; level k goes to OUT_lodK.EXT")
+                 "with thin twigs pruned; glTF: all in OUT (MSFT_lod), OBJ and PLY: level k in OUT_lodK.EXT")
       ->check(CLI::Range(1, 8))
+      ->group(group);
+  sub.add_flag("--lod-files", o.lod_files, "glTF too: each level of detail in a file of its own, OUT_lodK.EXT")
       ->group(group);
   sub.add_flag("--quantize", o.quantize, "glTF: 16-bit positions, 8-bit normals (KHR_mesh_quantization)")->group(group);
 }
@@ -43,6 +45,7 @@ void apply_export_options(const ExportOptions& o, ExportParams& p) {
   if (!o.compress.empty()) p.compress = parse_compression(o.compress);
   if (o.quantize) p.quantize = true;
   if (o.lods > 0) p.lods = o.lods;
+  if (o.lod_files) p.lod_files = true;
 }
 
 }  // namespace sm::cli

@@ -12,7 +12,7 @@ namespace sm::cli {
 /// The export options as given on the command line (empty: not given).
 struct ExportOptions {
   std::string up_axis, pivot, scale, attributes, compress;
-  bool no_optimize = false, quantize = false;
+  bool no_optimize = false, quantize = false, lod_files = false;
   std::uint32_t lods = 0;  ///< 0: not given
 };
 
