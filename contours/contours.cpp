@@ -1408,6 +1408,103 @@ ContourSet assemble(Fragment& root) {
   return out;
 }
 
+/// The plane a loop's points lie in (near a fork not across its frame's tangent): the points'
+/// centroid and the polygon's area normal (Newell), towards the tips (loops are counter-
+/// clockwise seen from there).
+std::pair<dvec3, dvec3> loop_plane(const ContourSet& c, std::uint32_t l) {
+  const std::uint32_t b = c.loop_begin[l], e = c.loop_begin[l + 1];
+  dvec3 centre(0), normal(0);
+  for (std::uint32_t v = b; v < e; ++v) {
+    const dvec3& p = c.point[v];
+    const dvec3& q = c.point[v + 1 < e ? v + 1 : b];
+    centre += p;
+    normal += glm::cross(p - c.loop_center[l], q - c.loop_center[l]);
+  }
+  centre /= double(std::max<std::uint32_t>(1, e - b));
+  if (glm::dot(normal, c.loop_frame[l].tangent) < 0) normal = -normal;
+  return {centre, normalize_or(normal, c.loop_frame[l].tangent)};
+}
+
+/// Whether loops a (towards the root) and b of one tube cross: a point of b more than `tol` x
+/// the radius behind a's plane, or a point of a as far in front of b's plane.
+bool loops_cross(const ContourSet& c, std::uint32_t a, std::uint32_t b, double tol) {
+  auto reaches = [&](std::uint32_t plane, std::uint32_t other, double sign) {
+    const auto [o, n] = loop_plane(c, plane);
+    const double limit = tol * std::max(c.loop_radius[plane], c.loop_radius[other]);
+    for (std::uint32_t v = c.loop_begin[other]; v < c.loop_begin[other + 1]; ++v) {
+      if (sign * glm::dot(c.point[v] - o, n) < -limit) return true;
+    }
+    return false;
+  };
+  return reaches(a, b, 1.0) || reaches(b, a, -1.0);
+}
+
+/// Leaves out interior loops of each tube until consecutive loops do not cross: a loop crossing
+/// the last kept one is skipped; the tube's last loop (a junction's or a cap's) is kept, and
+/// kept loops crossing it are dropped instead. The first and last loops always stay. The loops
+/// left out are then removed from the set (every loop stays in exactly one tube).
+void uncross_loops(ContourSet& c, double tol) {
+  std::vector<std::uint8_t> dropped(c.loop_count(), 0);
+  for (Tube& t : c.tubes) {
+    if (t.loops.size() < 3) continue;
+    std::vector<std::uint32_t> kept{t.loops.front()};
+    for (std::size_t k = 1; k + 1 < t.loops.size(); ++k) {
+      if (!loops_cross(c, kept.back(), t.loops[k], tol)) kept.push_back(t.loops[k]);
+    }
+    while (kept.size() > 1 && loops_cross(c, kept.back(), t.loops.back(), tol)) kept.pop_back();
+    kept.push_back(t.loops.back());
+    if (kept.size() == t.loops.size()) continue;
+    for (const std::uint32_t l : t.loops) dropped[l] = 1;
+    for (const std::uint32_t l : kept) dropped[l] = 0;
+    c.stats.uncrossed_loops += t.loops.size() - kept.size();
+    t.loops = std::move(kept);
+  }
+  if (c.stats.uncrossed_loops == 0) return;
+  // Compact: loops and their vertices in order, without the dropped ones.
+  std::vector<std::uint32_t> renumber(c.loop_count(), UINT32_MAX);
+  std::uint32_t nl = 0, nv = 0;
+  for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
+    if (dropped[l]) continue;
+    renumber[l] = nl;
+    const std::uint32_t b = c.loop_begin[l], e = c.loop_begin[l + 1];
+    for (std::uint32_t v = b; v < e; ++v) {
+      c.point[nv + (v - b)] = c.point[v];
+      c.strand[nv + (v - b)] = c.strand[v];
+    }
+    c.loop_begin[nl] = nv;
+    nv += e - b;
+    c.loop_node[nl] = c.loop_node[l];
+    c.loop_t[nl] = c.loop_t[l];
+    c.loop_distance[nl] = c.loop_distance[l];
+    c.loop_center[nl] = c.loop_center[l];
+    c.loop_frame[nl] = c.loop_frame[l];
+    c.loop_radius[nl] = c.loop_radius[l];
+    c.loop_kind[nl] = c.loop_kind[l];
+    ++nl;
+  }
+  c.loop_begin[nl] = nv;
+  c.loop_begin.resize(std::size_t(nl) + 1);
+  c.point.resize(nv);
+  c.strand.resize(nv);
+  c.loop_node.resize(nl);
+  c.loop_t.resize(nl);
+  c.loop_distance.resize(nl);
+  c.loop_center.resize(nl);
+  c.loop_frame.resize(nl);
+  c.loop_radius.resize(nl);
+  c.loop_kind.resize(nl);
+  for (Tube& t : c.tubes) {
+    for (std::uint32_t& l : t.loops) l = renumber[l];
+  }
+  for (Junction& j : c.junctions) {
+    j.lower = renumber[j.lower];
+    for (std::uint32_t& u : j.upper) u = renumber[u];
+  }
+  c.stats.loops = c.loop_count();
+  c.stats.loop_vertices = c.point.size();
+  c.stats.fused_loops = std::size_t(std::count(c.loop_kind.begin(), c.loop_kind.end(), LoopKind::fused));
+}
+
 }  // namespace
 
 void validate_params(const ContourParams& p) { check_params(p); }
@@ -1490,6 +1587,7 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
   const double t_walk = clock.lap();
 
   ContourSet out = assemble(*root);
+  if (params.uncross_loops) uncross_loops(out, params.uncross_tolerance);
   out.stats.timings.add("tables", t_tables);
   out.stats.timings.add("slicing", t_walk);
   out.stats.timings.add("assembly", clock.lap());

@@ -123,6 +123,13 @@ struct ContourParams {
   /// there, with its own junction; otherwise it stays in the section's loops until the
   /// fork's own split, however far it has gone by then (a web across the whorl).
   bool split_nested_laterals = true;
+  /// A tube's consecutive loops must not cross (one reaching behind the other's plane, where a
+  /// branch bends within its own radius: zigzags, kinks of a fraction of a radius): the strip
+  /// between them would turn inside out. Interior loops are left out of the tube until its
+  /// consecutive loops are clear of each other, by at most `uncross_tolerance` x the radius.
+  bool uncross_loops = true;
+  /// How far a loop's point may lie behind its predecessor's plane (x loop radius).
+  double uncross_tolerance = 0.02;
   /// Bisection steps refining the split position between two slices (a count).
   std::uint32_t split_bisection_steps = 8;
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives
@@ -154,6 +161,7 @@ struct ContourStats {
   std::size_t forced_splits = 0;        ///< bundles that never separated within their edges
   std::size_t nested_splits = 0;        ///< laterals split off inside another fork's fused section
   std::size_t boundary_fallbacks = 0;   ///< slices not star-shaped around their centroid
+  std::size_t uncrossed_loops = 0;      ///< interior loops left out of their tube: they crossed a neighbour
   Warnings warnings;
   Timings timings;
 };

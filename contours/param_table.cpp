@@ -34,6 +34,11 @@ const ParamSpec<C> kFields[] = {
      .help = "unseparated bundles are forced apart no nearer the fork than this", .slider = {0, 10}},
     {.key = "split_nested_laterals", .field = &C::split_nested_laterals,
      .help = "a lateral inside a fused section (whorls) splits off as soon as it is apart from the rest"},
+    {.key = "uncross_loops", .field = &C::uncross_loops,
+     .help = "interior loops crossing a neighbouring loop of their tube are left out (bends within a radius)"},
+    {.key = "uncross_tolerance", .field = &C::uncross_tolerance, .range = {.min = 0}, .unit = "x loop radius",
+     .help = "how far a loop may reach behind its predecessor's plane before it counts as crossing",
+     .slider = {0, 0.5}},
     // (More than 64 halvings are below a double's precision.)
     {.key = "split_bisection_steps", .field = &C::split_bisection_steps, .range = {.min = 0, .max = 64},
      .unit = "count", .help = "bisection steps refining a split", .slider = {0, 30}},

@@ -168,8 +168,8 @@ class Attempt {
   /// The cut triangles (mesh indices) with a piece kept flipped.
   [[nodiscard]] std::vector<std::uint32_t> flipped() const {
     std::vector<std::uint32_t> f;
-    for (const Piece& p : pieces_) {
-      if (keep_[p.patch] == kFlip) f.push_back(p.origin);
+    for (std::size_t i = 0; i < pieces_.size(); ++i) {
+      if (piece_keep_[i] == kFlip) f.push_back(pieces_[i].origin);
     }
     return f;
   }
@@ -205,7 +205,7 @@ class Attempt {
   std::vector<Piece> pieces_;
   std::vector<glm::dvec3> refined_pos_;
   std::vector<std::uint8_t> dangling_;  // per patch: a cut line ends inside it
-  std::vector<std::uint8_t> keep_;      // per patch: kDrop, kKeep or kFlip
+  std::vector<std::uint8_t> piece_keep_;  // per piece: kDrop, kKeep or kFlip
   std::vector<std::uint8_t> uncut_;     // per mesh triangle: its verdict where uncut
 };
 
@@ -379,14 +379,14 @@ void Attempt::canonicalize() {
 }
 
 // Winding numbers: a point just in front of and one just behind the roundest piece of every
-// patch, and of the roundest uncut triangle joined to patches, tested all at once by ray
-// crossings against the whole surface. Patches joined through uncut triangles (no cut line
-// between them) bound the same region and must agree; where they do not, or a cut line ends
-// inside a patch, the cut triangles of those patches are `bad`.
+// patch, and of the roundest triangle of every region of uncut triangles next to a cut one
+// (joined through uncut edges: no surface crosses it, so one verdict holds for all of it),
+// tested all at once by ray crossings against the whole surface. A patch that a cut line ends
+// in (where the surface folds through itself at a vertex) has no single verdict: each of its
+// pieces is judged on its own. A cut line along an uncut triangle's side (the refinement split
+// an edge the mesh shares with a triangle it did not cut) makes the patches there `bad`.
 void Attempt::judge() {
-  // Elements 0..patches-1 are patches, then the mesh's triangles.
   const auto np = static_cast<std::uint32_t>(patches);
-  UnionFind group(np + nf_);
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> patch_on_edge;  // directed mesh edge
   for (const Piece& p : pieces_) {
     for (int k = 0; k < 3; ++k) {
@@ -394,7 +394,8 @@ void Attempt::judge() {
       if (a != kNone && b != kNone) patch_on_edge[{a, b}] = p.patch;
     }
   }
-  std::vector<std::uint8_t> bad_patch(dangling_);
+  std::vector<std::uint8_t> bad_patch(np, 0), touches(nf_, 0);
+  UnionFind region(nf_);
   for (std::uint32_t f = 0; f < nf_; ++f) {
     if (local_[f] != kNone) continue;
     const auto& t = mesh_.triangles[f];
@@ -403,9 +404,9 @@ void Attempt::judge() {
       const std::uint32_t g = triangle_with_edge(mesh_, vc_, b, a);
       if (g == kNone) continue;
       if (local_[g] == kNone) {
-        group.unite(np + f, np + g);
-      } else if (const auto it = patch_on_edge.find({b, a}); it != patch_on_edge.end()) {
-        group.unite(np + f, it->second);
+        region.unite(f, g);
+      } else if (patch_on_edge.contains({b, a})) {
+        touches[f] = 1;
       } else {  // the edge was cut: a cut line along an uncut triangle's side
         for (const Piece& p : pieces_) {
           if (p.origin == g) bad_patch[p.patch] = 1;
@@ -413,27 +414,29 @@ void Attempt::judge() {
       }
     }
   }
-  // Probes: per patch, then per group with uncut triangles (its roundest uncut one).
-  std::vector<std::pair<double, std::uint32_t>> best_piece(np, {-1.0, 0});
   auto inradius = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
     const double perimeter = glm::distance(a, b) + glm::distance(b, c) + glm::distance(c, a);
     return perimeter > 0 ? glm::length(glm::cross(b - a, c - a)) / perimeter : 0.0;
   };
+  std::vector<double> piece_r(pieces_.size());
+  std::vector<std::pair<double, std::uint32_t>> best_piece(np, {-1.0, 0});
   for (std::uint32_t i = 0; i < pieces_.size(); ++i) {
     const auto& v = pieces_[i].v;
-    const double r = inradius(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]]);
-    if (r > best_piece[pieces_[i].patch].first) best_piece[pieces_[i].patch] = {r, i};
+    piece_r[i] = inradius(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]]);
+    if (piece_r[i] > best_piece[pieces_[i].patch].first) best_piece[pieces_[i].patch] = {piece_r[i], i};
   }
-  std::vector<std::uint8_t> has_patch(np + nf_, 0);
-  for (std::uint32_t k = 0; k < np; ++k) has_patch[group.find(k)] = 1;
-  std::vector<std::pair<double, std::uint32_t>> best_uncut(np, {-1.0, kNone});  // by group root (a patch)
+  // Regions next to a cut triangle, by root: their roundest triangle.
+  std::vector<std::uint8_t> region_touches(nf_, 0);
   for (std::uint32_t f = 0; f < nf_; ++f) {
-    if (local_[f] != kNone) continue;
-    const std::uint32_t root = group.find(np + f);
-    if (!has_patch[root]) continue;
+    if (touches[f]) region_touches[region.find(f)] = 1;
+  }
+  std::map<std::uint32_t, std::pair<double, std::uint32_t>> best_uncut;  // ordered: deterministic
+  for (std::uint32_t f = 0; f < nf_; ++f) {
+    if (local_[f] != kNone || !region_touches[region.find(f)]) continue;
     const auto& t = mesh_.triangles[f];
     const double r = inradius(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
-    if (r > best_uncut[root].first) best_uncut[root] = {r, f};
+    auto [it, fresh] = best_uncut.try_emplace(region.find(f), r, f);
+    if (!fresh && r > it->second.first) it->second = {r, f};
   }
   std::vector<glm::dvec3> probe;
   auto add_probe = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, double r) {
@@ -442,20 +445,26 @@ void Attempt::judge() {
     probe.push_back(centre + d);
     probe.push_back(centre - d);
   };
-  for (std::uint32_t k = 0; k < np; ++k) {
-    const auto& [r, i] = best_piece[k];
+  auto piece_probe = [&](std::uint32_t i) {
     const auto& v = pieces_[i].v;
-    if (r > 0) {
-      add_probe(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]], r);
+    if (piece_r[i] > 0) {
+      add_probe(refined_pos_[v[0]], refined_pos_[v[1]], refined_pos_[v[2]], piece_r[i]);
     } else {
       probe.insert(probe.end(), 2, glm::dvec3(0.0));
     }
+  };
+  for (std::uint32_t k = 0; k < np; ++k) piece_probe(best_piece[k].second);
+  std::vector<std::uint32_t> own_probe(pieces_.size(), kNone);  // pieces of dangling patches
+  for (std::uint32_t i = 0; i < pieces_.size(); ++i) {
+    if (!dangling_[pieces_[i].patch] || !(piece_r[i] > 0)) continue;
+    own_probe[i] = static_cast<std::uint32_t>(probe.size());
+    piece_probe(i);
   }
-  for (std::uint32_t k = 0; k < np; ++k) {
-    const auto& [r, f] = best_uncut[k];
-    if (f == kNone || !(r > 0)) continue;
-    const auto& t = mesh_.triangles[f];
-    add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], r);
+  std::map<std::uint32_t, std::size_t> region_probe;
+  for (const auto& [root, best] : best_uncut) {
+    const auto& t = mesh_.triangles[best.second];
+    region_probe[root] = probe.size();
+    add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], best.first);
   }
   const std::vector<int> winding = winding_numbers(mesh_, probe);
   // Kept where exactly one side is outside (winding number 0), facing it: a side turned
@@ -467,45 +476,21 @@ void Attempt::judge() {
     if (front != 0 && back == 0) return kFlip;
     return kDrop;
   };
-  // A group's verdict: its uncut triangle's where it has one (the best placed probe), else its
-  // roundest patch's. Every patch whose own probe is well placed must agree.
-  std::vector<double> verdict_r(np, -1.0);
-  std::vector<std::uint8_t> verdict(np, kKeep);
-  std::size_t q = 2 * np;
-  for (std::uint32_t k = 0; k < np; ++k) {
-    const auto& [r, f] = best_uncut[k];
-    if (f == kNone || !(r > 0)) continue;
-    verdict[k] = judge_sides(q);
-    verdict_r[k] = std::numeric_limits<double>::infinity();
-    q += 2;
-  }
-  for (std::uint32_t k = 0; k < np; ++k) {
-    const std::uint32_t root = group.find(k);
-    if (best_piece[k].first > 0 && best_piece[k].first > verdict_r[root]) {
-      verdict_r[root] = best_piece[k].first;
-      verdict[root] = judge_sides(2 * k);
-    }
-  }
-  keep_.assign(np, kKeep);
-  for (std::uint32_t k = 0; k < np; ++k) {
-    const std::uint32_t root = group.find(k);
-    keep_[k] = verdict[root];
-    // Slivers' probes sit too near other sheets to be trusted: only round pieces vote.
-    const std::uint8_t own = judge_sides(2 * k);
-    if (best_piece[k].first > 1e-3 * verdict_r[root] && own != keep_[k]) bad_patch[root] = 1;
-  }
-  for (std::uint32_t k = 0; k < np; ++k) {
-    if (bad_patch[k]) bad_patch[group.find(k)] = 1;
+  piece_keep_.resize(pieces_.size());
+  for (std::uint32_t i = 0; i < pieces_.size(); ++i) {
+    piece_keep_[i] = judge_sides(own_probe[i] != kNone ? own_probe[i] : 2 * std::size_t{pieces_[i].patch});
   }
   bad.clear();
   for (const Piece& p : pieces_) {
-    if (bad_patch[group.find(p.patch)]) bad.push_back(p.origin);
+    if (bad_patch[p.patch]) bad.push_back(p.origin);
   }
   std::sort(bad.begin(), bad.end());
   bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
   uncut_.assign(nf_, kKeep);
   for (std::uint32_t f = 0; f < nf_; ++f) {
-    if (local_[f] == kNone && has_patch[group.find(np + f)]) uncut_[f] = verdict[group.find(np + f)];
+    if (local_[f] != kNone) continue;
+    const auto it = region_probe.find(region.find(f));
+    if (it != region_probe.end()) uncut_[f] = judge_sides(it->second);
   }
 }
 
@@ -526,8 +511,9 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
   std::vector<glm::dvec3> new_pos;
   std::vector<std::uint32_t> new_origin;  // a cut triangle the new vertex lies on
-  for (const Piece& p : pieces_) {
-    if (keep_[p.patch] == kDrop) continue;
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    const Piece& p = pieces_[i];
+    if (piece_keep_[i] == kDrop) continue;
     for (const std::uint32_t r : p.v) {
       if (out_vertex[r] != kNone) continue;
       if (r < n_sub_) {
@@ -566,10 +552,10 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
       out.corner_uvs.push_back(flip ? std::array<glm::vec2, 3>{uv[0], uv[2], uv[1]} : uv);
     }
   }
-  for (const Piece& piece : pieces_) {
-    if (keep_[piece.patch] == kDrop) continue;
-    Piece p = piece;
-    if (keep_[p.patch] == kFlip) std::swap(p.v[1], p.v[2]);
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    if (piece_keep_[i] == kDrop) continue;
+    Piece p = pieces_[i];
+    if (piece_keep_[i] == kFlip) std::swap(p.v[1], p.v[2]);
     const Mesh::Triangle t{out_vertex[p.v[0]], out_vertex[p.v[1]], out_vertex[p.v[2]]};
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;  // welded or snapped flat
     out.triangles.push_back(t);
