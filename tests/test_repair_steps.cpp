@@ -25,12 +25,17 @@ constexpr double kPi = std::numbers::pi;
 
 // ---------------------------------------------------------------- repair_mesh
 
+// Six children from stacked forks (tests/fixtures.h), sliced with crossing loops kept (as
+// before contours.uncross_loops): the stitched crotches cross in 4 pairs.
+test::UpToContours folded_whorl() {
+  return test::up_to_contours(test::six_children(), 1, ContourParams{.uncross_loops = false});
+}
+
 TEST(RepairMesh, UntanglesTheStitchedWhorl) {
-  // Six children from stacked forks (tests/fixtures.h): the stitched crotches cross in 4 pairs
-  // (test_build_mesh.cpp). The first step, the fold repair near the forks, untangles them; the
-  // later steps then find nothing to do, and the finished mesh is a closed, oriented genus-0
+  // The first step, the fold repair near the forks, untangles the whorl's 4 pairs; the later
+  // steps then find nothing to do, and the finished mesh is a closed, oriented genus-0
   // 2-manifold without pairs, every thick node inside, on the contours it was given.
-  const test::UpToContours up = test::up_to_contours(test::six_children());
+  const test::UpToContours up = folded_whorl();
   ContourSet contours = up.contours;
   MeshResult mesh;
   const RepairInputs in{up.skeleton, up.particles, up.strands, {}, {}};
@@ -61,7 +66,7 @@ TEST(RepairMesh, UntanglesTheStitchedWhorl) {
 
 TEST(RepairMesh, WithEveryStepOffItOnlyFinishesTheMesh) {
   // Every step off: the mesh is build_mesh's, byte for byte, its 4 pairs counted and left.
-  const test::UpToContours up = test::up_to_contours(test::six_children());
+  const test::UpToContours up = folded_whorl();
   ContourSet contours = up.contours;
   MeshResult mesh;
   const RepairInputs in{up.skeleton, up.particles, up.strands, {}, {}};
