@@ -44,7 +44,7 @@ struct Reader {
       }
       case ParamKind::integer: {
         // (No wrap-around: a value beyond the field's type is an error, not taken modulo 2^32.)
-        const auto max = static_cast<std::uint64_t>(param_type_max(s));
+        const std::uint64_t max = param_type_max(s);
         std::uint64_t x = 0;
         if (v.is_number_unsigned() && v.get<std::uint64_t>() <= max) {
           x = v.get<std::uint64_t>();

@@ -931,6 +931,15 @@ TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {
   EXPECT_EQ(q.particles.seed, 77u);
   EXPECT_EQ(q.contours.slice_step, 0.3);
   EXPECT_EQ(q.skeleton.thick_child_policy, ThickChildPolicy::keep);
+  // The largest value of a 64-bit field is read exactly (its limit was once converted from a
+  // double, 2^64, out of uint64_t's range: undefined, found by the sanitizer build), one more is
+  // an error.
+  EXPECT_EQ(parse_params_json(R"({"particles": {"seed": 18446744073709551615}})", "x.json").particles.seed,
+            std::numeric_limits<std::uint64_t>::max());
+  EXPECT_EQ(parse_params_json(R"({"repair": {"count_pairs_up_to": 18446744073709551615}})", "x.json")
+                .repair.count_pairs_up_to,
+            std::numeric_limits<std::size_t>::max());
+  EXPECT_THROW(parse_params_json(R"({"particles": {"seed": 18446744073709551616}})", "x.json"), InvalidInputError);
   EXPECT_THROW(parse_params_json(R"({"particles": {"sed": 3}})", "x.json"), InvalidInputError);
   EXPECT_THROW(parse_params_json(R"({"particle": {}})", "x.json"), InvalidInputError);
   EXPECT_THROW(parse_params_json(R"({"contours": {"slice_step": "big"}})", "x.json"), InvalidInputError);
