@@ -81,11 +81,21 @@ struct ParamSpec {
   ParamSlider slider = {};
 };
 
-/// A stage's table: its config section and its fields in header order.
+/// A key that moved into a table's section from another section: configs written before
+/// still load, `section.key` read as the table's `now` with a deprecation warning.
+struct ParamMoved {
+  const char* section = "";
+  const char* key = "";
+  const char* now = "";
+};
+
+/// A stage's table: its config section, its fields in header order, and the keys that moved
+/// into it.
 template <class P>
 struct ParamTable {
   const char* section = "";
   std::span<const ParamSpec<P>> fields;
+  std::span<const ParamMoved> moved = {};
 };
 
 /// The table of `P` (found by argument-dependent lookup next to P's declaration).
