@@ -104,14 +104,14 @@ struct MeshParams {
   /// re-slices the forks around them with other split gaps, fork transitions and slice steps
   /// and keeps each crotch's best: up to 10 more runs of contours and meshing
   /// (pipeline/fork_retry.h).
-  bool fork_retry = true;
+  bool fork_retry = false;
   /// Where self-intersecting pairs or thick skeleton nodes outside the mesh are still left after
   /// the fork retry (meshes of at most count_pairs_up_to triangles), the mesh is replaced by its outer
   /// surface: the intersecting triangles cut along their intersections and the parts inside
   /// other parts removed (CGAL's autorefinement), and a small sphere joined around each thick
   /// node outside (CGAL's union; meshing/outer_surface.h), where the result passes the mesh
   /// checks at least as well in every respect and has fewer pairs or more nodes inside.
-  bool outer_surface = true;
+  bool outer_surface = false;
   /// Thick skeleton nodes a little outside the finished mesh (within their radius of it: a
   /// twig's base at a crotch) get the surface nearest them pushed over them, where no new
   /// crossing, turned triangle or lost node results (meshing/near_misses.h). Runs after the

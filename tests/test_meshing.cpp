@@ -16,6 +16,14 @@
 namespace sm {
 namespace {
 
+/// The meshing parameters with the outer surface on (off by default since the input is kept as
+/// given and the repair stage fuses crossings).
+MeshParams outer_surface_on() {
+  MeshParams p;
+  p.outer_surface = true;
+  return p;
+}
+
 constexpr double kPi = std::numbers::pi;
 
 std::vector<std::uint32_t> ring(std::vector<glm::dvec3>& pos, int n, glm::dvec3 c, double r, double z, double phase = 0) {
@@ -255,7 +263,7 @@ TEST(OuterSurface, JoinsTubesRunningIntoEachOther) {
   ASSERT_EQ(before.components, 2u);
 
   MeshResult r = with_pairs_left(both);
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{});
+  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, outer_surface_on());
   ASSERT_TRUE(s.applied) << s.refused;
   EXPECT_EQ(s.pairs_before, before.self_intersecting_pairs);
   EXPECT_EQ(s.pairs_after, 0u);
@@ -304,7 +312,7 @@ TEST(OuterSurface, JoinsTubesRunningIntoEachOther) {
   MeshResult kept = with_pairs_left(both);
   EXPECT_FALSE(keep_outer_surface(kept, skeleton, off).tried);
   kept.crossings.clear();
-  EXPECT_FALSE(keep_outer_surface(kept, skeleton, MeshParams{}).tried);
+  EXPECT_FALSE(keep_outer_surface(kept, skeleton, outer_surface_on()).tried);
   EXPECT_EQ(kept.mesh.triangles, both.triangles);
 }
 
@@ -322,8 +330,8 @@ TEST(OuterSurface, PutsThickNodesOutsideInsideWithASphere) {
   ASSERT_LT(before.thick_nodes_inside, before.thick_nodes);
   MeshResult r = with_pairs_left(tube);
   r.crossings.clear();
-  EXPECT_FALSE(keep_outer_surface(r, skeleton, MeshParams{}).tried);  // no pairs, no hint
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{}, true);
+  EXPECT_FALSE(keep_outer_surface(r, skeleton, outer_surface_on()).tried);  // no pairs, no hint
+  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, outer_surface_on(), true);
   ASSERT_TRUE(s.applied) << s.refused;
   EXPECT_EQ(s.blobs, before.thick_nodes - before.thick_nodes_inside);
   EXPECT_EQ(s.nodes_inside_before, before.thick_nodes_inside);
@@ -354,7 +362,7 @@ TEST(OuterSurface, NoSpheresForATangle) {
   ASSERT_GT(before.thick_nodes - before.thick_nodes_inside, 16u);
   MeshResult r = with_pairs_left(tube);
   r.crossings.clear();
-  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, MeshParams{}, true);
+  const OuterSurfaceStats s = keep_outer_surface(r, skeleton, outer_surface_on(), true);
   EXPECT_TRUE(s.tried);
   EXPECT_FALSE(s.applied);
   EXPECT_NE(s.refused.find("none gets a sphere"), std::string::npos) << s.refused;
@@ -379,7 +387,7 @@ MeshCheckParams sphere_check() {
 }
 SphereOutcome outer_surface_of_sphere(const Mesh& sphere) {
   SphereOutcome o{check_mesh(sphere, sphere_check()), with_pairs_left(sphere), {}};
-  o.s = keep_outer_surface(o.r, sphere_skeleton(), MeshParams{});
+  o.s = keep_outer_surface(o.r, sphere_skeleton(), outer_surface_on());
   return o;
 }
 // Drags the first vertex of the first triangle across its neighbour, as far beyond it as it
