@@ -63,17 +63,25 @@ void BM_Contours(benchmark::State& state) {
 }
 BENCHMARK(BM_Contours)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
-/// build_mesh: stitching, fusion, caps, fold repair, normals, UVs and the topology check (with
-/// the seconds of each phase).
+/// The meshing stage and the repair stage's first step, as on a tree over count_pairs_up_to:
+/// stitching, fusion, caps, the fold repair near the forks, normals, UVs and the topology
+/// check (with the seconds of each phase).
 void BM_Mesh(benchmark::State& state) {
   const PipelineResult& r = tree();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
-  MeshParams params;
+  RepairParams params;
   params.fork_retry = false;  // not run above 300,000 triangles anyway
   std::size_t triangles = 0;
   Timings phases;
   for (auto _ : state) {
-    MeshResult m = build_mesh(r.skeleton.skeleton, r.contours, params);
+    StitchedMesh stitched = stitch_mesh(r.skeleton.skeleton, r.contours);
+    Stopwatch clock;
+    Crossings crossings;
+    Warnings warnings;
+    repair_junction_folds(stitched, r.skeleton.skeleton, r.contours, params, crossings, warnings);
+    const double folds = clock.lap();
+    MeshResult m = finish_mesh(std::move(stitched));
+    m.stats.timings.add("fold_repair", folds);
     triangles = m.mesh.triangles.size();
     benchmark::DoNotOptimize(m.mesh.triangles.data());
     add_phases(phases, m.stats.timings);
@@ -124,11 +132,11 @@ void BM_ForkRetry(benchmark::State& state) {
   }
   static const RawSkeleton raw = read_skeleton(path);
   PipelineParams params;
-  params.meshing.fork_retry = state.range(0) != 0;
+  params.repair.fork_retry = state.range(0) != 0;
   ForkRetryStats retry;
   for (auto _ : state) {
     const PipelineResult r = run_pipeline(raw, params);
-    retry = r.fork_retry;
+    retry = r.repair.fork_retry;
     benchmark::DoNotOptimize(r.mesh.mesh.triangles.data());
   }
   if (retry.runs > 0) {

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <string>
@@ -80,11 +81,21 @@ struct ParamSpec {
   ParamSlider slider = {};
 };
 
-/// A stage's table: its config section and its fields in header order.
+/// A key that moved into a table's section from another section: configs written before
+/// still load, `section.key` read as the table's `now` with a deprecation warning.
+struct ParamMoved {
+  const char* section = "";
+  const char* key = "";
+  const char* now = "";
+};
+
+/// A stage's table: its config section, its fields in header order, and the keys that moved
+/// into it.
 template <class P>
 struct ParamTable {
   const char* section = "";
   std::span<const ParamSpec<P>> fields;
+  std::span<const ParamMoved> moved = {};
 };
 
 /// The table of `P` (found by argument-dependent lookup next to P's declaration).
@@ -110,18 +121,19 @@ ParamKind param_kind(const ParamSpec<P>& s) {
   }
 }
 
-/// The largest value an integer field's type holds (0 for other kinds).
+/// The largest value an integer field's type holds, exactly (0 for other kinds; a double
+/// would round 2^64 - 1 up to 2^64, which no uint64_t holds).
 template <class P>
-double param_type_max(const ParamSpec<P>& s) {
+std::uint64_t param_type_max(const ParamSpec<P>& s) {
   return std::visit(
-      []<class M>(M) -> double {
+      []<class M>(M) -> std::uint64_t {
         if constexpr (std::is_member_object_pointer_v<M>) {
           using T = std::remove_cvref_t<decltype(std::declval<P&>().*std::declval<M>())>;
           if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-            return static_cast<double>(std::numeric_limits<T>::max());
+            return static_cast<std::uint64_t>(std::numeric_limits<T>::max());
           }
         }
-        return 0.0;
+        return 0;
       },
       s.field);
 }

@@ -17,8 +17,6 @@
 
 #include "core/errors.h"
 #include "core/math.h"
-#include "meshing/fold_repair.h"
-#include "meshcheck/intersections.h"
 
 namespace sm {
 namespace {
@@ -426,7 +424,7 @@ bool fuse_many(const std::vector<std::uint32_t>& lower, const std::vector<std::v
 class Builder {
  public:
   Builder(const Skeleton& s, const ContourSet& c, const MeshParams& p) : s_(s), c_(c), p_(p) {}
-  MeshResult run(const ProgressFn& progress);
+  StitchedMesh run(const ProgressFn& progress);
 
  private:
   std::vector<std::uint32_t> loop_ids(std::uint32_t l) const {
@@ -471,7 +469,6 @@ class Builder {
     vertex_period_[i] = period;
   }
   void compute_uvs();
-  void check_topology(const VertexCorners& corners);
 
   const Skeleton& s_;
   const ContourSet& c_;
@@ -487,17 +484,10 @@ class Builder {
   std::vector<std::vector<Mesh::Triangle>> merged_fusion_;
   std::vector<std::uint8_t> folded_;  ///< per junction: meshed as part of a junction below it
   void plan_stacked_junctions();
-  /// Removes the vertices no triangle uses (the loops between merged junctions), keeping the
-  /// others in order.
-  void drop_unused_vertices();
-  void repair_folds();
   /// Puts every vertex on the float grid (core/mesh.h float_grid; MeshResult::grid).
   void snap_to_float_grid();
   double grid_ = 0;
   std::vector<TriangleKind> kind_;
-  std::vector<Crossing> crossings_;  // MeshResult::crossings
-  bool crossings_counted_ = false;
-  bool crossings_everywhere_ = true;  // MeshResult::crossings_everywhere
 };
 
 void Builder::align(std::vector<std::uint32_t>& upper, const std::vector<std::uint32_t>& lower) const {
@@ -618,209 +608,6 @@ void Builder::snap_to_float_grid() {
                     });
 }
 
-// Fold repair on the triangles most likely to fold: those of junctions and the strips
-// touching a fused or split loop. (Caps and plain strips take part in under 1% of the pairs
-// on the sample skeletons, and caps are a large share of a big tree's triangles.) Runs before
-// the unused vertices are dropped, while vertex indices are still those of the contours.
-void Builder::repair_folds() {
-  if (p_.fold_repair_rounds == 0) return;
-  // (Per loop, triangle and vertex in parallel: each writes only its own entries.)
-  std::vector<std::uint8_t> near_fork(c_.point.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, c_.loop_count(), 4096),
-                    [&](const tbb::blocked_range<std::uint32_t>& r) {
-                      for (std::uint32_t l = r.begin(); l != r.end(); ++l) {
-                        if (c_.loop_kind[l] != LoopKind::fused && c_.loop_kind[l] != LoopKind::split) continue;
-                        for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) near_fork[v] = 1;
-                      }
-                    });
-  std::vector<std::uint8_t> suspect(mesh_.triangles.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, suspect.size(), 1 << 14),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                        if (kind_[f] == TriangleKind::fusion) {
-                          suspect[f] = 1;
-                        } else if (kind_[f] == TriangleKind::strip) {
-                          for (const std::uint32_t v : mesh_.triangles[f]) {
-                            if (v < near_fork.size() && near_fork[v]) suspect[f] = 1;
-                          }
-                        }
-                      }
-                    });
-  std::vector<double> max_move(mesh_.positions.size(), 0.0);
-  const double max_move_factor = std::max(0.0, p_.fold_repair_max_move);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, max_move.size(), 1 << 14),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
-                        const NodeId n = mesh_.vertex_node[v];
-                        if (n.valid()) max_move[v] = max_move_factor * s_.radius[n.idx()];
-                      }
-                    });
-  FoldRepairOptions options;
-  options.max_rounds = static_cast<int>(std::min(p_.fold_repair_rounds, 1000u));
-  options.collapse = p_.fold_repair_collapses;
-  options.refill = p_.fold_repair_refills;
-  options.keep_side = s_.position;
-  options.grid = grid_;
-  // Which pairs a repair untangles depends on the order of its attempts. On meshes of at most
-  // count_pairs_up_to triangles, the pairs left anywhere are counted (the repair itself
-  // watches only the triangles around its changes), and where there are
-  // some, two more variants (vertex moves also towards the branch's axis, after or before the
-  // other targets) start again from the stitched mesh; the run leaving the fewest is kept.
-  // Samples x particle seeds 1-3: 161 -> 135 pairs (the first variant won on agraf seed 2 and
-  // boutdenoylum2 seeds 2 and 3, 7 / 9 -> 0, the second on agraf seed 3 and small_pine seeds
-  // 1 and 2); their fold repair takes 3-7 times as long (boutdenoylum2 0.3 -> 2.2 s), a count
-  // 0.03-0.13 s. Clean meshes pay one count; larger meshes (the grown presets, the bench tree)
-  // nothing. (Off by default: MeshParams::fold_repair_variants. The count is made for the
-  // pipeline's fork retry as well, which uses the pairs left: MeshResult::crossings.)
-  // (The undo log is kept only where variants may follow: it costs a hash insert per change.)
-  const bool small =
-      mesh_.triangles.size() <= p_.count_pairs_up_to && mesh_.vertex_node.size() == mesh_.positions.size();
-  const bool variants = p_.fold_repair_variants && small;
-  FoldRepairUndo undo;
-  FoldRepairStats r = sm::repair_folds(mesh_, suspect, max_move, options, variants ? &undo : nullptr);
-  // The pairs left anywhere, with where they are and the skeleton nodes of their corners (the
-  // pipeline's fork retry places them by these; see MeshResult::crossings).
-  std::vector<Crossing> at;
-  auto pairs_left = [&] {
-    std::vector<std::uint32_t> all(mesh_.triangles.size());
-    std::iota(all.begin(), all.end(), 0u);
-    std::vector<Crossing> out;
-    for (const auto& [f, g] : TriangleIntersections(mesh_).pairs(all)) out.push_back(crossing_of(mesh_, f, g));
-    return out;
-  };
-  const bool repair_stopped = r.gave_up || r.out_of_tests;
-  const bool counted = (variants || (p_.fork_retry && small)) && !repair_stopped;
-  if (counted) {
-    at = pairs_left();
-    crossings_counted_ = true;
-  } else if (!small && (p_.fork_retry || p_.outer_surface) && !repair_stopped) {
-    // Larger meshes: the pairs the repair left among the triangles it examined (a count over
-    // the whole mesh would cost more than the repair: 0.3 s on 800,000 triangles).
-    for (const auto& [f, g] : r.left) at.push_back(crossing_of(mesh_, f, g));
-    crossings_counted_ = true;
-    crossings_everywhere_ = false;
-  }
-  if (variants && !at.empty()) {
-    std::vector<glm::dvec3> axis(mesh_.positions.size());
-    for (std::size_t v = 0; v < axis.size(); ++v) {
-      const NodeId n = mesh_.vertex_node[v];
-      const glm::dvec3& p = mesh_.positions[v];
-      const NodeId par = n.valid() ? s_.parent[n.idx()] : NodeId{};
-      if (!par.valid()) {
-        axis[v] = n.valid() ? s_.position[n.idx()] : p;
-        continue;
-      }
-      const glm::dvec3 a = s_.position[par.idx()], ab = s_.position[n.idx()] - a;
-      const double l2 = glm::dot(ab, ab);
-      axis[v] = l2 > 0 ? a + std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) * ab : a;
-    }
-    // `undo` holds the stitched values while the mesh holds the best run's (applied), and the
-    // best run's values while the mesh is back to the stitched one.
-    bool applied = true;
-    for (const AxisTargets variant : {AxisTargets::last, AxisTargets::first}) {
-      if (applied) undo.swap_with(mesh_);
-      FoldRepairOptions o = options;
-      o.axis_point = axis;
-      o.axis_targets = variant;
-      FoldRepairUndo u;
-      const FoldRepairStats rv = sm::repair_folds(mesh_, suspect, max_move, o, &u);
-      const bool stopped = rv.gave_up || rv.out_of_tests;
-      std::vector<Crossing> at_v = stopped ? std::vector<Crossing>{} : pairs_left();
-      applied = !stopped && at_v.size() < at.size();
-      if (applied) {
-        r = rv;
-        at = std::move(at_v);
-        undo = std::move(u);
-      } else {
-        u.swap_with(mesh_);  // back to the stitched mesh
-      }
-    }
-    if (!applied) undo.swap_with(mesh_);
-  }
-  crossings_ = std::move(at);
-  stats_.fold_pairs = r.found;
-  stats_.fold_flips = r.flips;
-  stats_.fold_moves = r.moves;
-  stats_.fold_collapses = r.collapses;
-  stats_.fold_refills = r.refills;
-  if (r.out_of_tests) {
-    stats_.warnings.add("fold_repair_stopped", "fold repair stopped at its budget of triangle tests (" +
-                                                   std::to_string(options.max_tests_per_triangle) +
-                                                   " per triangle): branches run through each other; see the "
-                                                   "skeleton's separation warnings");
-  }
-  if (r.gave_up) {
-    stats_.warnings.add_count(
-        "fold_repair_skipped",
-        "too many self-intersecting triangle pairs near junctions for the fold repair (more than " +
-            std::to_string(options.max_pairs) +
-            "): branches run through each other; see the skeleton's separation warnings",
-        r.found);
-  }
-  if (r.collapses == 0 && r.refills == 0) return;
-  // Collapses and refills leave the triangles they removed degenerate (u, u, u): drop them
-  // (the vertices they removed go with the unused ones). They are few: each hole takes the
-  // last live triangle.
-  const std::size_t kept = fill_holes(
-      mesh_.triangles.size(),
-      [&](std::size_t f) {
-        const auto& t = mesh_.triangles[f];
-        return t[0] != t[1] || t[1] != t[2];
-      },
-      [&](std::size_t from, std::size_t to) {
-        mesh_.triangles[to] = mesh_.triangles[from];
-        mesh_.triangle_branch[to] = mesh_.triangle_branch[from];
-        kind_[to] = kind_[from];
-      });
-  mesh_.triangles.resize(kept);
-  mesh_.triangle_branch.resize(kept);
-  kind_.resize(kept);
-}
-
-void Builder::drop_unused_vertices() {
-  // The unused vertices are few (collapses, refills, merged junctions: 60 of 1.7 M on the
-  // large grown tree): each hole takes the last used vertex, and only the triangles of the
-  // vertices so moved change (rather than renumbering every vertex: serially 13 ms there).
-  const std::size_t nv = mesh_.positions.size();
-  std::vector<std::uint8_t> used(nv, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 1 << 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                        for (const std::uint32_t v : mesh_.triangles[f])
-                          std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
-                      }
-                    });
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> moves;  // (from, to)
-  const std::size_t kept = fill_holes(
-      nv, [&](std::size_t v) { return used[v] != 0; },
-      [&](std::size_t from, std::size_t to) {
-        mesh_.positions[to] = mesh_.positions[from];
-        mesh_.vertex_strand[to] = mesh_.vertex_strand[from];
-        mesh_.vertex_node[to] = mesh_.vertex_node[from];
-        vertex_u_[to] = vertex_u_[from];
-        vertex_v_[to] = vertex_v_[from];
-        vertex_period_[to] = vertex_period_[from];
-        moves.emplace_back(static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to));
-      });
-  if (kept == nv) return;
-  std::vector<std::uint32_t> moved_to(nv - kept, UINT32_MAX);  // for vertex kept + k: its new index
-  for (const auto& [from, to] : moves) moved_to[from - kept] = to;
-  mesh_.positions.resize(kept);
-  mesh_.vertex_strand.resize(kept);
-  mesh_.vertex_node.resize(kept);
-  vertex_u_.resize(kept);
-  vertex_v_.resize(kept);
-  vertex_period_.resize(kept);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 1 << 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                        for (std::uint32_t& v : mesh_.triangles[f]) {
-                          if (v >= kept) v = moved_to[v - kept];
-                        }
-                      }
-                    });
-}
-
 void Builder::fuse(const Junction& j, std::uint32_t branch, Part& out) const {
   out.scratch.clear();
   fuse_chains(loop_ids(j.lower), loop_ids(j.upper[0]), loop_ids(j.upper[1]), j.lower_side, c_.point,
@@ -925,16 +712,7 @@ void Builder::compute_uvs() {
                     });
 }
 
-void Builder::check_topology(const VertexCorners& corners) {
-  const std::size_t bad = unpaired_half_edges(mesh_, corners);
-  stats_.bad_edges = bad;
-  if (bad > 0) {
-    stats_.warnings.add_count("bad_edges",
-                              "half-edges without exactly one opposite twin (mesh not closed or not manifold)", bad);
-  }
-}
-
-MeshResult Builder::run(const ProgressFn& progress) {
+StitchedMesh Builder::run(const ProgressFn& progress) {
   Stopwatch clock;
   // Vertices added by the caps: a ring and an apex per tip, after the loop vertices in tube
   // order, then the root's base centre. Known up front, so tubes can be stitched in parallel
@@ -1038,10 +816,6 @@ MeshResult Builder::run(const ProgressFn& progress) {
     from = Part{};
   });
   snap_to_float_grid();
-  stats_.timings.add("stitching", clock.lap());
-  repair_folds();
-  stats_.timings.add("fold_repair", clock.lap());
-  if (stats_.merged_junctions > 0 || stats_.fold_collapses > 0 || stats_.fold_refills > 0) drop_unused_vertices();
   for (const Tube& t : c_.tubes) {
     stats_.strips += t.loops.empty() ? 0 : t.loops.size() - 1;
     if (t.end_junction != UINT32_MAX) {
@@ -1050,48 +824,75 @@ MeshResult Builder::run(const ProgressFn& progress) {
       ++stats_.tip_caps;
     }
   }
+  stats_.timings.add("stitching", clock.lap());
+  return StitchedMesh{std::move(mesh_),   std::move(kind_),  std::move(vertex_u_), std::move(vertex_v_),
+                      std::move(vertex_period_), std::move(stats_), grid_};
+}
 
-  // The corners around each vertex, for the normals and the topology check.
-  const VertexCorners corners = vertex_corners(mesh_);
-  if (p_.normals) mesh_.normals = angle_weighted_normals(mesh_, corners);
-  if (p_.uvs) {
-    mesh_.corner_uvs.resize(mesh_.triangles.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh_.triangles.size(), 8192),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t f = range.begin(); f != range.end(); ++f) {
-                          const auto& t = mesh_.triangles[f];
-                          double u[3], v[3], turn[3], period[3];
-                          for (int k = 0; k < 3; ++k) {
-                            u[k] = vertex_u_[t[std::size_t(k)]];
-                            v[k] = vertex_v_[t[std::size_t(k)]];
-                            period[k] = vertex_period_[t[std::size_t(k)]];
-                            turn[k] = period[k] > 0 ? u[k] / period[k] : 0.0;
-                          }
-                          // Seam: a triangle spanning the u wrap gets its small u values lifted by
-                          // one turn (its own vertex's: in metres, loops of different radii differ).
-                          const double lo = std::min({turn[0], turn[1], turn[2]}), hi = std::max({turn[0], turn[1], turn[2]});
-                          if (hi - lo > 0.5) {
-                            for (int k = 0; k < 3; ++k) {
-                              if (turn[k] < 0.5) u[k] += period[k];
-                            }
-                          }
-                          for (int k = 0; k < 3; ++k)
-                            mesh_.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));
+/// Drops the triangles a repair left as (u, u, u): each hole takes the last live triangle
+/// (they are few).
+void drop_degenerate_triangles(StitchedMesh& s) {
+  Mesh& m = s.mesh;
+  const std::size_t kept = fill_holes(
+      m.triangles.size(),
+      [&](std::size_t f) {
+        const auto& t = m.triangles[f];
+        return t[0] != t[1] || t[1] != t[2];
+      },
+      [&](std::size_t from, std::size_t to) {
+        m.triangles[to] = m.triangles[from];
+        m.triangle_branch[to] = m.triangle_branch[from];
+        s.triangle_kind[to] = s.triangle_kind[from];
+      });
+  m.triangles.resize(kept);
+  m.triangle_branch.resize(kept);
+  s.triangle_kind.resize(kept);
+}
+
+/// Removes the vertices no triangle uses, keeping the others in order but for the last ones.
+void drop_unused_vertices(StitchedMesh& s) {
+  // The unused vertices are few (merged junctions, a repair's collapses and refills: 60 of
+  // 1.7 M on the large grown tree): each hole takes the last used vertex, and only the
+  // triangles of the vertices so moved change (rather than renumbering every vertex).
+  Mesh& m = s.mesh;
+  const std::size_t nv = m.positions.size();
+  std::vector<std::uint8_t> used(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size(), 1 << 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        for (const std::uint32_t v : m.triangles[f])
+                          std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
+                      }
+                    });
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> moves;  // (from, to)
+  const std::size_t kept = fill_holes(
+      nv, [&](std::size_t v) { return used[v] != 0; },
+      [&](std::size_t from, std::size_t to) {
+        m.positions[to] = m.positions[from];
+        m.vertex_strand[to] = m.vertex_strand[from];
+        m.vertex_node[to] = m.vertex_node[from];
+        s.vertex_u[to] = s.vertex_u[from];
+        s.vertex_v[to] = s.vertex_v[from];
+        s.vertex_period[to] = s.vertex_period[from];
+        moves.emplace_back(static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to));
+      });
+  if (kept == nv) return;
+  std::vector<std::uint32_t> moved_to(nv - kept, UINT32_MAX);  // for vertex kept + k: its new index
+  for (const auto& [from, to] : moves) moved_to[from - kept] = to;
+  m.positions.resize(kept);
+  m.vertex_strand.resize(kept);
+  m.vertex_node.resize(kept);
+  s.vertex_u.resize(kept);
+  s.vertex_v.resize(kept);
+  s.vertex_period.resize(kept);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size(), 1 << 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        for (std::uint32_t& v : m.triangles[f]) {
+                          if (v >= kept) v = moved_to[v - kept];
                         }
-                      });
-  }
-  stats_.timings.add("normals_uvs", clock.lap());
-  check_topology(corners);
-  stats_.timings.add("check", clock.lap());
-  stats_.vertices = mesh_.positions.size();
-  stats_.triangles = mesh_.triangles.size();
-  return MeshResult{std::move(mesh_),
-                    std::move(kind_),
-                    std::move(stats_),
-                    std::move(crossings_),
-                    crossings_counted_,
-                    crossings_everywhere_,
-                    grid_};
+                      }
+                    });
 }
 
 }  // namespace
@@ -1110,23 +911,67 @@ void fuse_loops(const std::vector<std::uint32_t>& lower, const std::vector<std::
   fuse_chains(lower, upper_main, upper_lateral, {}, positions, tangent, out);
 }
 
-Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g) {
-  Crossing c;
-  for (std::size_t k = 0; k < 6; ++k) {
-    const std::uint32_t v = mesh.triangles[k < 3 ? f : g][k % 3];
-    c.at += mesh.positions[v] / 6.0;
-    if (v < mesh.vertex_node.size()) c.nodes[k] = mesh.vertex_node[v];
-  }
-  return c;
-}
-
 void validate_params(const MeshParams& p) { check_params(p); }
 
-MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
-                      const ProgressFn& progress) {
+StitchedMesh stitch_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
+                         const ProgressFn& progress) {
   validate_params(params);
   Builder b(skeleton, contours, params);
   return b.run(progress);
+}
+
+MeshResult finish_mesh(StitchedMesh s, const MeshParams& params) {
+  validate_params(params);
+  Stopwatch clock;
+  MeshStats stats = std::move(s.stats);
+  drop_degenerate_triangles(s);
+  drop_unused_vertices(s);
+  Mesh& m = s.mesh;
+  // The corners around each vertex, for the normals and the topology check.
+  const VertexCorners corners = vertex_corners(m);
+  if (params.normals) m.normals = angle_weighted_normals(m, corners);
+  if (params.uvs) {
+    m.corner_uvs.resize(m.triangles.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size(), 8192),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t f = range.begin(); f != range.end(); ++f) {
+                          const auto& t = m.triangles[f];
+                          double u[3], v[3], turn[3], period[3];
+                          for (int k = 0; k < 3; ++k) {
+                            u[k] = s.vertex_u[t[std::size_t(k)]];
+                            v[k] = s.vertex_v[t[std::size_t(k)]];
+                            period[k] = s.vertex_period[t[std::size_t(k)]];
+                            turn[k] = period[k] > 0 ? u[k] / period[k] : 0.0;
+                          }
+                          // Seam: a triangle spanning the u wrap gets its small u values lifted by
+                          // one turn (its own vertex's: in metres, loops of different radii differ).
+                          const double lo = std::min({turn[0], turn[1], turn[2]}), hi = std::max({turn[0], turn[1], turn[2]});
+                          if (hi - lo > 0.5) {
+                            for (int k = 0; k < 3; ++k) {
+                              if (turn[k] < 0.5) u[k] += period[k];
+                            }
+                          }
+                          for (int k = 0; k < 3; ++k)
+                            m.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));
+                        }
+                      });
+  }
+  stats.timings.add("normals_uvs", clock.lap());
+  stats.bad_edges = unpaired_half_edges(m, corners);
+  if (stats.bad_edges > 0) {
+    stats.warnings.add_count("bad_edges",
+                             "half-edges without exactly one opposite twin (mesh not closed or not manifold)",
+                             stats.bad_edges);
+  }
+  stats.timings.add("check", clock.lap());
+  stats.vertices = m.positions.size();
+  stats.triangles = m.triangles.size();
+  return MeshResult{std::move(m), std::move(s.triangle_kind), std::move(stats), s.grid};
+}
+
+MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params,
+                      const ProgressFn& progress) {
+  return finish_mesh(stitch_mesh(skeleton, contours, params, progress), params);
 }
 
 }  // namespace sm

@@ -50,73 +50,6 @@ struct MeshParams {
   /// fraction of a slice apart) as one junction with three or more upper loops, skipping that
   /// loop: the stacked binary crotches would overlap (see fuse_many in meshing.cpp).
   bool merge_stacked_junctions = true;
-  /// Rounds of fold repair (fold_repair.h): triangles near junctions are tested for
-  /// self-intersections (exact predicates) and intersecting pairs are untangled by edge flips
-  /// where another triangulation of the same vertices is free of the crossing, by small vertex
-  /// moves where not (fold_repair_max_move). 0 disables. 8 rather than 4 rounds: pairs on the
-  /// samples, seeds 1-3, 331 -> 303 (boutdenoylum2 21 / 24 / 24 -> 11 / 21 / 17, small_pine seed
-  /// 3 58 -> 50), boutdenoylum2 fold repair 0.49 -> 0.88 s, the bench tree +0.05 s.
-  std::uint32_t fold_repair_rounds = 8;
-  /// Where no flip untangles a pair, the fold repair may move a vertex of it (towards the
-  /// centroid of its neighbours, or along its normal) by at most this fraction of the local
-  /// skeleton radius (0 = flips only). Measured with centroid moves alone: 0.1 / 0.2 / 0.35 /
-  /// 0.5 left agraf 456 / 354 / 315 / 316 pairs (542 with flips only), boutdenoylum2 56 / 36 /
-  /// 49 / 56 (116); fidelity p95 unchanged.
-  double fold_repair_max_move = 0.25;
-  /// Where neither flips nor moves untangle a pair, the fold repair may collapse an edge of
-  /// one of its triangles or of a triangle next to them (removing one vertex and two
-  /// triangles; the kept vertex at either end or midway, on the old edge) when that lowers the
-  /// crossings around the pair, turns no triangle over and keeps the surface a closed
-  /// 2-manifold of the same genus. Self-intersecting pairs, samples x particle seeds 1-3:
-  /// 936 without, 449 with (callistemon 19 -> 0); fidelity p95 unchanged or better.
-  bool fold_repair_collapses = true;
-  /// Last resort of the fold repair: around a pair still crossing, the star of one of its
-  /// vertices, or else the triangles within 1, 2 or 3 rings of the pair (or of either of its
-  /// triangles) where they form a disk, is replaced by CGAL's hole-filling triangulation of
-  /// the disk's boundary loop (smallest largest dihedral angle, then area) when that lowers
-  /// the crossings around it; the disk's inner vertices go. Pairs, samples x particle seeds
-  /// 1-3: 449 without, 252 with (boutdenoylum2 10 -> 0, qsm 63 -> 17, agraf 141 -> 91,
-  /// small_pine 235 -> 144); grown `bush` preset 3 -> 0.
-  bool fold_repair_refills = true;
-  /// On meshes of at most count_pairs_up_to triangles where the fold repair leaves self-intersecting pairs
-  /// (counted over the whole mesh), try two more orders of its vertex moves from the stitched
-  /// mesh and keep the run leaving the fewest (see meshing.cpp, repair_folds). Off by default
-  /// since the fork retry (below) does better: samples x particle seeds 1-3, 135 pairs with
-  /// these variants alone, 82 with the retry alone, 73 with both at 1.9 x the retry's time.
-  bool fold_repair_variants = false;
-  /// Largest mesh (triangles) whose self-intersecting pairs are counted over the whole mesh
-  /// after the fold repair, for the fork retry and the outer surface below (and the variants
-  /// above). A larger mesh has only the pairs counted that the fold repair left among the
-  /// triangles it examined (junctions, the strips at fused and split loops, and their
-  /// neighbours), since a count over the whole mesh costs more than the fold repair: grown
-  /// presets at grow seed 1, 440,000-940,000 triangles, 0.20-0.57 s -> 0.46-1.08 s where they
-  /// are clean, 0.59 -> 3.83 s for broadleaf, whose retry then also covers a node outside.
-  /// Pairs away from the junctions (a branch running into a neighbour's crotch) then stay
-  /// unrepaired, with a note of `strandmesh mesh` (grown `oak` at grow seed 21, before
-  /// ContourParams::thin_gap_radii: 12 pairs left in 0.54 s; counted everywhere, 0 in 3.68 s),
-  /// and the thick nodes are tested only by the near-miss push (cover_near_misses), whose
-  /// leftovers are warned about (`thick_nodes_outside`; grown conifer at grow seed 11, one
-  /// twig node; counted everywhere, the fork retry covers it, 0.39 -> 6.3 s). Hero assets
-  /// raise it (configs/high_detail.json counts every mesh).
-  std::size_t count_pairs_up_to = 300'000;
-  /// Where self-intersecting pairs (counted as for fold_repair_variants, on meshes of at most
-  /// count_pairs_up_to triangles) or thick skeleton nodes outside the mesh are still left, the pipeline
-  /// re-slices the forks around them with other split gaps, fork transitions and slice steps
-  /// and keeps each crotch's best: up to 10 more runs of contours and meshing
-  /// (pipeline/fork_retry.h).
-  bool fork_retry = false;
-  /// Where self-intersecting pairs or thick skeleton nodes outside the mesh are still left after
-  /// the fork retry (meshes of at most count_pairs_up_to triangles), the mesh is replaced by its outer
-  /// surface: the intersecting triangles cut along their intersections and the parts inside
-  /// other parts removed (CGAL's autorefinement), and a small sphere joined around each thick
-  /// node outside (CGAL's union; meshing/outer_surface.h), where the result passes the mesh
-  /// checks at least as well in every respect and has fewer pairs or more nodes inside.
-  bool outer_surface = false;
-  /// Thick skeleton nodes a little outside the finished mesh (within their radius of it: a
-  /// twig's base at a crotch) get the surface nearest them pushed over them, where no new
-  /// crossing, turned triangle or lost node results (meshing/near_misses.h). Runs after the
-  /// fork retry, before the outer surface, on meshes of any size.
-  bool cover_near_misses = true;
 };
 
 /// The config key, accepted range, unit and help of each field of MeshParams, in header order
@@ -130,12 +63,7 @@ struct MeshStats {
   std::size_t junctions = 0;         ///< branch fusions (junctions of the contours, merged ones included)
   std::size_t merged_junctions = 0;  ///< junctions meshed as part of the junction below them
   std::size_t tip_caps = 0;
-  std::size_t fold_pairs = 0;      ///< self-intersecting pairs the fold repair found near junctions and caps
-  std::size_t fold_flips = 0;      ///< edge flips it made
-  std::size_t fold_moves = 0;      ///< vertices it moved
-  std::size_t fold_collapses = 0;  ///< edges it collapsed
-  std::size_t fold_refills = 0;    ///< disks it replaced by a triangulation of their boundary
-  std::size_t bad_edges = 0;       ///< edges not shared by exactly two triangles (0 unless a bug)
+  std::size_t bad_edges = 0;         ///< edges not shared by exactly two triangles (0 unless a bug)
   Warnings warnings;
   Timings timings;
 };
@@ -143,31 +71,30 @@ struct MeshStats {
 /// Which construction made a triangle (for debugging and the viewer).
 enum class TriangleKind : std::uint8_t { strip, fusion, tip_cap, root_cap };
 
-/// A self-intersecting pair of triangles: the mean of their six corners, and the skeleton node
-/// whose edge or section made each corner (Mesh::vertex_node).
-struct Crossing {
-  glm::dvec3 at{0.0};
-  std::array<NodeId, 6> nodes{};
-};
-
-/// The Crossing of triangles f and g of `mesh` (nodes left invalid without Mesh::vertex_node).
-Crossing crossing_of(const Mesh& mesh, std::uint32_t f, std::uint32_t g);
-
 struct MeshResult {
   Mesh mesh;
   std::vector<TriangleKind> triangle_kind;  ///< #F
   MeshStats stats;
-  /// The self-intersecting triangle pairs left, if the fold repair counted them
-  /// (`crossings_counted`: with MeshParams::fold_repair_variants, fork_retry or
-  /// outer_surface, the repair not stopped): over the whole mesh on meshes of at most count_pairs_up_to
-  /// triangles (MeshParams; `crossings_everywhere`), else those it left among the triangles it examined
-  /// (near forks; FoldRepairStats::left).
-  std::vector<Crossing> crossings;
-  bool crossings_counted = false;
-  bool crossings_everywhere = true;
   /// Every position is a multiple of this power of two (core/mesh.h float_grid), so that the
   /// exported float32 mesh is the mesh checked (0: not snapped).
   double grid = 0;
+};
+
+/// The surface as stitched, before finish_mesh completes it. Its vertices are the contour
+/// points (same indices), then the caps' ring and apex vertices and the root's base centre;
+/// those of loops skipped between merged junctions are used by no triangle. Between the two
+/// calls a repair may move vertices (onto the float grid, `grid`) and replace triangles,
+/// keeping their count and their branch and kind entries (a removed triangle becomes
+/// (u, u, u)), but add no vertex: the repair stage untangles folds near the forks here
+/// (repair/fold_repair.h), on the contours' numbering and before the normals and UVs are made.
+struct StitchedMesh {
+  Mesh mesh;  ///< positions, triangles, triangle_branch, vertex_node, vertex_strand (no normals, no UVs)
+  std::vector<TriangleKind> triangle_kind;  ///< #F
+  /// Per vertex: u (around the branch), v (along it) and the u of one turn, from which the
+  /// corner UVs are made (a triangle across the seam lifts its small u by one turn).
+  std::vector<double> vertex_u, vertex_v, vertex_period;
+  MeshStats stats;
+  double grid = 0;  ///< as MeshResult::grid
 };
 
 /// Throws InvalidInputError naming the first parameter out of its range ("meshing.uv_repeat_u
@@ -175,10 +102,19 @@ struct MeshResult {
 /// before its first stage.
 void validate_params(const MeshParams& params);
 
-/// Builds the branch mesh from the contour loops.
+/// Builds the branch mesh from the contour loops: finish_mesh(stitch_mesh(...)).
 /// Precondition: `contours` was computed for `skeleton`.
 MeshResult build_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params = {},
                       const ProgressFn& progress = {});
+
+/// The first half of build_mesh: strips, fusions and caps, every vertex on the float grid.
+StitchedMesh stitch_mesh(const Skeleton& skeleton, const ContourSet& contours, const MeshParams& params = {},
+                         const ProgressFn& progress = {});
+
+/// The second half: drops the triangles left as (u, u, u) and the vertices no triangle uses
+/// (the rest keep their order, but for the last ones, which fill the gaps), then computes the
+/// normals and corner UVs (as `params` asks) and checks the topology (MeshStats::bad_edges).
+MeshResult finish_mesh(StitchedMesh stitched, const MeshParams& params = {});
 
 /// Triangulates the band between two closed loops of vertex ids (both counter-clockwise seen
 /// from the tip side; `lower` nearer the root) with the greedy shortest-diagonal rule, starting

@@ -11,6 +11,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/input_limits.h"
+#include "core/log.h"
 #include "core/suggest.h"
 #include "meshio/export_json.h"
 #include "pipeline/pipeline.h"
@@ -43,7 +44,7 @@ struct Reader {
       }
       case ParamKind::integer: {
         // (No wrap-around: a value beyond the field's type is an error, not taken modulo 2^32.)
-        const auto max = static_cast<std::uint64_t>(param_type_max(s));
+        const std::uint64_t max = param_type_max(s);
         std::uint64_t x = 0;
         if (v.is_number_unsigned() && v.get<std::uint64_t>() <= max) {
           x = v.get<std::uint64_t>();
@@ -141,6 +142,28 @@ std::vector<std::pair<std::string, std::string>> all_keys() {
   return out;
 }
 
+// Keys that moved into P's section from another (ParamTable::moved) are read as their new
+// key, with a deprecation warning; where the new key is given too, it wins.
+template <class P>
+void move_renamed_keys(json& doc, const std::string& file) {
+  const ParamTable<P>& t = param_table_of<P>();
+  for (const ParamMoved& m : t.moved) {
+    const auto from = doc.find(m.section);
+    if (from == doc.end() || !from->is_object() || !from->contains(m.key)) continue;
+    if (!doc.contains(t.section)) doc[t.section] = json::object();
+    json& to = doc[t.section];
+    if (!to.is_object()) return;  // (read_section names the error)
+    const std::string old_key = std::string(m.section) + "." + m.key, new_key = std::string(t.section) + "." + m.now;
+    if (to.contains(m.now)) {
+      log::warn(file + ": " + old_key + " is ignored: it is now " + new_key + ", which is given too");
+    } else {
+      log::warn(file + ": " + old_key + " is now " + new_key + " (read as that; the old key will go)");
+      to[m.now] = (*from)[m.key];
+    }
+    from->erase(m.key);
+  }
+}
+
 template <class P>
 void read_section(const json& doc, const std::string& file, P& params) {
   const char* name = param_table_of<P>().section;
@@ -177,6 +200,7 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
     }
   }
   PipelineParams p = base;
+  for_each_stage_params(p, [&]<class P>(P&) { move_renamed_keys<P>(doc, name); });
   for_each_stage_params(p, [&]<class P>(P& stage) { read_section(doc, name, stage); });
   // The writer's options (not a stage): their own reader, meshio/export_json.h.
   if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
@@ -236,6 +260,13 @@ void reference_section(std::string& out, const P& defaults, bool markdown) {
     out += "| `" + std::string(s.key) + "` | " + values.at(s.key).dump() + " | " + accepted(s) + " | " + s.unit + " | " +
            s.help + " |\n";
   }
+  if (t.moved.empty()) return;
+  out += "\nKeys that moved here (still read, with a warning):";
+  for (std::size_t i = 0; i < t.moved.size(); ++i) {
+    const ParamMoved& m = t.moved[i];
+    out += std::string(i == 0 ? " " : ", ") + "`" + m.section + "." + m.key + "` as `" + m.now + "`";
+  }
+  out += ".\n";
 }
 
 }  // namespace

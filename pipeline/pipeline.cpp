@@ -41,35 +41,6 @@ void release_intermediates(PipelineResult& r) {
   std::vector<StrandId>().swap(r.contours.strand);
 }
 
-namespace {
-
-/// Warns (`thick_nodes_outside`, naming them) of the thick skeleton nodes the near-miss push
-/// left outside the mesh (NearMissStats::left) that are still outside the final mesh (tested
-/// again where the outer surface replaced it). Nothing when meshing.cover_near_misses is off,
-/// which is where they are found on every mesh size.
-void warn_thick_nodes_outside(PipelineResult& r) {
-  const Skeleton& s = r.skeleton.skeleton;
-  std::vector<NodeId> left = r.near_misses.left;
-  if (!left.empty() && r.outer_surface.applied) {
-    std::vector<glm::dvec3> at;
-    for (const NodeId n : left) at.push_back(s.position[n.idx()]);
-    const std::vector<std::uint8_t> inside = inside_closed_mesh(r.mesh.mesh, at);
-    std::vector<NodeId> still;
-    for (std::size_t k = 0; k < left.size(); ++k) {
-      if (!inside[k]) still.push_back(left[k]);
-    }
-    left = std::move(still);
-  }
-  for (const NodeId n : left) {
-    r.mesh.stats.warnings.add("thick_nodes_outside",
-                              "skeleton node at least the median radius thick left outside the mesh (after the "
-                              "fork retry, the near-miss push and the outer surface)",
-                              s.describe(n));
-  }
-}
-
-}  // namespace
-
 void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelineParams& p, Stage from,
                     const ProgressFn& progress) {
   auto report = [&](std::string_view phase, double f) {
@@ -104,23 +75,17 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   });
   timed(Stage::contours,
         [&] { r.contours = compute_contours(r.skeleton.skeleton, r.particles, r.strands, p.contours, progress); });
-  timed(Stage::meshing, [&] { r.mesh = build_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
-  // (Its runs add their own times to the contours and meshing stages.)
-  r.fork_retry = retry_forks(r, p, progress);
-  // (Their times count as meshing.)
-  r.near_misses = cover_near_misses(r.mesh, r.skeleton.skeleton, p.meshing);
-  r.timings.add(stage_name(Stage::meshing), r.near_misses.seconds);
-  const bool nodes_outside =
-      r.fork_retry.outside_after > 0 && (!r.near_misses.tried || r.near_misses.outside_after > 0);
-  report("outer surface", 0);
-  r.outer_surface = keep_outer_surface(r.mesh, r.skeleton.skeleton, p.meshing, nodes_outside);
-  r.timings.add(stage_name(Stage::meshing), r.outer_surface.seconds);
-  // The repair stage: what the fork retry and the outer surface left is fused by the union.
-  report("repair", 0);
-  r.repair = repair_mesh(r.mesh, r.skeleton.skeleton, p.repair);
-  r.timings.add("repair", r.repair.timings.total());
-  warn_self_intersections_left(r);
-  warn_thick_nodes_outside(r);
+  // The meshing stage stitches the surface; the repair stage repairs and finishes it (and
+  // may re-slice forks: the contours become those of the mesh kept).
+  StitchedMesh stitched;
+  timed(Stage::meshing, [&] { stitched = stitch_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
+  clock.lap();
+  const RepairInputs inputs{r.skeleton.skeleton, r.particles, r.strands, p.contours, p.meshing};
+  r.repair = repair_mesh(std::move(stitched), r.contours, r.mesh, inputs, p.repair, progress);
+  for (auto& e : r.timings.entries) {
+    if (e.name == "repair") e.seconds = 0;
+  }
+  r.timings.add("repair", clock.lap());
 }
 
 PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params, const ProgressFn& progress) {
@@ -132,7 +97,7 @@ PipelineResult run_pipeline(const RawSkeleton& raw, const PipelineParams& params
 std::string stats_to_json(const PipelineResult& r, double export_seconds, double total_seconds) {
   using nlohmann::json;
   json seconds;
-  for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing"}) seconds[s] = r.timings.get(s);
+  for (const char* s : {"skeleton", "particles", "strands", "contours", "meshing", "repair"}) seconds[s] = r.timings.get(s);
   seconds["export"] = export_seconds;
   seconds["total"] = total_seconds > 0 ? total_seconds : r.timings.total() + export_seconds;
   json warnings = json::array();
@@ -140,6 +105,9 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
   for (const auto& w : all.list()) {
     warnings.push_back({{"kind", w.kind}, {"message", w.message}, {"count", w.count}, {"examples", w.examples}});
   }
+  const ForkRetryStats& fr = r.repair.fork_retry;
+  const NearMissStats& nm = r.repair.near_misses;
+  const OuterSurfaceStats& os = r.repair.outer_surface;
   const json j{{"nodes", r.skeleton.skeleton.size()},
                {"input_nodes", r.skeleton.report.input_nodes},
                {"sanitizing",
@@ -159,11 +127,11 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                {"bad_edges", r.mesh.stats.bad_edges},
                {"merged_junctions", r.mesh.stats.merged_junctions},
                {"fold_repair",
-                {{"pairs_found", r.mesh.stats.fold_pairs},
-                 {"flips", r.mesh.stats.fold_flips},
-                 {"moved_vertices", r.mesh.stats.fold_moves},
-                 {"collapsed_edges", r.mesh.stats.fold_collapses},
-                 {"refilled_disks", r.mesh.stats.fold_refills}}},
+                {{"pairs_found", r.repair.junction_folds.found},
+                 {"flips", r.repair.junction_folds.flips},
+                 {"moved_vertices", r.repair.junction_folds.moves},
+                 {"collapsed_edges", r.repair.junction_folds.collapses},
+                 {"refilled_disks", r.repair.junction_folds.refills}}},
                {"repair",
                 {{"pairs_counted", r.repair.counted},
                  {"pairs_found", r.repair.pairs_found},
@@ -181,35 +149,35 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"problem", r.repair.problem},
                  {"seconds", r.repair.timings.total()}}},
                {"fork_retry",
-                {{"pairs_counted", r.fork_retry.counted},
-                 {"pairs_counted_everywhere", r.mesh.crossings_counted && r.mesh.crossings_everywhere},
-                 {"pairs_before", r.fork_retry.pairs_before},
-                 {"pairs_after", r.fork_retry.pairs_after},
-                 {"thick_nodes_outside_before", r.fork_retry.outside_before},
-                 {"thick_nodes_outside_after", r.fork_retry.outside_after},
-                 {"fork_groups", r.fork_retry.groups},
-                 {"runs", r.fork_retry.runs},
-                 {"webs_refused", r.fork_retry.webs_refused}}},
+                {{"pairs_counted", fr.counted},
+                 {"pairs_counted_everywhere", fr.counted_everywhere},
+                 {"pairs_before", fr.pairs_before},
+                 {"pairs_after", fr.pairs_after},
+                 {"thick_nodes_outside_before", fr.outside_before},
+                 {"thick_nodes_outside_after", fr.outside_after},
+                 {"fork_groups", fr.groups},
+                 {"runs", fr.runs},
+                 {"webs_refused", fr.webs_refused}}},
                {"near_misses",
-                {{"tried", r.near_misses.tried},
-                 {"thick_nodes_outside_before", r.near_misses.outside_before},
-                 {"thick_nodes_outside_after", r.near_misses.outside_after},
-                 {"pushes_kept", r.near_misses.covered},
-                 {"pushes_undone", r.near_misses.refused},
-                 {"moved_vertices", r.near_misses.moved_vertices}}},
+                {{"tried", nm.tried},
+                 {"thick_nodes_outside_before", nm.outside_before},
+                 {"thick_nodes_outside_after", nm.outside_after},
+                 {"pushes_kept", nm.covered},
+                 {"pushes_undone", nm.refused},
+                 {"moved_vertices", nm.moved_vertices}}},
                {"outer_surface",
-                {{"tried", r.outer_surface.tried},
-                 {"applied", r.outer_surface.applied},
-                 {"pairs_before", r.outer_surface.pairs_before},
-                 {"pairs_after", r.outer_surface.pairs_after},
-                 {"thick_nodes_inside_before", r.outer_surface.nodes_inside_before},
-                 {"thick_nodes_inside_after", r.outer_surface.nodes_inside_after},
-                 {"triangles_before", r.outer_surface.triangles_before},
-                 {"triangles_after", r.outer_surface.triangles_after},
-                 {"node_spheres", r.outer_surface.blobs},
-                 {"clusters", r.outer_surface.clusters},
-                 {"clusters_kept", r.outer_surface.clusters_kept},
-                 {"refused", r.outer_surface.refused}}},
+                {{"tried", os.tried},
+                 {"applied", os.applied},
+                 {"pairs_before", os.pairs_before},
+                 {"pairs_after", os.pairs_after},
+                 {"thick_nodes_inside_before", os.nodes_inside_before},
+                 {"thick_nodes_inside_after", os.nodes_inside_after},
+                 {"triangles_before", os.triangles_before},
+                 {"triangles_after", os.triangles_after},
+                 {"node_spheres", os.blobs},
+                 {"clusters", os.clusters},
+                 {"clusters_kept", os.clusters_kept},
+                 {"refused", os.refused}}},
                {"warnings", std::move(warnings)},
                {"seconds", std::move(seconds)}};
   return j.dump(2) + "\n";

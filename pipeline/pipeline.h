@@ -1,6 +1,6 @@
 #pragma once
-/// The whole pipeline: skeleton → particles → strands → contours → mesh. The CLI and the
-/// viewer only call this (and the stage entry points); they never reach into a stage.
+/// The whole pipeline: skeleton → particles → strands → contours → meshing → repair. The CLI
+/// and the viewer only call this (and the stage entry points); they never reach into a stage.
 
 #include <filesystem>
 #include <string>
@@ -10,11 +10,8 @@
 #include "core/progress.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
-#include "meshing/near_misses.h"
-#include "meshing/outer_surface.h"
 #include "meshio/export.h"
 #include "particles/particles.h"
-#include "pipeline/fork_retry.h"
 #include "repair/repair.h"
 #include "skeleton/build.h"
 #include "strands/strands.h"
@@ -70,16 +67,11 @@ struct PipelineResult {
   ParticleField particles;
   StrandSet strands;
   ContourSet contours;
+  /// The repaired mesh (the meshing stage stitches it, the repair stage repairs and finishes it).
   MeshResult mesh;
-  /// The repair stage's figures (it edits `mesh` in place).
+  /// The repair stage's figures, every step's.
   RepairStats repair;
-  /// The fork retry's figures (MeshParams::fork_retry).
-  ForkRetryStats fork_retry;
-  /// The near misses' figures (MeshParams::cover_near_misses), after the fork retry.
-  NearMissStats near_misses;
-  /// The outer surface's figures (MeshParams::outer_surface), after the near misses.
-  OuterSurfaceStats outer_surface;
-  /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing".
+  /// Seconds per stage: "skeleton", "particles", "strands", "contours", "meshing", "repair".
   Timings timings;
   /// Warnings of every stage, in stage order.
   [[nodiscard]] Warnings warnings() const;

@@ -8,23 +8,54 @@ namespace {
 using R = RepairParams;
 
 const ParamSpec<R> kFields[] = {
+    {.key = "count_pairs_up_to", .field = &R::count_pairs_up_to, .range = {.min = 0}, .unit = "triangles",
+     .help = "largest mesh whose self-intersecting pairs are looked for everywhere; on larger ones near the forks "
+             "only, and the self-union is skipped",
+     .slider = {1000, 1e9, true}},
+    {.key = "junction_fold_rounds", .field = &R::junction_fold_rounds, .range = {.min = 0}, .unit = "count",
+     .help = "rounds of the fold repair near the forks (flips, moves, collapses; 0 = off)", .slider = {0, 16}},
+    {.key = "junction_fold_max_move", .field = &R::junction_fold_max_move, .range = {.min = 0},
+     .unit = "x local radius", .help = "largest vertex move of the fold repair near the forks (0 = flips only)",
+     .slider = {0, 1}},
+    {.key = "junction_fold_collapses", .field = &R::junction_fold_collapses,
+     .help = "where flips and moves fail, the fold repair near the forks may collapse an edge near the pair"},
+    {.key = "junction_fold_refills", .field = &R::junction_fold_refills,
+     .help = "where collapses fail, it may refill a disk around the pair"},
+    {.key = "junction_fold_variants", .field = &R::junction_fold_variants,
+     .help = "where pairs are left (meshes up to count_pairs_up_to), try two more orders of its moves"},
+    {.key = "fork_retry", .field = &R::fork_retry,
+     .help = "where pairs or thick nodes outside are left, re-slice the forks around them and keep each crotch's best"},
+    {.key = "cover_near_misses", .field = &R::cover_near_misses,
+     .help = "push the surface over thick nodes just outside it where no crossing results"},
+    {.key = "outer_surface", .field = &R::outer_surface,
+     .help = "where pairs or thick nodes outside are still left, keep the mesh's outer surface if it checks better"},
     {.key = "self_union", .field = &R::self_union,
      .help = "replace self-intersecting parts of the surface by their union"},
     {.key = "max_rounds", .field = &R::max_rounds, .range = {.min = 0, .max = 100}, .unit = "count",
      .help = "rounds of finding pairs and cutting them", .slider = {0, 10}},
     {.key = "fold_rounds", .field = &R::fold_rounds, .range = {.min = 0, .max = 1000}, .unit = "count",
-     .help = "rounds of fold repair on nearby pairs before the union (0 = none)", .slider = {0, 16}},
+     .help = "rounds of fold repair on nearby pairs anywhere before the union (0 = none)", .slider = {0, 16}},
     {.key = "fold_max_move", .field = &R::fold_max_move, .range = {.min = 0, .max = 1}, .unit = "x local radius",
-     .help = "largest vertex move of the fold repair"},
-    {.key = "count_pairs_up_to", .field = &R::count_pairs_up_to, .range = {.min = 0}, .unit = "triangles",
-     .help = "largest mesh whose pairs are looked for everywhere; a larger one skips this stage",
-     .slider = {1000, 1e9, true}},
+     .help = "largest vertex move of that fold repair"},
+};
+
+// The keys the meshing section had before the repair stage took over these steps.
+const ParamMoved kMoved[] = {
+    {"meshing", "count_pairs_up_to", "count_pairs_up_to"},
+    {"meshing", "fold_repair_rounds", "junction_fold_rounds"},
+    {"meshing", "fold_repair_max_move", "junction_fold_max_move"},
+    {"meshing", "fold_repair_collapses", "junction_fold_collapses"},
+    {"meshing", "fold_repair_refills", "junction_fold_refills"},
+    {"meshing", "fold_repair_variants", "junction_fold_variants"},
+    {"meshing", "fork_retry", "fork_retry"},
+    {"meshing", "cover_near_misses", "cover_near_misses"},
+    {"meshing", "outer_surface", "outer_surface"},
 };
 
 }  // namespace
 
 const ParamTable<RepairParams>& param_table(std::type_identity<RepairParams>) {
-  static const ParamTable<RepairParams> t{"repair", kFields};
+  static const ParamTable<RepairParams> t{"repair", kFields, kMoved};
   return t;
 }
 

@@ -9,7 +9,7 @@
 #include "core/errors.h"
 #include "core/union_find.h"
 #include "meshcheck/intersections.h"
-#include "meshing/fold_repair.h"
+#include "repair/fold_repair.h"
 #include "repair/self_union.h"
 
 namespace sm {
@@ -114,7 +114,7 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
 
 void validate_params(const RepairParams& p) { check_params(p); }
 
-RepairStats repair_mesh(MeshResult& r, const Skeleton& skeleton, const RepairParams& params) {
+RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const RepairParams& params) {
   validate_params(params);
   RepairStats st;
   Stopwatch clock;

@@ -1,28 +1,63 @@
 #pragma once
-/// Repair stage: makes the built surface clean where the contours alone could not, without
-/// moving the skeleton. Branches that cross or touch away from their fork, and folds at tight
-/// crotches, hubs and hairpins, leave the stitched surface intersecting itself; every
-/// intersecting pair is found over the whole mesh, and the surface there is replaced by the
-/// boundary of the union of the solids it wraps (self_union.h). Where crossings close a loop
-/// the union has a handle: genus > 0 is then the truth, not a defect.
-///
-/// The cost is one pass over the mesh for the pairs and one for the winding numbers per round,
-/// plus work that grows with the triangles cut; rounds repeat only where snapping the new
-/// vertices to the float grid made new pairs.
+/// Repair stage: every change made to the surface after it is stitched, so that it is closed,
+/// free of self-intersections and holds the thick skeleton nodes, without moving the skeleton.
+/// repair_mesh runs its steps in order, each where the one before left something to do:
+///  1. folds near the forks (junction_folds.h): flips, moves and collapses on the stitched
+///     crotches, and the count of the self-intersecting pairs left;
+///  2. the fork retry (fork_retry.h): the forks around pairs or thick nodes outside sliced and
+///     stitched again with other contour settings, each crotch keeping its best;
+///  3. the near-miss push (near_misses.h): the surface pushed over thick nodes just outside it;
+///  4. the outer surface (outer_surface.h): parts inside parts cut away, spheres joined around
+///     thick nodes outside (CGAL);
+///  5. crossings anywhere (repair_crossings, repair.cpp): pairs over the whole mesh, folds
+///     within two rings untangled and the rest replaced by the boundary of the union of the
+///     solids the surface wraps (self_union.h). Where crossings close a loop the union has a
+///     handle: genus > 0 is then the truth, not a defect.
+/// Each step keeps a change only when the mesh does better by its rule (docs/architecture.md
+/// lists them) and otherwise leaves it as it was; a clean mesh passes through unchanged.
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
+#include "contours/contours.h"
 #include "core/param_table.h"
+#include "core/progress.h"
 #include "core/report.h"
 #include "meshing/meshing.h"
+#include "repair/fork_retry.h"
+#include "repair/junction_folds.h"
+#include "repair/near_misses.h"
+#include "repair/outer_surface.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
 
 struct RepairParams {
-  /// Replace self-intersecting parts of the surface by their union (false: leave them).
+  /// Largest mesh (triangles) whose self-intersecting pairs are looked for over the whole
+  /// mesh. On a larger one only the pairs the fold repair near the forks leaves there are
+  /// known, and the last step is skipped. configs/high_detail.json counts every mesh.
+  std::size_t count_pairs_up_to = 300'000;
+  /// Rounds of the fold repair near the forks (step 1; 0 = none).
+  std::uint32_t junction_fold_rounds = 8;
+  /// Largest vertex move of the fold repair near the forks, relative to the local skeleton
+  /// radius (0 = flips only).
+  double junction_fold_max_move = 0.25;
+  /// Where flips and moves fail, the fold repair near the forks may collapse an edge near the pair.
+  bool junction_fold_collapses = true;
+  /// Where collapses fail, it may replace a disk around the pair by a triangulation of its boundary.
+  bool junction_fold_refills = true;
+  /// Where pairs are left (meshes up to count_pairs_up_to), it tries two more orders of its
+  /// vertex moves and keeps the run leaving the fewest.
+  bool junction_fold_variants = false;
+  /// Step 2: re-slice the forks around pairs or thick nodes outside and keep each crotch's best.
+  bool fork_retry = false;
+  /// Step 3: push the surface over thick nodes just outside it where no crossing results.
+  bool cover_near_misses = true;
+  /// Step 4: where pairs or thick nodes outside are left, keep the mesh's outer surface if it
+  /// checks better.
+  bool outer_surface = false;
+  /// Step 5: replace self-intersecting parts of the surface by their union (false: leave them).
   bool self_union = true;
   /// Rounds of finding pairs and cutting them (a count; a round after the first only meets
   /// pairs made by rounding the cut lines' vertices to the float grid).
@@ -30,12 +65,8 @@ struct RepairParams {
   /// Rounds of fold repair (flips, moves, collapses) on pairs within two rings of each other,
   /// before the union (0 = none).
   std::uint32_t fold_rounds = 8;
-  /// Largest vertex move of the fold repair, relative to the local skeleton radius.
+  /// Largest vertex move of that fold repair, relative to the local skeleton radius.
   double fold_max_move = 0.25;
-  /// Largest mesh (triangles) whose pairs are looked for over the whole mesh; a larger one
-  /// skips the repair stage (a count over 3.5 M triangles takes seconds; the meshing stage's
-  /// fold repair has looked near the junctions). configs/high_detail.json counts every mesh.
-  std::size_t count_pairs_up_to = 300'000;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order
@@ -43,6 +74,11 @@ struct RepairParams {
 const ParamTable<RepairParams>& param_table(std::type_identity<RepairParams>);
 
 struct RepairStats {
+  JunctionFoldStats junction_folds;  ///< step 1
+  ForkRetryStats fork_retry;         ///< step 2
+  NearMissStats near_misses;         ///< step 3
+  OuterSurfaceStats outer_surface;   ///< step 4
+  // Step 5:
   bool counted = false;            ///< the mesh was small enough to look for pairs everywhere
   std::size_t pairs_found = 0;     ///< self-intersecting pairs of the built mesh (whole mesh)
   std::size_t pairs_left = 0;      ///< after the repair (whole mesh)
@@ -57,15 +93,32 @@ struct RepairStats {
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
   std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
   std::string problem;             ///< why a round was refused (empty: none was)
-  Warnings warnings;
-  Timings timings;
+  Warnings warnings;               ///< every step's
+  Timings timings;                 ///< every step's
 };
 
 /// Throws InvalidInputError naming the first parameter out of its range.
 void validate_params(const RepairParams& params);
 
-/// Repairs `mesh` in place (positions, triangles and their attributes, triangle kinds).
-/// Precondition: `mesh` is closed, edge-manifold and oriented outward (build_mesh's result).
-RepairStats repair_mesh(MeshResult& mesh, const Skeleton& skeleton, const RepairParams& params = {});
+/// What the repair stage reads of the earlier stages: the skeleton whose nodes belong inside
+/// the mesh, and for the fork retry, which slices and stitches forks again, the particles,
+/// strands and the contour and meshing parameters the surface was made with.
+struct RepairInputs {
+  const Skeleton& skeleton;
+  const ParticleField& particles;
+  const StrandSet& strands;
+  const ContourParams& contour_params;
+  const MeshParams& mesh_params;
+};
+
+/// The repair stage: repairs `stitched` (stitch_mesh's result for `contours`) and finishes it
+/// (finish_mesh) into `mesh`. Where the fork retry keeps a mesh of re-sliced forks, `contours`
+/// become the contours it was made from.
+RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult& mesh, const RepairInputs& inputs,
+                        const RepairParams& params = {}, const ProgressFn& progress = {});
+
+/// Step 5 on a finished mesh (exposed for tests; repair_mesh runs it last): fills the step's
+/// figures of the result. Precondition: `mesh` is closed, edge-manifold and oriented outward.
+RepairStats repair_crossings(MeshResult& mesh, const Skeleton& skeleton, const RepairParams& params = {});
 
 }  // namespace sm

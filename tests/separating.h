@@ -21,8 +21,8 @@ inline SkeletonParams separating_skeleton() {
 inline PipelineParams separating() {
   PipelineParams p;
   p.skeleton = separating_skeleton();
-  p.meshing.fork_retry = true;
-  p.meshing.outer_surface = true;
+  p.repair.fork_retry = true;
+  p.repair.outer_surface = true;
   return p;
 }
 

@@ -72,7 +72,7 @@ TEST(BatchList, ManifestEntriesWithTheirOwnOptions) {
   touch(dir / "trees.json", R"({"trees": [
       "t1.json",
       {"input": "sub/t2.mtg", "name": "walnut", "units": "mm,0.1mm", "config": "cfg.json", "offset": [10, 20, 0]},
-      {"input": "t3.csv", "columns": "radius=r", "format": "table", "config": {"meshing": {"outer_surface": false}}}]})");
+      {"input": "t3.csv", "columns": "radius=r", "format": "table", "config": {"repair": {"outer_surface": false}}}]})");
   const auto trees = batch::list_trees({(dir / "trees.json").string()}, {});
   ASSERT_EQ(trees.size(), 3u);
   EXPECT_EQ(trees[0].input, dir / "t1.json");
@@ -84,7 +84,7 @@ TEST(BatchList, ManifestEntriesWithTheirOwnOptions) {
   EXPECT_EQ(trees[1].offset, dvec3(10, 20, 0));
   EXPECT_EQ(trees[2].read.format, SkeletonFormat::table);
   EXPECT_EQ(trees[2].read.columns.at(0).second, "r");
-  EXPECT_EQ(trees[2].config["meshing"]["outer_surface"], false);
+  EXPECT_EQ(trees[2].config["repair"]["outer_surface"], false);
 
   const std::pair<const char*, const char*> bad[] = {
       {R"({"trees": [{"input": "a.json", "colour": "red"}]})", "trees[0]: unknown key \"colour\""},

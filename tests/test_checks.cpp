@@ -17,7 +17,6 @@
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
-#include "meshcheck/intersections.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
@@ -628,73 +627,6 @@ TEST(Checks, UnpairedHalfEdgesCountWhatMeshingWarnsOf) {
   EXPECT_EQ(unpaired(cone), 3u);
 }
 
-// The triangles of `s` as a mesh of the vertices they use (in order of first use).
-Mesh mesh_of(const OuterSurface& s) {
-  Mesh m;
-  std::vector<std::uint32_t> remap(s.positions.size(), UINT32_MAX);
-  for (const auto& t : s.triangles) {
-    Mesh::Triangle u{};
-    for (int i = 0; i < 3; ++i) {
-      if (remap[t[i]] == UINT32_MAX) {
-        remap[t[i]] = static_cast<std::uint32_t>(m.positions.size());
-        m.positions.push_back(s.positions[t[i]]);
-      }
-      u[i] = remap[t[i]];
-    }
-    m.triangles.push_back(u);
-  }
-  return m;
-}
-
-TEST(OuterSurfaceByWinding, UnfoldsASphereWhereCgalKeepsTheWrongPatches) {
-  // A sphere with one vertex dragged sideways over its neighbours (0.3, about two edges) and
-  // 3% inwards: its fan folds under the triangles beside it (6 pairs). CGAL's choice of
-  // patches (outer_surface) keeps the folded ones here and gives a surface of no volume; the
-  // winding numbers keep the sphere, with the fold cut away. The fold's cut line ends at a
-  // vertex, where the patches kept meet at a point: split, the surface is a manifold.
-  Mesh folded = test::icosphere(3);
-  const double volume = check_mesh(folded).signed_volume;
-  const glm::dvec3 p = folded.positions[0];
-  folded.positions[0] = 0.97 * p + 0.3 * glm::normalize(glm::cross(p, glm::dvec3(0.3, 1, 0.2)));
-  const MeshCheckReport before = check_mesh(folded);
-  ASSERT_TRUE(before.closed && before.oriented);
-  ASSERT_EQ(before.self_intersecting_pairs, 6u);
-
-  const OuterSurface s = outer_surface_by_winding(folded);
-  ASSERT_TRUE(s.fixed) << s.problem;
-  ASSERT_EQ(s.origin.size(), s.triangles.size());
-  for (const std::uint32_t o : s.origin) EXPECT_LT(o, folded.triangles.size());
-  const MeshCheckReport after = check_mesh(mesh_of(s));
-  EXPECT_TRUE(after.ok()) << to_text(after);
-  EXPECT_EQ(after.components, 1u);
-  EXPECT_EQ(after.genus, 0);
-  EXPECT_NEAR(after.signed_volume, volume, 1e-3 * volume);
-  EXPECT_LT(s.triangles.size(), folded.triangles.size() + 20);
-
-  // Unchanged where nothing crosses.
-  const Mesh sphere = test::icosphere(2);
-  const OuterSurface same = outer_surface_by_winding(sphere);
-  ASSERT_TRUE(same.fixed);
-  EXPECT_EQ(same.triangles, sphere.triangles);
-  EXPECT_EQ(same.positions, sphere.positions);
-}
-
-TEST(OuterSurfaceByWinding, KeepsTheUnionOfOverlappingParts) {
-  // Two spheres through each other: the union, the same surface CGAL's choice gives.
-  const Mesh both = test::merged(test::icosphere(2), test::icosphere(2, 0.8, glm::dvec3(0.9, 0.2, 0.1)));
-  const OuterSurface w = outer_surface_by_winding(both), c = outer_surface(both);
-  ASSERT_TRUE(w.fixed) << w.problem;
-  ASSERT_TRUE(c.fixed);
-  const MeshCheckReport rw = check_mesh(mesh_of(w)), rc = check_mesh(mesh_of(c));
-  EXPECT_TRUE(rw.ok()) << to_text(rw);
-  EXPECT_EQ(rw.components, 1u);
-  EXPECT_EQ(rw.genus, 0);
-  EXPECT_NEAR(rw.signed_volume, rc.signed_volume, 1e-9);
-  EXPECT_EQ(w.triangles.size(), c.triangles.size());
-  const double one = check_mesh(test::icosphere(2)).signed_volume;
-  EXPECT_GT(rw.signed_volume, one);
-  EXPECT_LT(rw.signed_volume, one * (1 + 0.8 * 0.8 * 0.8));
-}
 // ---------------------------------------------------------------- triangle quality
 
 /// One isosceles triangle per apex angle (degrees), legs of 1 m, none sharing an edge.

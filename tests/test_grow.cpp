@@ -499,10 +499,10 @@ TEST(GrowPresetsSlow, LargeMeshesRetryThePairsTheRepairLeft) {
   preset.params.seed = 3;
   const PipelineResult r = run_pipeline(grow_tree(preset.params).skeleton, PipelineParams{});
   EXPECT_GT(r.mesh.mesh.triangles.size(), 300'000u);
-  EXPECT_FALSE(r.mesh.crossings_everywhere);
-  EXPECT_GT(r.fork_retry.pairs_before, 0u);
-  EXPECT_GT(r.fork_retry.runs, 0u);
-  EXPECT_EQ(r.fork_retry.pairs_after, 0u);
+  EXPECT_FALSE(r.repair.fork_retry.counted_everywhere);
+  EXPECT_GT(r.repair.fork_retry.pairs_before, 0u);
+  EXPECT_GT(r.repair.fork_retry.runs, 0u);
+  EXPECT_EQ(r.repair.fork_retry.pairs_after, 0u);
   const MeshCheckReport c = check_mesh(r.mesh.mesh, {});
   EXPECT_EQ(c.self_intersecting_pairs, 0u);
   EXPECT_TRUE(c.closed && c.edge_manifold && c.vertex_manifold && c.oriented);
@@ -521,8 +521,8 @@ TEST(GrowPresetsSlow, CountingEverywhereRepairsALargeTree) {
   const RawSkeleton tree = grow_tree(preset.params).skeleton;
   PipelineParams p;
   const PipelineResult limited = run_pipeline(tree, p);
-  EXPECT_GT(limited.mesh.mesh.triangles.size(), p.meshing.count_pairs_up_to);
-  EXPECT_FALSE(limited.mesh.crossings_everywhere);
+  EXPECT_GT(limited.mesh.mesh.triangles.size(), p.repair.count_pairs_up_to);
+  EXPECT_FALSE(limited.repair.fork_retry.counted_everywhere);
   {
     // The warning names every thick node the check finds outside (here one).
     MeshCheckParams cp;
@@ -531,11 +531,11 @@ TEST(GrowPresetsSlow, CountingEverywhereRepairsALargeTree) {
     EXPECT_GT(c.thick_nodes, c.thick_nodes_inside);
     EXPECT_EQ(limited.warnings().count("thick_nodes_outside"), c.thick_nodes - c.thick_nodes_inside);
   }
-  p.meshing.count_pairs_up_to = 2'000'000;
+  p.repair.count_pairs_up_to = 2'000'000;
   const PipelineResult r = run_pipeline(tree, p);
-  EXPECT_TRUE(r.mesh.crossings_counted && r.mesh.crossings_everywhere);
-  EXPECT_GT(r.fork_retry.pairs_before + r.fork_retry.outside_before, 0u);
-  EXPECT_GT(r.fork_retry.runs, 0u);
+  EXPECT_TRUE(r.repair.fork_retry.counted_everywhere);
+  EXPECT_GT(r.repair.fork_retry.pairs_before + r.repair.fork_retry.outside_before, 0u);
+  EXPECT_GT(r.repair.fork_retry.runs, 0u);
   MeshCheckParams cp;
   cp.skeleton = &r.skeleton.skeleton;
   const MeshCheckReport c = check_mesh(r.mesh.mesh, cp);

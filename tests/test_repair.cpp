@@ -60,7 +60,7 @@ TEST(Repair, CleanMeshIsUnchanged) {
   r.mesh = test::icosphere(2);
   r.triangle_kind.assign(r.mesh.triangle_count(), TriangleKind::strip);
   const Mesh before = r.mesh;
-  const RepairStats st = repair_mesh(r, test::built(test::straight_branch()));
+  const RepairStats st = repair_crossings(r, test::built(test::straight_branch()));
   EXPECT_TRUE(st.counted);
   EXPECT_EQ(st.pairs_found, 0u);
   EXPECT_EQ(st.rounds, 0u);
@@ -106,8 +106,8 @@ PipelineParams keep_input() {
   PipelineParams p;
   p.skeleton.separate = false;
   p.skeleton.thick_child_policy = ThickChildPolicy::keep;
-  p.meshing.fork_retry = false;
-  p.meshing.outer_surface = false;
+  p.repair.fork_retry = false;
+  p.repair.outer_surface = false;
   return p;
 }
 

@@ -150,18 +150,19 @@ void stage_stats(const RunData& run, Stage s) {
     }
     case Stage::meshing: {
       const auto& st = r.mesh.stats;
+      const auto& folds = r.repair.junction_folds;
       std::snprintf(line, sizeof line,
                     "%zu vertices, %zu triangles, %zu merged junctions; fold repair: %zu crossing pairs found, %zu "
                     "flips, %zu vertices moved",
-                    r.mesh.mesh.vertex_count(), r.mesh.mesh.triangle_count(), st.merged_junctions, st.fold_pairs,
-                    st.fold_flips, st.fold_moves);
+                    r.mesh.mesh.vertex_count(), r.mesh.mesh.triangle_count(), st.merged_junctions, folds.found,
+                    folds.flips, folds.moves);
       ImGui::TextWrapped("%s", line);
       // What the fork retry, the near misses and the outer surface did (see `strandmesh -v mesh`), when they ran.
-      if (const auto& fr = r.fork_retry; fr.runs > 0) ImGui::TextWrapped("fork retry: %s", to_text(fr).c_str());
-      if (const auto& nm = r.near_misses; nm.outside_before > 0) {
+      if (const auto& fr = r.repair.fork_retry; fr.runs > 0) ImGui::TextWrapped("fork retry: %s", to_text(fr).c_str());
+      if (const auto& nm = r.repair.near_misses; nm.outside_before > 0) {
         ImGui::TextWrapped("near misses: %s", to_text(nm).c_str());
       }
-      if (const auto& os = r.outer_surface; os.tried) {
+      if (const auto& os = r.repair.outer_surface; os.tried) {
         ImGui::TextWrapped("outer surface: %s%s", to_text(os).c_str(),
                            os.refused.empty() ? "" : "; some attempts refused (hover)");
         if (!os.refused.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", os.refused.c_str());

@@ -235,13 +235,13 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
                     r.mesh.mesh.triangle_count(), r.mesh.mesh.vertex_count(), total.elapsed(), o->output.c_str());
       log::info(line);
       for (const std::string& l : lod_lines) log::info(l);
-      if (r.mesh.crossings_counted && !r.mesh.crossings_everywhere && global.verbose) {
+      if (r.repair.fork_retry.counted && !r.repair.fork_retry.counted_everywhere && global.verbose) {
         std::snprintf(line, sizeof line,
                       "note: self-intersections were looked for near the junctions only (%zu triangles, more than "
-                      "meshing.count_pairs_up_to = %zu): `strandmesh check` counts them all; a higher limit "
+                      "repair.count_pairs_up_to = %zu): `strandmesh check` counts them all; a higher limit "
                       "(configs/high_detail.json) has them looked for and repaired everywhere (about 2x the time, up "
                       "to 7x where it repairs)",
-                      r.mesh.mesh.triangle_count(), params.meshing.count_pairs_up_to);
+                      r.mesh.mesh.triangle_count(), params.repair.count_pairs_up_to);
         log::verbose(line);
       }
       // Per stage, and the phases of the two costliest (contours, meshing) under them.
@@ -252,12 +252,13 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       }
       std::snprintf(line, sizeof line, "  %-10s %8.3f s", "export", export_seconds);
       log::verbose(line);
-      if (const ForkRetryStats& fr = r.fork_retry; fr.runs > 0) {
-        log::verbose("  fork retry: " + to_text(fr) +
-                     " (the runs' times are in the stages above; the phases are the kept run's)");
+      if (const ForkRetryStats& fr = r.repair.fork_retry; fr.runs > 0) {
+        log::verbose("  fork retry: " + to_text(fr) + " (its runs' times are the repair stage's)");
       }
-      if (const NearMissStats& nm = r.near_misses; nm.outside_before > 0) log::verbose("  near misses: " + to_text(nm));
-      if (const OuterSurfaceStats& os = r.outer_surface; os.tried) {
+      if (const NearMissStats& nm = r.repair.near_misses; nm.outside_before > 0) {
+        log::verbose("  near misses: " + to_text(nm));
+      }
+      if (const OuterSurfaceStats& os = r.repair.outer_surface; os.tried) {
         log::verbose("  outer surface: " + to_text(os) + (os.refused.empty() ? "" : "; not kept: " + os.refused));
       }
       if (o->strict) {

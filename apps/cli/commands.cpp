@@ -2,12 +2,13 @@
 
 namespace sm::cli {
 
-std::array<std::pair<const char*, const Timings*>, 5> stage_phases(const PipelineResult& r) {
+std::array<std::pair<const char*, const Timings*>, 6> stage_phases(const PipelineResult& r) {
   return {{{"skeleton", nullptr},
            {"particles", nullptr},
            {"strands", nullptr},
            {"contours", &r.contours.stats.timings},
-           {"meshing", &r.mesh.stats.timings}}};
+           {"meshing", &r.mesh.stats.timings},
+           {"repair", &r.repair.timings}}};
 }
 
 void register_commands(CLI::App& app, const GlobalOptions& global) {

@@ -19,8 +19,8 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global);
 void add_params_command(CLI::App& app, const GlobalOptions& global);
 
 /// The pipeline's stages in order, each with its phases' Timings where it has some (contours
-/// and meshing), as `mesh` and `bench` print them.
-std::array<std::pair<const char*, const Timings*>, 5> stage_phases(const PipelineResult& r);
+/// meshing and repair), as `mesh` and `bench` print them.
+std::array<std::pair<const char*, const Timings*>, 6> stage_phases(const PipelineResult& r);
 
 /// Adds every subcommand in the order shown by --help.
 void register_commands(CLI::App& app, const GlobalOptions& global);

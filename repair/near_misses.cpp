@@ -1,6 +1,6 @@
-// Near misses: a local push of the surface over thick nodes just outside it (near_misses.h).
+// Step 3 of the repair stage, near misses: a local push of the surface over thick nodes just outside it (near_misses.h).
 
-#include "meshing/near_misses.h"
+#include "repair/near_misses.h"
 
 #include <algorithm>
 #include <array>
@@ -215,9 +215,8 @@ std::string to_text(const NearMissStats& s) {
   return buf;
 }
 
-NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, const MeshParams& params) {
+NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton) {
   NearMissStats stats;
-  if (!params.cover_near_misses) return stats;
   stats.tried = true;
   Stopwatch clock;
   Mesh& mesh = result.mesh;

@@ -1,4 +1,4 @@
-// The outer surface of a closed mesh whose parts run into each other (see intersections.h):
+// The outer surface of a closed mesh whose parts run into each other (see outer_surface_cgal.h):
 // CGAL Polygon Mesh Processing's autorefinement, which cuts every pair of intersecting
 // triangles along their intersection, with the patches that end up inside another part
 // removed (experimental::autorefine_and_remove_self_intersections), or the patches chosen by
@@ -25,7 +25,7 @@
 
 #include "core/mesh.h"
 #include "core/union_find.h"
-#include "meshcheck/intersections.h"
+#include "repair/outer_surface_cgal.h"
 
 namespace sm {
 

@@ -1,19 +1,20 @@
 #pragma once
-/// Outer surface: the last resort for self-intersecting pairs and thick skeleton nodes outside
-/// the mesh that the fold repair and the fork retry leave (MeshParams::outer_surface).
+/// Step 4 of the repair stage, the outer surface: for self-intersecting pairs and thick
+/// skeleton nodes outside the mesh that the fold repair, the fork retry and the near-miss push
+/// leave (RepairParams::outer_surface).
 ///
 /// Where two parts of the tree's surface run into each other (a branch into its sibling or its
 /// own sub-branch near a crotch), no retriangulation of either part removes the crossing: the
 /// surfaces have to be cut where they meet and joined, keeping what lies outside both. CGAL's
-/// autorefinement does that (intersections.h, outer_surface). It is judged like any other
-/// change: the result must pass `check_mesh` (meshing/checks.h) at least as well in every
+/// autorefinement does that (outer_surface_cgal.h, outer_surface). It is judged like any other
+/// change: the result must pass `check_mesh` (meshcheck/checks.h) at least as well in every
 /// respect as the mesh it replaces (closed, edge- and vertex-manifold, oriented, one component,
 /// the same genus, no degenerate triangles, no more thick skeleton nodes outside, fidelity p95
 /// no worse beyond its tolerance) and have fewer self-intersecting pairs; otherwise the mesh
 /// is kept as it was. Folds of the surface (a fan of triangles over its own vertex), which
 /// are not parts inside parts, are where CGAL's choice of patches goes wrong (a surface of
 /// negative volume, refused): there the patches are chosen again by winding numbers
-/// (outer_surface_by_winding, intersections.h), which keeps those bounding the union of the
+/// (outer_surface_by_winding, outer_surface_cgal.h), which keeps those bounding the union of the
 /// solids the surface wraps. Where that is refused too, it is tried cluster by cluster
 /// (WindingPatches), each cluster of crossings kept if the mesh does better with it.
 ///
@@ -34,12 +35,13 @@
 #include <string>
 
 #include "meshing/meshing.h"
+#include "repair/junction_folds.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
 
 struct OuterSurfaceStats {
-  bool tried = false;                   ///< pairs or thick nodes outside were left, and MeshParams::outer_surface is on
+  bool tried = false;                   ///< pairs or thick nodes outside were left, and RepairParams::outer_surface is on
   bool applied = false;                 ///< an outer surface replaced the mesh
   std::size_t pairs_before = 0;         ///< self-intersecting pairs of the mesh given
   std::size_t pairs_after = 0;          ///< of the mesh kept
@@ -60,10 +62,10 @@ std::string to_text(const OuterSurfaceStats& stats);
 
 /// Replaces `result`'s mesh by its outer surface where pairs or thick nodes outside are left
 /// (see above), updating the mesh's attributes, triangle kinds, figures and `crossings`.
-/// `skeleton` is the sanitized skeleton the mesh was made from. Runs where the meshing stage
-/// counted the pairs (MeshResult::crossings_counted) and found some, or where the caller
-/// knows of thick nodes outside (`thick_nodes_outside`: the fork retry's count).
-OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params,
+/// `skeleton` is the sanitized skeleton the mesh was made from. Runs where the pairs were
+/// counted (Crossings::counted) and some found, or where the caller knows of thick nodes
+/// outside (`thick_nodes_outside`: the fork retry's count).
+OuterSurfaceStats keep_outer_surface(MeshResult& result, Crossings& crossings, const Skeleton& skeleton,
                                      bool thick_nodes_outside = false);
 
 }  // namespace sm

@@ -20,7 +20,7 @@
 // keeps the Euler characteristic, and a new inner edge that is an edge elsewhere already is
 // refused. It too must lower the crossings, of the disk with itself and the two rings around it.
 
-#include "meshing/fold_repair.h"
+#include "repair/fold_repair.h"
 
 #include <algorithm>
 #include <array>

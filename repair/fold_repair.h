@@ -1,8 +1,8 @@
 #pragma once
 /// \file fold_repair.h
 /// Fold repair: removes local self-intersections of a closed triangle mesh by edge flips and,
-/// where no flip helps, small vertex moves (internal to the meshing stage; the exact tests
-/// come from sm_meshcheck's TriangleIntersections, so no meshing file compiles CGAL).
+/// where no flip helps, small vertex moves (steps 1 and 5 of the repair stage; the exact tests
+/// come from sm_meshcheck's TriangleIntersections).
 ///
 /// Where loops of very different shape are stitched (fused loops above a fork, split loops,
 /// crotches), the greedy strips can fold: a triangle dips behind its neighbours and crosses

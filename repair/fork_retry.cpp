@@ -1,6 +1,6 @@
-// Fork retry (see fork_retry.h).
+// Step 2 of the repair stage: the fork retry (see fork_retry.h).
 
-#include "pipeline/fork_retry.h"
+#include "repair/fork_retry.h"
 
 #include <algorithm>
 #include <array>
@@ -17,7 +17,7 @@
 
 #include "core/mesh.h"
 #include "meshcheck/checks.h"
-#include "pipeline/pipeline.h"
+#include "repair/repair.h"
 
 namespace sm {
 namespace {
@@ -65,8 +65,7 @@ constexpr std::array<LocalContourScale, 9> kVariants{{
 
 struct Run {
   std::vector<LocalContourScale> scale;  // per group: the factors its forks were sliced with
-  ContourSet contours;
-  MeshResult mesh;
+  ForkRetryState state;
   std::vector<std::size_t> outside;  // per group: watched nodes outside the mesh
   std::vector<double> web;           // per group: longest edge near its forks (webs())
 };
@@ -270,41 +269,39 @@ std::vector<double> webs(const Skeleton& s, const Mesh& mesh, const Groups& grou
 
 }  // namespace
 
-ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const ProgressFn& progress) {
+ForkRetryStats retry_forks(ForkRetryState& first, const RepairInputs& in, const RepairParams& params,
+                           const ProgressFn& progress) {
   ForkRetryStats stats;
-  stats.counted = r.mesh.crossings_counted;
-  stats.pairs_before = stats.pairs_after = r.mesh.crossings.size();
+  MeshResult& mesh = first.mesh;
+  Crossings& crossings = first.crossings;
+  stats.counted = crossings.counted;
+  stats.counted_everywhere = crossings.counted && crossings.everywhere;
+  stats.pairs_before = stats.pairs_after = crossings.pairs.size();
   // (A mesh with edges not shared by two triangles is a bug, reported as one; the retry
   // counts nodes inside by ray crossings, which needs a closed mesh.)
-  if (!p.meshing.fork_retry || !r.mesh.crossings_counted || r.mesh.stats.bad_edges > 0) return stats;
-  if (!r.mesh.crossings_everywhere && r.mesh.crossings.empty()) return stats;  // (see the header)
-  const Skeleton& s = r.skeleton.skeleton;
+  if (!params.fork_retry || !crossings.counted || mesh.stats.bad_edges > 0) return stats;
+  if (!crossings.everywhere && crossings.pairs.empty()) return stats;  // (see the header)
+  const Skeleton& s = in.skeleton;
   // The thick nodes outside the first mesh (as `strandmesh check` finds them: winding number
   // below 1/2; counted by ray crossings in one pass over the triangles, 1-4 ms on the samples
-  // where the check took 24-190 ms, with the same nodes). This and the first mesh's windings
-  // count as meshing time.
-  Stopwatch own;
+  // where the check took 24-190 ms, with the same nodes).
   std::vector<NodeId> outside_nodes;
   {
     const std::vector<std::uint32_t> thick = thick_node_ids(s);
     std::vector<glm::dvec3> at;
     at.reserve(thick.size());
     for (const std::uint32_t n : thick) at.push_back(s.position[n]);
-    const std::vector<std::uint8_t> inside = inside_closed_mesh(r.mesh.mesh, at);
+    const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh.mesh, at);
     for (std::size_t k = 0; k < thick.size(); ++k) {
       if (!inside[k]) outside_nodes.push_back(NodeId(thick[k]));
     }
   }
-  const Groups groups(s, r.mesh.crossings, outside_nodes);
+  const Groups groups(s, crossings.pairs, outside_nodes);
   stats.groups = groups.count;
-  if (groups.count == 0) {
-    r.timings.add(stage_name(Stage::meshing), own.lap());
-    return stats;
-  }
+  if (groups.count == 0) return stats;
   const Watched watched(s, groups);
-  const std::vector<std::size_t> outside_before = watched.outside(s, r.mesh.mesh, groups.count);
-  const std::vector<double> web_before = webs(s, r.mesh.mesh, groups);
-  r.timings.add(stage_name(Stage::meshing), own.lap());
+  const std::vector<std::size_t> outside_before = watched.outside(s, mesh.mesh, groups.count);
+  const std::vector<double> web_before = webs(s, mesh.mesh, groups);
   auto sum = [](const std::vector<std::size_t>& v) { return std::accumulate(v.begin(), v.end(), std::size_t{0}); };
   const std::size_t outside_total = sum(outside_before);
   stats.outside_before = stats.outside_after = outside_total;
@@ -322,28 +319,21 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     }
     return local;
   };
-  // One run of the contour and meshing stages; `seconds` gets the time of each.
-  auto run = [&](const std::vector<LocalContourScale>& scale, std::array<double, 2>& seconds) {
+  // One run of the contour and meshing stages and of the fold repair near the forks.
+  auto run = [&](const std::vector<LocalContourScale>& scale) {
     const std::vector<LocalContourScale> local = local_for(scale);
     Run out;
     out.scale = scale;
-    Stopwatch clock;
-    out.contours = compute_contours(s, r.particles, r.strands, p.contours, local);
-    seconds[0] = clock.lap();
-    out.mesh = build_mesh(s, out.contours, p.meshing);
+    out.state.contours = compute_contours(s, in.particles, in.strands, in.contour_params, local);
+    StitchedMesh stitched = stitch_mesh(s, out.state.contours, in.mesh_params);
+    out.state.folds =
+        repair_junction_folds(stitched, s, out.state.contours, params, out.state.crossings, out.state.warnings);
+    out.state.mesh = finish_mesh(std::move(stitched), in.mesh_params);
     // A trial mesh that is not closed (a bug) counts every node as outside: never kept.
-    out.outside = out.mesh.stats.bad_edges > 0 ? std::vector<std::size_t>(groups.count, s.size())
-                                               : watched.outside(s, out.mesh.mesh, groups.count);
-    out.web = webs(s, out.mesh.mesh, groups);
-    seconds[1] = clock.lap();
+    out.outside = out.state.mesh.stats.bad_edges > 0 ? std::vector<std::size_t>(groups.count, s.size())
+                                                     : watched.outside(s, out.state.mesh.mesh, groups.count);
+    out.web = webs(s, out.state.mesh.mesh, groups);
     return out;
-  };
-  // The wall time of runs made at once, shared between the two stages in proportion to the
-  // runs' own times in them.
-  auto add_times = [&](double elapsed, double contours, double meshing) {
-    const double share = contours + meshing > 0 ? contours / (contours + meshing) : 0.0;
-    r.timings.add(stage_name(Stage::contours), elapsed * share);
-    r.timings.add(stage_name(Stage::meshing), elapsed * (1.0 - share));
   };
 
   // Every group tries every variant at once (their pairs and nodes are counted apart). A
@@ -352,18 +342,18 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
   // order of kVariants up to the first after which no pairs or nodes are left, so the outcome
   // is the same for any thread count.
   using Score = std::pair<std::size_t, std::size_t>;  // (thick nodes outside, pairs)
-  const std::vector<std::size_t> pairs_before = groups.tally(s, r.mesh.crossings);
+  const std::vector<std::size_t> pairs_before = groups.tally(s, crossings.pairs);
   std::vector<Score> best(groups.count);
   for (std::size_t g = 0; g < groups.count; ++g) best[g] = {outside_before[g], pairs_before[g]};
   std::vector<LocalContourScale> best_scale(groups.count);
-  Score best_total{outside_total, r.mesh.crossings.size()};
+  Score best_total{outside_total, crossings.pairs.size()};
   const Score first_total = best_total;
   auto admissible = [](const Score& x, const Score& limit) { return x.first <= limit.first && x.second <= limit.second; };
   std::optional<Run> best_run;  // the best run, if better than the first
   auto take = [&](Run& out) {
     ++stats.runs;
-    if (!out.mesh.crossings_counted) return;
-    const std::vector<std::size_t> count = groups.tally(s, out.mesh.crossings);
+    if (!out.state.crossings.counted) return;
+    const std::vector<std::size_t> count = groups.tally(s, out.state.crossings.pairs);
     auto webbed = [&](std::size_t g) { return out.web[g] > kWebGrowth * web_before[g]; };
     bool any_web = false;
     for (std::size_t g = 0; g < groups.count; ++g) {
@@ -376,7 +366,7 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
         best_scale[g] = out.scale[g];
       }
     }
-    const Score total{sum(out.outside), out.mesh.crossings.size()};
+    const Score total{sum(out.outside), out.state.crossings.pairs.size()};
     if (admissible(total, first_total) && !any_web && total < best_total) {
       best_total = total;
       best_run = std::move(out);
@@ -392,18 +382,13 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
     std::size_t taken = 0;
     std::atomic<std::size_t> next{0}, stop{n};
     std::mutex mutex;
-    double contours = 0, meshing = 0;
-    Stopwatch wall;
     tbb::parallel_for(std::size_t{0}, workers, [&](std::size_t) {
       for (std::size_t k = next++; k < stop.load(); k = next++) {
-        std::array<double, 2> seconds{};
         // Isolated: while a trial waits for its own parallel loops, its thread takes no other
         // trial onto its stack.
         Run out = tbb::this_task_arena::isolate(
-            [&] { return run(std::vector<LocalContourScale>(groups.count, kVariants[k]), seconds); });
+            [&] { return run(std::vector<LocalContourScale>(groups.count, kVariants[k])); });
         const std::lock_guard lock(mutex);
-        contours += seconds[0];
-        meshing += seconds[1];
         finished[k] = std::move(out);
         for (; taken < stop.load() && finished[taken]; ++taken) {
           take(*finished[taken]);
@@ -413,7 +398,6 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
         if (progress) progress("fork retry", double(taken) / double(n + 1));
       }
     }, tbb::simple_partitioner());
-    add_times(wall.lap(), contours, meshing);
   }
   // Each group with its best variant, unless that is one of the runs made already (all the
   // same variant).
@@ -421,17 +405,11 @@ ForkRetryStats retry_forks(PipelineResult& r, const PipelineParams& p, const Pro
                                  [&](const LocalContourScale& v) { return !(v == best_scale.front()); });
   if (mixed && best_total != Score{}) {
     if (progress) progress("fork retry", double(kVariants.size()) / double(kVariants.size() + 1));
-    std::array<double, 2> seconds{};
-    Stopwatch wall;
-    Run out = run(best_scale, seconds);
-    add_times(wall.lap(), seconds[0], seconds[1]);
+    Run out = run(best_scale);
     take(out);
   }
-  if (best_run) {
-    r.contours = std::move(best_run->contours);
-    r.mesh = std::move(best_run->mesh);
-  }
-  stats.pairs_after = r.mesh.crossings.size();
+  if (best_run) first = std::move(best_run->state);
+  stats.pairs_after = first.crossings.pairs.size();
   stats.outside_after = best_total.first;
   if (progress) progress("fork retry", 1.0);
   return stats;
@@ -447,17 +425,16 @@ std::string to_text(const ForkRetryStats& fr) {
   return line;
 }
 
-void warn_self_intersections_left(PipelineResult& r) {
-  const Skeleton& s = r.skeleton.skeleton;
+void warn_self_intersections_left(const Crossings& crossings, const Skeleton& s, Warnings& warnings) {
   std::vector<NodeId> named;
-  for (const Crossing& c : r.mesh.crossings) {
+  for (const Crossing& c : crossings.pairs) {
     const std::vector<NodeId> forks = forks_of(s, c);
     const bool fresh = !forks.empty() && std::find(named.begin(), named.end(), forks.front()) == named.end();
     if (fresh) named.push_back(forks.front());
-    r.mesh.stats.warnings.add("self_intersections_left",
-                              "self-intersecting triangle pairs left near a crotch after the fold repair, the fork "
-                              "retry and the outer surface",
-                              fresh ? s.describe(forks.front()) : std::string{});
+    warnings.add("self_intersections_left",
+                 "self-intersecting triangle pairs left near a crotch after the fold repair, the fork retry and the "
+                 "outer surface",
+                 fresh ? s.describe(forks.front()) : std::string{});
   }
 }
 

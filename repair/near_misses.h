@@ -1,7 +1,7 @@
 #pragma once
-/// Near misses: thick skeleton nodes (radius at least the median, as `strandmesh check` counts
-/// them) that end up a little outside the finished mesh, and a local push of the surface over
-/// each (MeshParams::cover_near_misses).
+/// Step 3 of the repair stage, near misses: thick skeleton nodes (radius at least the median,
+/// as `strandmesh check` counts them) that end up a little outside the finished mesh, and a
+/// local push of the surface over each (RepairParams::cover_near_misses).
 ///
 /// Where a twig leaves a fork at a steep angle or off a thick trunk, the crotch's loops can
 /// pass a fraction of the twig's radius on the wrong side of a node at its base. The fork
@@ -36,7 +36,7 @@
 namespace sm {
 
 struct NearMissStats {
-  bool tried = false;              ///< MeshParams::cover_near_misses was on
+  bool tried = false;              ///< RepairParams::cover_near_misses was on
   std::size_t outside_before = 0;  ///< thick nodes outside the mesh given
   std::size_t outside_after = 0;   ///< thick nodes outside the mesh kept
   std::size_t covered = 0;         ///< pushes kept
@@ -51,9 +51,8 @@ struct NearMissStats {
 std::string to_text(const NearMissStats& stats);
 
 /// Pushes the surface of `result`'s mesh over the thick nodes of `skeleton` (the sanitized
-/// skeleton the mesh was made from) just outside it, as above. Runs when
-/// MeshParams::cover_near_misses is on; `result.crossings` is left as it was (no push adds a
-/// pair).
-NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton, const MeshParams& params);
+/// skeleton the mesh was made from) just outside it, as above. No push adds a pair, so the
+/// pairs counted before (Crossings) still hold.
+NearMissStats cover_near_misses(MeshResult& result, const Skeleton& skeleton);
 
 }  // namespace sm

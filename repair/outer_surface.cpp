@@ -1,7 +1,7 @@
 // Outer surface: the last resort for the self-intersections and thick nodes outside left (see
 // outer_surface.h).
 
-#include "meshing/outer_surface.h"
+#include "repair/outer_surface.h"
 
 #include <algorithm>
 #include <array>
@@ -18,7 +18,7 @@
 #include "core/math.h"
 #include "core/report.h"
 #include "meshcheck/checks.h"
-#include "meshcheck/intersections.h"
+#include "repair/outer_surface_cgal.h"
 
 namespace sm {
 
@@ -241,11 +241,10 @@ MeshResult joined(const MeshResult& a, const MeshResult& b) {
 
 }  // namespace
 
-OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleton, const MeshParams& params,
+OuterSurfaceStats keep_outer_surface(MeshResult& result, Crossings& crossings, const Skeleton& skeleton,
                                      bool thick_nodes_outside) {
   OuterSurfaceStats stats;
-  if (!params.outer_surface || !result.crossings_counted || (result.crossings.empty() && !thick_nodes_outside))
-    return stats;
+  if (!crossings.counted || (crossings.pairs.empty() && !thick_nodes_outside)) return stats;
   Stopwatch clock;
   stats.tried = true;
   MeshCheckParams check;
@@ -279,8 +278,8 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, const Skeleton& skeleto
     result.triangle_kind = std::move(cand.kinds);
     result.stats.vertices = result.mesh.positions.size();
     result.stats.triangles = result.mesh.triangles.size();
-    result.crossings.clear();
-    for (const auto& [a, b] : after.self_intersection_examples) result.crossings.push_back(crossing_of(result.mesh, a, b));
+    crossings.pairs.clear();
+    for (const auto& [a, b] : after.self_intersection_examples) crossings.pairs.push_back(crossing_of(result.mesh, a, b));
     now = after;
     stats.applied = true;
     return true;

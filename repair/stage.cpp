@@ -1,0 +1,91 @@
+// The repair stage's entry: its steps in order (see repair.h).
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "repair/repair.h"
+
+namespace sm {
+namespace {
+
+/// Warns (`thick_nodes_outside`, naming them) of the thick skeleton nodes the near-miss push
+/// left outside the mesh (NearMissStats::left) that are still outside the final mesh (tested
+/// again where the outer surface replaced it). Nothing when the push is off, which is where
+/// they are found on every mesh size.
+void warn_thick_nodes_outside(const Mesh& mesh, const Skeleton& s, const RepairStats& st, Warnings& warnings) {
+  std::vector<NodeId> left = st.near_misses.left;
+  if (!left.empty() && st.outer_surface.applied) {
+    std::vector<glm::dvec3> at;
+    for (const NodeId n : left) at.push_back(s.position[n.idx()]);
+    const std::vector<std::uint8_t> inside = inside_closed_mesh(mesh, at);
+    std::vector<NodeId> still;
+    for (std::size_t k = 0; k < left.size(); ++k) {
+      if (!inside[k]) still.push_back(left[k]);
+    }
+    left = std::move(still);
+  }
+  for (const NodeId n : left) {
+    warnings.add("thick_nodes_outside",
+                 "skeleton node at least the median radius thick left outside the mesh (after the fork retry, the "
+                 "near-miss push and the outer surface)",
+                 s.describe(n));
+  }
+}
+
+}  // namespace
+
+RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult& mesh, const RepairInputs& in,
+                        const RepairParams& params, const ProgressFn& progress) {
+  validate_params(params);
+  const Skeleton& s = in.skeleton;
+  auto report = [&](std::string_view phase) {
+    if (progress) progress(phase, 0);
+  };
+  Stopwatch clock;
+  Timings timings;
+  // 1. Folds near the forks, on the stitched numbering; then the surface is finished.
+  ForkRetryState state;
+  state.folds = repair_junction_folds(stitched, s, contours, params, state.crossings, state.warnings);
+  timings.add("junction_folds", clock.lap());
+  state.mesh = finish_mesh(std::move(stitched), in.mesh_params);
+  timings.add("finish", clock.lap());
+  // 2. The fork retry: the mesh kept and its contours, folds and pairs may be a retry's.
+  state.contours = std::move(contours);
+  const ForkRetryStats fork_retry = retry_forks(state, in, params, progress);
+  contours = std::move(state.contours);
+  mesh = std::move(state.mesh);
+  timings.add("fork_retry", clock.lap());
+  // 3. Near misses (they add no pair: the pairs counted still hold).
+  NearMissStats near_misses;
+  if (params.cover_near_misses) near_misses = cover_near_misses(mesh, s);
+  timings.add("near_misses", clock.lap());
+  // 4. The outer surface, told of thick nodes outside where the retry left some that the
+  // push did not cover.
+  report("outer surface");
+  const bool nodes_outside =
+      fork_retry.outside_after > 0 && (!near_misses.tried || near_misses.outside_after > 0);
+  OuterSurfaceStats outer;
+  if (params.outer_surface) outer = keep_outer_surface(mesh, state.crossings, s, nodes_outside);
+  timings.add("outer_surface", clock.lap());
+  // 5. Crossings anywhere: folds and the self-union.
+  report("repair");
+  RepairStats st = repair_crossings(mesh, s, params);
+  st.junction_folds = state.folds;
+  st.fork_retry = fork_retry;
+  st.near_misses = std::move(near_misses);
+  st.outer_surface = std::move(outer);
+  for (const auto& e : st.timings.entries) timings.add(e.name, e.seconds);
+  st.timings = std::move(timings);
+  Warnings warnings = std::move(state.warnings);
+  warnings.merge(st.warnings);
+  // The pairs left are named by crotch where step 5 did not count them itself (a mesh over
+  // count_pairs_up_to: those step 1 left near the forks).
+  if (!st.counted) warn_self_intersections_left(state.crossings, s, warnings);
+  warn_thick_nodes_outside(mesh.mesh, s, st, warnings);
+  st.warnings = std::move(warnings);
+  return st;
+}
+
+}  // namespace sm
