@@ -103,7 +103,7 @@ struct ContourParams {
   /// relative to the neighbour distance of the particles (1.0 = one empty particle slot).
   double split_gap = 1.5;
   /// At a fork whose thinner child is thinner than half a neighbour distance (the twigs of a
-  /// tree sampled coarsely: conifer twigs of 1.5 mm against 5.7 mm), the split gap is measured
+  /// tree sampled coarsely), the split gap is measured
   /// in this many of that child's radii instead, so the bundles split once they are apart on
   /// the twigs' scale rather than the particles' (each surface must still clear the other
   /// subtree's cones by half a split gap of neighbour distances); 0 = always the neighbour

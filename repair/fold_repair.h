@@ -6,8 +6,8 @@
 ///
 /// Where loops of very different shape are stitched (fused loops above a fork, split loops,
 /// crotches), the greedy strips can fold: a triangle dips behind its neighbours and crosses
-/// them. Most such pairs lie within a ring or two of each other (measured: 60-80% on the
-/// sample skeletons), and another triangulation of the same vertices is free of the crossing.
+/// them. Most such pairs lie within a ring or two of each other (docs/defaults.md), and
+/// another triangulation of the same vertices is free of the crossing.
 /// The repair finds the intersecting pairs around the creases of the `suspect` triangles
 /// (exact predicates) and flips an edge of either triangle whenever that lowers the number of
 /// crossings with the triangles around it, keeping both new triangles facing the way the old
@@ -64,14 +64,12 @@ struct FoldRepairOptions {
   int max_rounds = 8;
   /// A mesh whose suspect triangles have more intersecting pairs than this at the start is
   /// left as it is (gave_up): its branches run through each other, which no local change
-  /// untangles (a skeleton of 300 twigs from one node had 253,392 pairs, and the repair ran
-  /// for hours). The rounds also stop once they have handled 4 x this many pairs together.
-  /// The samples start with at most a few thousand, the 3.4 M-triangle bench tree 1,483.
+  /// untangles, and which would take hours. The rounds also stop once they have handled 4 x
+  /// this many pairs together. (Figures: docs/defaults.md.)
   std::size_t max_pairs = 20'000;
   /// Budget of exact triangle-pair tests: this many per triangle of the mesh, plus
-  /// min_tests; beyond, the repair stops where it is (out_of_tests). The samples make 0.3-56
-  /// per triangle (the 3.4 M-triangle bench tree 0.15); a tangle of 5,000 twigs from one node
-  /// thousands, over 30 s, on a mesh of 17,000 triangles.
+  /// min_tests; beyond, the repair stops where it is (out_of_tests): far above what trees
+  /// need, far below what a tangle of twigs from one node would take.
   std::size_t max_tests_per_triangle = 200;
   std::size_t min_tests = 5'000'000;
   /// Where flips and moves do not help, collapse an edge of the pair or of a triangle sharing

@@ -1,9 +1,8 @@
 #pragma once
 /// Step 1 of the repair stage: the fold repair (fold_repair.h) on the stitched surface where
 /// it folds most, the triangles of the junctions and the strips touching a fused or split loop
-/// (caps and plain strips take part in under 1 % of the pairs on the sample skeletons, and caps
-/// are a large share of a big tree's triangles); then the count of the self-intersecting pairs
-/// left, which the later steps start from.
+/// (caps and plain strips rarely fold, and caps are a large share of a big tree's triangles);
+/// then the count of the self-intersecting pairs left, which the later steps start from.
 
 #include <array>
 #include <cstddef>

@@ -19,7 +19,7 @@
 /// (WindingPatches), each cluster of crossings kept if the mesh does better with it.
 ///
 /// Thick nodes outside (a stub's base in the crotch between two tubes, a tip just past its
-/// cap: 0.2-1.4 mm outside on the samples) get a small sphere centred on the node, reaching a
+/// cap: a millimetre or so outside) get a small sphere centred on the node, reaching a
 /// quarter of its radius beyond the mesh (else a tenth: a larger one may bridge a crotch and
 /// make a handle), joined to the mesh by CGAL's corefinement union, which leaves the mesh's
 /// own folds elsewhere alone; judged the same way, with more nodes inside as the gain. Only

@@ -35,9 +35,9 @@ namespace sm {
 
 struct RepairParams {
   /// Largest mesh (triangles) whose self-intersecting pairs are looked for over the whole
-  /// mesh. On a larger one only the pairs the fold repair near the forks leaves there are
-  /// known, and the last step is skipped. configs/high_detail.json counts every mesh.
-  std::size_t count_pairs_up_to = 300'000;
+  /// mesh (default: every mesh). On a larger one only the pairs the fold repair near the forks
+  /// leaves there are known, and the last step is skipped.
+  std::size_t count_pairs_up_to = 1'000'000'000;
   /// Rounds of the fold repair near the forks (step 1; 0 = none).
   std::uint32_t junction_fold_rounds = 8;
   /// Largest vertex move of the fold repair near the forks, relative to the local skeleton
@@ -51,12 +51,12 @@ struct RepairParams {
   /// vertex moves and keeps the run leaving the fewest.
   bool junction_fold_variants = false;
   /// Step 2: re-slice the forks around pairs or thick nodes outside and keep each crotch's best.
-  bool fork_retry = true;
+  bool fork_retry = false;
   /// Step 3: push the surface over thick nodes just outside it where no crossing results.
   bool cover_near_misses = true;
   /// Step 4: where pairs or thick nodes outside are left, keep the mesh's outer surface if it
   /// checks better.
-  bool outer_surface = true;
+  bool outer_surface = false;
   /// Step 5: replace self-intersecting parts of the surface by their union (false: leave them).
   bool self_union = true;
   /// Rounds of finding pairs and cutting them (a count; a round after the first only meets

@@ -32,7 +32,7 @@ namespace sm {
 /// tree's centre (meshio/export.h), whose 24-bit mantissa resolves about 1e-7 of the
 /// tree's size: a tree more than a million times as large as its thinnest branch (after the
 /// radius floor) cannot be meshed at the precision the contours need, and the costs of the
-/// later stages grow with that ratio (an edge of 1e6 m at radius 0.05 ran for hours).
+/// later stages grow with that ratio (docs/reliability.md).
 /// Georeferenced trees (UTM or ECEF coordinates, millions of metres, with twigs of a
 /// millimetre or less) are fine: the stages work in double precision, which resolves 1e-5 of
 /// the thinnest radius up to 1e11 radii from the origin, and the float grid and the exported
@@ -45,9 +45,9 @@ struct SkeletonLimits {
   /// Largest extent (bounding box side, radii included) over the thinnest radius.
   static constexpr double max_extent_ratio = 1e6;
   /// Most children of one node. The contour stage's work at a hub grows with the square of
-  /// its children (every split test there cuts the strands of all of them): 10,000 twigs from
-  /// one point take about half a minute and 20,000 two minutes, and neither mesh follows its
-  /// twigs (docs/reliability.md). Measured trees have at most a few children per node.
+  /// its children (every split test there cuts the strands of all of them), and no mesh of
+  /// thousands of twigs from one point follows its twigs (docs/reliability.md has the
+  /// times). Measured trees have at most a few children per node.
   static constexpr std::size_t max_children = 10'000;
 };
 
@@ -71,7 +71,7 @@ struct SkeletonParams {
   double max_child_ratio = 1.0;
   /// keep leaves radii as the input gives them (measured trees have children thicker than
   /// their parent at most nodes).
-  ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
+  ThickChildPolicy thick_child_policy = ThickChildPolicy::keep;
   /// Edges longer than this many times the local radius are split into equal parts;
   /// 0 disables resampling (default); otherwise at least 1.
   double max_edge_ratio = 0.0;
@@ -85,8 +85,8 @@ struct SkeletonParams {
   /// twigs) first gets its laterals grouped by direction under at most this many cluster
   /// nodes, recursively, before binarizing (warning "clustered_children"). A chain of k binary
   /// forks carries every strand of the forks above it, so a chain of thousands of forks holds
-  /// particles quadratic in k (a 5,000-twig star: ~60 M, minutes in the contour stage);
-  /// clusters keep chains at most this long. 0 disables (chains of any length).
+  /// particles quadratic in k (docs/defaults.md); clusters keep chains at most this long.
+  /// 0 disables (chains of any length).
   std::size_t max_chain_forks = 8;
   /// Merge a branch that runs inside its sibling's round cone into the sibling's edge (see
   /// build.cpp, merge_inner_branches); Sapling output needs it. Also removes tips lying
@@ -96,7 +96,7 @@ struct SkeletonParams {
   /// the fork (relative to the fork's radius: 1 = on the parent's surface) so the lateral's
   /// round cone does not flare from the fork's full radius; 0 disables. Less than 1: a collar
   /// on the parent's surface sits in the crotch, where the mesh cuts the corner.
-  double collar_ratio = 0.7;
+  double collar_ratio = 0.0;
   /// Only laterals thinner than this fraction of the fork's radius get a collar node.
   double collar_max_child_ratio = 0.7;
   /// ... and only those reaching at least this many of their own radii beyond the collar.
@@ -108,7 +108,7 @@ struct SkeletonParams {
   /// surface, raised so its first stretch leaves at this angle; the branch then bends to its
   /// own direction. Strand bundles cannot leave a branch sideways or backwards without
   /// folding the surface at the fork. 0 (or 180) keeps every lateral as it is.
-  double max_lateral_angle = 60.0;
+  double max_lateral_angle = 0.0;
   /// A child turning back from its node's incoming edge by more than this angle (degrees;
   /// digitised regrowth below a pruned top, branches doubling back) is re-attached to that
   /// edge at its projection, so it leaves sideways and the node above becomes a stub: no
@@ -126,7 +126,7 @@ struct SkeletonParams {
   /// intersect away from their common fork (branch_clearance), re-attach hairpins
   /// (max_turn_back). Off: crossing branches stay where they are and the repair stage meshes
   /// their union (the input-faithful mode, `strandmesh mesh --keep-input`).
-  bool separate = true;
+  bool separate = false;
   /// Largest distance any sanitizing step may move an input node, relative to its radius
   /// (merging a node into a sibling's or parent's edge that it lies inside); larger moves are
   /// made only by the opt-in `separate`.
