@@ -52,21 +52,17 @@ PORT="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0))
 SERVER=$!
 for _ in $(seq 1 50); do python3 -c "import socket; socket.create_connection(('127.0.0.1', $PORT), 0.2)" 2>/dev/null && break; sleep 0.1; done
 URL="http://127.0.0.1:$PORT/index.html?models=lods.glb,plain.glb,quantized.glb,meshopt.glb&time=1.3"
-FLAGS=(--headless --no-sandbox --disable-gpu-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader
-       --ignore-gpu-blocklist --window-size=900,1000 --virtual-time-budget=60000 --user-data-dir="$WORK/profile")
-# A loaded machine may not finish within the virtual time budget: try up to three times.
-for attempt in 1 2 3; do
-  timeout 180 "$CHROMIUM" "${FLAGS[@]}" --dump-dom "$URL" 2>/dev/null > "$WORK/dom.html" || true
-  grep -q '<pre id="status">{' "$WORK/dom.html" && break
-  say "attempt $attempt: the page had not reported yet"
-done
-python3 - "$WORK/dom.html" "$WORK/stats.json" <<'PY'
-import html, json, re, sys
-dom = open(sys.argv[1]).read()
-m = re.search(r'<pre id="status">(.*?)</pre>', dom, re.S)
-if not m:
-    sys.exit("check_threejs: the page did not report (no #status)")
-status = json.loads(html.unescape(m.group(1)))
+FLAGS=(--no-sandbox --disable-gpu-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader
+       --ignore-gpu-blocklist --window-size=900,1000 --user-data-dir="$WORK/profile")
+# Waits in real time (up to 180 s) for the page's report (scripts/headless_page.py).
+"$ROOT/scripts/headless_page.py" "$URL" "$WORK/status.json" -- "$CHROMIUM" "${FLAGS[@]}" ||
+  say "the page had not reported within 180 s"
+python3 - "$WORK/status.json" "$WORK/stats.json" <<'PY'
+import json, sys
+text = open(sys.argv[1]).read()
+if text == "loading":
+    sys.exit("check_threejs: the page did not report (#status still loading)")
+status = json.loads(text)
 print(json.dumps(status, indent=1)[:3000])
 if not status.get("ok"):
     sys.exit("check_threejs: the page failed: " + status.get("error", "?"))
@@ -89,6 +85,8 @@ if bad: sys.exit("check_threejs: " + "; ".join(bad))
 print("check_threejs: plain, quantized, meshopt and levels-of-detail .glb loaded and drawn")
 PY
 if [ -n "$SHOT" ]; then
-  timeout 120 "$CHROMIUM" "${FLAGS[@]}" --screenshot="$SHOT" "${URL/models=lods.glb,plain.glb,quantized.glb,meshopt.glb/models=meshopt.glb}" 2>/dev/null || true
+  rm -rf "$WORK/profile"
+  "$ROOT/scripts/headless_page.py" --screenshot "$SHOT" "${URL/models=lods.glb,plain.glb,quantized.glb,meshopt.glb/models=meshopt.glb}" \
+    "$WORK/shot_status.json" -- "$CHROMIUM" "${FLAGS[@]}" || true
   [ -s "$SHOT" ] && say "screenshot: $SHOT"
 fi
