@@ -1425,18 +1425,28 @@ std::pair<dvec3, dvec3> loop_plane(const ContourSet& c, std::uint32_t l) {
   return {centre, normalize_or(normal, c.loop_frame[l].tangent)};
 }
 
-/// Whether loops a (towards the root) and b of one tube cross: a point of b more than `tol` x
-/// the radius behind a's plane, or a point of a as far in front of b's plane.
-bool loops_cross(const ContourSet& c, std::uint32_t a, std::uint32_t b, double tol) {
-  auto reaches = [&](std::uint32_t plane, std::uint32_t other, double sign) {
+/// Whether loops a (towards the root) and b of one tube cross, more than `tol` x the larger
+/// radius: `strict`, a point of b behind a's plane or a point of a in front of b's (the strip
+/// between them would fold back); otherwise only where each has points on both sides of the
+/// other's plane (their discs intersect). A tube's first loop lies in its fork's section, tilted
+/// against the branch (a drooping lateral leaves below it): it is compared the second way.
+bool loops_cross(const ContourSet& c, std::uint32_t a, std::uint32_t b, double tol, bool strict) {
+  const double limit = tol * std::max(c.loop_radius[a], c.loop_radius[b]);
+  // Points of `other` behind (-1) and in front of (+1) the plane of `plane`.
+  auto sides = [&](std::uint32_t plane, std::uint32_t other) {
     const auto [o, n] = loop_plane(c, plane);
-    const double limit = tol * std::max(c.loop_radius[plane], c.loop_radius[other]);
+    std::pair<bool, bool> s{false, false};
     for (std::uint32_t v = c.loop_begin[other]; v < c.loop_begin[other + 1]; ++v) {
-      if (sign * glm::dot(c.point[v] - o, n) < -limit) return true;
+      const double h = glm::dot(c.point[v] - o, n);
+      s.first = s.first || h < -limit;
+      s.second = s.second || h > limit;
     }
-    return false;
+    return s;
   };
-  return reaches(a, b, 1.0) || reaches(b, a, -1.0);
+  const auto [b_behind, b_ahead] = sides(a, b);
+  const auto [a_behind, a_ahead] = sides(b, a);
+  if (strict) return b_behind || a_ahead;
+  return b_behind && b_ahead && a_behind && a_ahead;
 }
 
 /// Leaves out interior loops of each tube until consecutive loops do not cross: a loop crossing
@@ -1448,10 +1458,11 @@ void uncross_loops(ContourSet& c, double tol) {
   for (Tube& t : c.tubes) {
     if (t.loops.size() < 3) continue;
     std::vector<std::uint32_t> kept{t.loops.front()};
+    auto cross = [&](std::uint32_t a, std::uint32_t b) { return loops_cross(c, a, b, tol, a != t.loops.front()); };
     for (std::size_t k = 1; k + 1 < t.loops.size(); ++k) {
-      if (!loops_cross(c, kept.back(), t.loops[k], tol)) kept.push_back(t.loops[k]);
+      if (!cross(kept.back(), t.loops[k])) kept.push_back(t.loops[k]);
     }
-    while (kept.size() > 1 && loops_cross(c, kept.back(), t.loops.back(), tol)) kept.pop_back();
+    while (kept.size() > 1 && cross(kept.back(), t.loops.back())) kept.pop_back();
     kept.push_back(t.loops.back());
     if (kept.size() == t.loops.size()) continue;
     for (const std::uint32_t l : t.loops) dropped[l] = 1;

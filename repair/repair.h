@@ -51,12 +51,12 @@ struct RepairParams {
   /// vertex moves and keeps the run leaving the fewest.
   bool junction_fold_variants = false;
   /// Step 2: re-slice the forks around pairs or thick nodes outside and keep each crotch's best.
-  bool fork_retry = true;
+  bool fork_retry = false;
   /// Step 3: push the surface over thick nodes just outside it where no crossing results.
   bool cover_near_misses = true;
   /// Step 4: where pairs or thick nodes outside are left, keep the mesh's outer surface if it
   /// checks better.
-  bool outer_surface = true;
+  bool outer_surface = false;
   /// Step 5: replace self-intersecting parts of the surface by their union (false: leave them).
   bool self_union = true;
   /// Rounds of finding pairs and cutting them (a count; a round after the first only meets

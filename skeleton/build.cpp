@@ -315,7 +315,10 @@ void merge_short_edges(WorkTree& t, const SkeletonParams& params, SkeletonReport
     for (std::size_t j = 0; j < ch.size(); ++j) {
       const std::uint32_t c = ch[j];
       const double len = glm::length(t.pos[c] - t.pos[v]);
-      const double tol = std::max(params.merge_edge_ratio * std::max(t.radius[c], t.radius[v]), zero_tol);
+      // A skeleton this stage wrote keeps its short edges: they are the binarized chains' (with
+      // the input kept, a chain can be no longer than the distance to its main child).
+      const double ratio = raw.sanitized ? 0.0 : params.merge_edge_ratio;
+      const double tol = std::max(ratio * std::max(t.radius[c], t.radius[v]), zero_tol);
       if (len <= tol) {
         t.removed[c] = true;
         ++rep.merged_edges;

@@ -71,7 +71,7 @@ struct SkeletonParams {
   double max_child_ratio = 1.0;
   /// keep leaves radii as the input gives them (measured trees have children thicker than
   /// their parent at most nodes).
-  ThickChildPolicy thick_child_policy = ThickChildPolicy::clamp_child;
+  ThickChildPolicy thick_child_policy = ThickChildPolicy::keep;
   /// Edges longer than this many times the local radius are split into equal parts;
   /// 0 disables resampling (default); otherwise at least 1.
   double max_edge_ratio = 0.0;
@@ -96,7 +96,7 @@ struct SkeletonParams {
   /// the fork (relative to the fork's radius: 1 = on the parent's surface) so the lateral's
   /// round cone does not flare from the fork's full radius; 0 disables. Less than 1: a collar
   /// on the parent's surface sits in the crotch, where the mesh cuts the corner.
-  double collar_ratio = 0.7;
+  double collar_ratio = 0.0;
   /// Only laterals thinner than this fraction of the fork's radius get a collar node.
   double collar_max_child_ratio = 0.7;
   /// ... and only those reaching at least this many of their own radii beyond the collar.
@@ -108,7 +108,7 @@ struct SkeletonParams {
   /// surface, raised so its first stretch leaves at this angle; the branch then bends to its
   /// own direction. Strand bundles cannot leave a branch sideways or backwards without
   /// folding the surface at the fork. 0 (or 180) keeps every lateral as it is.
-  double max_lateral_angle = 60.0;
+  double max_lateral_angle = 0.0;
   /// A child turning back from its node's incoming edge by more than this angle (degrees;
   /// digitised regrowth below a pruned top, branches doubling back) is re-attached to that
   /// edge at its projection, so it leaves sideways and the node above becomes a stub: no
@@ -126,7 +126,7 @@ struct SkeletonParams {
   /// intersect away from their common fork (branch_clearance), re-attach hairpins
   /// (max_turn_back). Off: crossing branches stay where they are and the repair stage meshes
   /// their union (the input-faithful mode, `strandmesh mesh --keep-input`).
-  bool separate = true;
+  bool separate = false;
   /// Largest distance any sanitizing step may move an input node, relative to its radius
   /// (merging a node into a sibling's or parent's edge that it lies inside); larger moves are
   /// made only by the opt-in `separate`.

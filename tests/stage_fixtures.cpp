@@ -4,9 +4,10 @@
 
 namespace sm::test {
 
-UpToContours up_to_contours(const RawSkeleton& raw, std::uint64_t seed, const ContourParams& contours) {
+UpToContours up_to_contours(const RawSkeleton& raw, std::uint64_t seed, const ContourParams& contours,
+                            const SkeletonParams& skeleton) {
   UpToContours r;
-  r.skeleton = built(raw);
+  r.skeleton = built(raw, skeleton);
   ParticleParams pp;
   pp.seed = seed;
   r.particles = compute_particles(r.skeleton, pp);

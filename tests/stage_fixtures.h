@@ -4,6 +4,7 @@
 
 #include "contours/contours.h"
 #include "particles/particles.h"
+#include "skeleton/build.h"
 #include "skeleton/skeleton.h"
 #include "strands/strands.h"
 
@@ -19,6 +20,7 @@ struct UpToContours {
 
 /// Runs skeleton, particles, strands and contours on `raw` with default parameters (the
 /// particle stage with `seed`).
-UpToContours up_to_contours(const RawSkeleton& raw, std::uint64_t seed = 1, const ContourParams& contours = {});
+UpToContours up_to_contours(const RawSkeleton& raw, std::uint64_t seed = 1, const ContourParams& contours = {},
+                            const SkeletonParams& skeleton = {});
 
 }  // namespace sm::test

@@ -53,13 +53,17 @@ TEST(Cli, PrintConfigNeedsNoSkeleton) {
 }
 
 TEST(Cli, SkeletonFlagsOverrideTheConfig) {
-  // --keep-input turns skeleton.separate off for `mesh` as for `info` (it was once ignored there).
-  const CmdResult r = run("mesh --keep-input --max-edge-ratio 2 --print-config");
+  // --separate and --keep-input set skeleton.separate for `mesh` as for `info` (it was once
+  // ignored there), over the config; the input is kept by default.
+  const CmdResult r = run("mesh --separate --max-edge-ratio 2 --print-config");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["skeleton"]["separate"], false);
+  EXPECT_EQ(j["skeleton"]["separate"], true);
   EXPECT_EQ(j["skeleton"]["max_edge_ratio"], 2.0);
-  EXPECT_EQ(nlohmann::json::parse(run("mesh --print-config").out)["skeleton"]["separate"], true);
+  EXPECT_EQ(nlohmann::json::parse(run("mesh --print-config").out)["skeleton"]["separate"], false);
+  const std::string separate = (fs::path(STRANDMESH_SOURCE_DIR) / "configs/separate.json").string();
+  EXPECT_EQ(nlohmann::json::parse(run("mesh --config " + separate + " --keep-input --print-config").out)["skeleton"]["separate"],
+            false);
 }
 
 TEST(Cli, ParamsReferenceInTheDocsIsCurrent) {
@@ -277,7 +281,9 @@ TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {
   // it, meshing.count_pairs_up_to: still read, with a warning naming the new key.)
   const fs::path dir = test::temp_dir("cli_count_pairs");
   ASSERT_EQ(run("grow --seed 1 -o " + (dir / "t.json").string()).code, 0);
-  { std::ofstream(dir / "small_limit.json") << R"({"meshing": {"count_pairs_up_to": 1000}})"; }
+  // (The fork retry, which counts them, is part of configs/separate.json.)
+  { std::ofstream(dir / "small_limit.json") << R"({"meshing": {"count_pairs_up_to": 1000, "fork_retry": true}})"; }
+  { std::ofstream(dir / "retry.json") << R"({"meshing": {"fork_retry": true}})"; }
   const std::string mesh =
       "mesh " + (dir / "t.json").string() + " -o " + (dir / "t.glb").string() + " --stats " + (dir / "s.json").string();
   const CmdResult limited = run(mesh + " -v --config " + (dir / "small_limit.json").string());
@@ -288,7 +294,7 @@ TEST(Cli, MeshNotesWherePairsWereLookedForNearJunctionsOnly) {
   EXPECT_NE((limited.out + limited.err).find(note), std::string::npos) << limited.out << limited.err;
   EXPECT_FALSE(
       nlohmann::json::parse(read_file(dir / "s.json")).at("fork_retry").at("pairs_counted_everywhere").get<bool>());
-  const CmdResult whole = run(mesh);
+  const CmdResult whole = run(mesh + " --config " + (dir / "retry.json").string());
   ASSERT_EQ(whole.code, 0) << whole.err;
   EXPECT_EQ((whole.out + whole.err).find(note), std::string::npos);
   EXPECT_TRUE(
@@ -305,7 +311,8 @@ TEST(Cli, BenchReportsThroughputAgainstThePaper) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("particles/s"), std::string::npos);
   EXPECT_NE(r.out.find("x the paper's 205321 particles/s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("watertight, genus 0, 0 self-intersections"), std::string::npos) << r.out;
+  // (Genus 3: with the input kept, three pairs of the grown tree's branches cross and fuse.)
+  EXPECT_NE(r.out.find("watertight, genus 3, 0 self-intersections"), std::string::npos) << r.out;
   const nlohmann::json j = nlohmann::json::parse(read_file(dir / "b.json"));
   const double rate = j.at("meshing_particles_per_second").get<double>();
   EXPECT_GT(rate, 0.0);
@@ -395,9 +402,12 @@ TEST(Cli, SuggestionsStdioExportOptionsAndGrownTreeWarnings) {
   // The grower's thin twig tips are by design: no warning, unless -v asks for everything.
   EXPECT_EQ(cfg.err.find("tip thinner than one particle spacing"), std::string::npos) << cfg.err;
   ASSERT_EQ(run("grow --preset conifer -o " + (dir / "conifer.json").string()).code, 0);  // has thin tips
-  const CmdResult quiet = run("mesh " + (dir / "conifer.json").string() + " -o " + (dir / "v.glb").string());
+  // (Its tips are thinner than a particle spacing with the shape edits of configs/separate.json.)
+  const std::string clamp = " --config " + (fs::path(STRANDMESH_SOURCE_DIR) / "configs/separate.json").string();
+  const CmdResult quiet = run("mesh " + (dir / "conifer.json").string() + clamp + " -o " + (dir / "v.glb").string());
   EXPECT_EQ(quiet.err.find("tip thinner than one particle spacing"), std::string::npos) << quiet.err;
-  const CmdResult verbose = run("mesh " + (dir / "conifer.json").string() + " -o " + (dir / "v.glb").string() + " -v");
+  const CmdResult verbose =
+      run("mesh " + (dir / "conifer.json").string() + clamp + " -o " + (dir / "v.glb").string() + " -v");
   EXPECT_NE(verbose.err.find("as grown on purpose: tip thinner"), std::string::npos) << verbose.err;
 }
 

@@ -31,12 +31,15 @@
 #include "grow/tree_grower.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
+#include "tests/separating.h"
 
 namespace sm {
 namespace {
 
+// The tests of this file were written for the shape edits of configs/separate.json (the defaults
+// until the input was kept as given): they use them unless they say otherwise.
 MeshCheckReport run_and_check(const RawSkeleton& raw, PipelineResult* out = nullptr,
-                              const PipelineParams& params = {}) {
+                              const PipelineParams& params = test::separating()) {
   PipelineResult r = run_pipeline(raw, params);
   EXPECT_EQ(r.mesh.stats.bad_edges, 0u);
   MeshCheckParams cp;
@@ -130,7 +133,7 @@ TEST(Pipeline, LateralInsideAFusedSectionSplitsOffFirst) {
   EXPECT_LT(widest_fused_loop(r.contours), 0.3);  // fork radius 0.15, narrow lateral beside it
   // Without nested splits the lateral stays in the section until the fork's own split, far
   // out along its edge: the section's loops span a web out to it.
-  PipelineParams kept_in;
+  PipelineParams kept_in = test::separating();
   kept_in.contours.split_nested_laterals = false;
   PipelineResult w;
   expect_sound(run_and_check(raw, &w, kept_in));
@@ -145,7 +148,7 @@ TEST(Pipeline, RandomWhorlTreesAreSound) {
   std::size_t nested = 0, merged = 0;
   for (std::uint64_t seed = 1; seed <= 60; ++seed) {
     SCOPED_TRACE(seed);
-    PipelineResult r = run_pipeline(test::random_whorl_tree(seed), {});
+    PipelineResult r = run_pipeline(test::random_whorl_tree(seed), test::separating());
     EXPECT_EQ(r.mesh.stats.bad_edges, 0u);
     MeshCheckParams cp;
     cp.skeleton = &r.skeleton.skeleton;
@@ -186,7 +189,7 @@ TEST(Pipeline, BentTwigsKeepTheirSkeletonInside) {
   }
   expect_perfect(run_and_check(raw));
   // Without the bend loops the same twigs leave nodes outside (the check can fail).
-  PipelineParams straight_chords;
+  PipelineParams straight_chords = test::separating();
   straight_chords.contours.max_corner_cut = 1e9;
   const MeshCheckReport rep = run_and_check(raw, nullptr, straight_chords);
   EXPECT_LT(rep.thick_nodes_inside, rep.thick_nodes);
@@ -215,7 +218,7 @@ TEST(Pipeline, FoldRepairUntanglesJunctions) {
   // fold repair untangle most of them without moving a vertex: same vertices, same counts,
   // still closed, manifold and genus 0, and far fewer self-intersecting pairs (52 -> 6,
   // measured; the whole repair, with moves, collapses and refills, leaves none).
-  PipelineParams off, flips_only;
+  PipelineParams off = test::separating(), flips_only = test::separating();
   off.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   off.repair.fold_rounds = 0;
   flips_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -248,7 +251,7 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   const auto file = sample_named("mtg_boutdenoylum2.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
-  PipelineParams flips_only, with_moves;
+  PipelineParams flips_only = test::separating(), with_moves = test::separating();
   flips_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   flips_only.repair.fold_rounds = 0;
   with_moves.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -283,7 +286,7 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   const auto file = sample_named("mtg_boutdenoylum2.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
-  PipelineParams no_collapses, collapses_only;
+  PipelineParams no_collapses = test::separating(), collapses_only = test::separating();
   no_collapses.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   no_collapses.repair.fold_rounds = 0;
   collapses_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -315,7 +318,7 @@ TEST(Pipeline, FoldRepairRefillsDisksWhereNothingElseHelps) {
   const auto file = sample_named("mtg_boutdenoylum2.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
-  PipelineParams no_refills, refills;
+  PipelineParams no_refills = test::separating(), refills = test::separating();
   no_refills.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   no_refills.repair.fold_rounds = 0;
   refills.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -446,7 +449,7 @@ TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
     raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
   }
   for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), 0.002);
-  PipelineParams params;
+  PipelineParams params = test::separating();
   params.repair.fork_retry = false;
   params.repair.outer_surface = false;
   PipelineResult r;
@@ -488,7 +491,7 @@ TEST(Pipeline, NearMissesArePushedInside) {
   // A thick node of a plain branch moved sideways to 1.3 radii from its axis lies a little
   // outside the finished mesh: the surface nearest it is pushed over it, a few vertices moved,
   // and the mesh stays sound, with every thick node inside and no crossing.
-  PipelineResult r = run_pipeline(test::y_fork(75), {});
+  PipelineResult r = run_pipeline(test::y_fork(75), test::separating());
   const Skeleton& s = r.skeleton.skeleton;
   NodeId pick;
   for (std::size_t i = 1; i < s.size(); ++i) {
@@ -515,7 +518,7 @@ TEST(Pipeline, NearMissesNextToEachOtherArePushedInRounds) {
   RawSkeleton raw;
   raw.source = "straight_branch";
   for (int i = 0; i < 10; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.06 * i), 0.05);
-  PipelineResult r = run_pipeline(raw, {});
+  PipelineResult r = run_pipeline(raw, test::separating());
   const NodeId a(4), b(5);
   ASSERT_EQ(r.skeleton.skeleton.children[a.idx()][0], b);
   const auto [st, after] = cover_moved_nodes(r, {a, b});
@@ -529,7 +532,7 @@ TEST(Pipeline, DenseHubIsMeshedWithoutEndlessRepair) {
   // with a warning instead of running for hours. The surface is still one closed genus-0
   // manifold.
   const RawSkeleton raw = test::star(300);
-  PipelineParams params;
+  PipelineParams params = test::separating();
   params.skeleton.max_chain_forks = 0;
   const PipelineResult r = run_pipeline(raw, params);
   EXPECT_GT(r.repair.junction_folds.found, 20'000u);
@@ -547,7 +550,7 @@ TEST(Pipeline, HubOfThousandsOfTwigsIsMeshed) {
   const RawSkeleton raw = test::star(2000);
   // (The fork retry runs the contour and meshing stages 12 more times on this tangle: 2.5 ->
   // 25 s, 89 -> 16 pairs, 1,312 -> 995 thick nodes outside. Not what this test is about.)
-  PipelineParams params;
+  PipelineParams params = test::separating();
   params.repair.fork_retry = false;
   const PipelineResult r = run_pipeline(raw, params);
   EXPECT_GT(r.skeleton.report.clustered_nodes, 0u);
@@ -567,7 +570,7 @@ TEST(Pipeline, FoldRepairVariantsKeepTheBestRun) {
   const auto file = sample_named("mtg_boutdenoylum2.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
-  PipelineParams params;
+  PipelineParams params = test::separating();
   params.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   params.repair.fold_rounds = 0;
   params.particles.seed = 3;
@@ -673,7 +676,7 @@ TEST(Pipeline, ForkRetryKeepsEachCrotchsBestVariant) {
   const auto file = sample_named("mtg_boutdenoylum2.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
   const RawSkeleton raw = read_skeleton(*file);
-  PipelineParams off, on;
+  PipelineParams off = test::separating(), on = test::separating();
   off.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   off.repair.fold_rounds = 0;
   on.repair.self_union = false;  // the earlier repairs alone, not the repair stage
@@ -717,7 +720,7 @@ TEST(Pipeline, ForkRetryDoesNotSpanACrotchWithAWeb) {
   // such a web at the fork near (-0.256, -0.323, 1.148); its first mesh now needs none.)
   const auto file = sample_named("mtg_agraf.json");
   ASSERT_TRUE(file) << "sample skeleton missing from tests/data/skeletons";
-  PipelineParams p;
+  PipelineParams p = test::separating();
   p.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   p.repair.fold_rounds = 0;
   p.particles.seed = 4;
@@ -801,7 +804,7 @@ TEST(Pipeline, IdenticalForOneAndTwoThreads) {
   const RawSkeleton raw = read_skeleton(*file);
   auto run_with = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-    return run_pipeline(raw, {});
+    return run_pipeline(raw, test::separating());
   };
   const PipelineResult one = run_with(1), two = run_with(2);
   EXPECT_EQ(one.contours.point, two.contours.point);
@@ -821,7 +824,7 @@ TEST(Pipeline, IdenticalForOneAndTwoThreads) {
 TEST(Pipeline, SingleNodeSkeletonIsRejected) {
   RawSkeleton raw;
   raw.add(0, -1, dvec3(0), 0.1);
-  EXPECT_THROW(run_pipeline(raw, {}), InvalidInputError);
+  EXPECT_THROW(run_pipeline(raw, test::separating()), InvalidInputError);
 }
 
 TEST(Pipeline, ExportSectionFromTheTable) {
@@ -934,7 +937,7 @@ TEST(Pipeline, ParamsOutOfRangeAreRejectedNamingTheKey) {
       EXPECT_NE(std::string(e.what()).find("cfg.json: " + key), std::string::npos) << e.what();
     }
   }
-  PipelineParams p;
+  PipelineParams p = test::separating();
   p.contours.slice_step = 0;
   EXPECT_THROW(run_pipeline(test::y_fork(), p), InvalidInputError);
   p = {};
@@ -952,7 +955,7 @@ TEST(Pipeline, SmallChildRatiosKeepTheRadiusFloor) {
   for (const auto& set :
        std::vector<std::function<void(PipelineParams&)>>{[](PipelineParams& q) { q.skeleton.max_child_ratio = 0.1; },
                                                          [](PipelineParams& q) { q.skeleton.collar_min_stub = 0; }}) {
-    PipelineParams p;
+    PipelineParams p = test::separating();
     set(p);
     PipelineResult r;
     expect_sound(run_and_check(test::grown_tree(1), &r, p));
@@ -962,7 +965,7 @@ TEST(Pipeline, SmallChildRatiosKeepTheRadiusFloor) {
 }
 
 TEST(Pipeline, ParamsJsonRoundTripAndStrictKeys) {
-  PipelineParams p;
+  PipelineParams p = test::separating();
   p.particles.seed = 77;
   p.contours.slice_step = 0.3;
   p.skeleton.thick_child_policy = ThickChildPolicy::keep;

@@ -13,6 +13,7 @@
 #include "repair/outer_surface.h"
 #include "repair/outer_surface_cgal.h"
 #include "repair/repair.h"
+#include "tests/separating.h"
 #include "skeleton/build.h"
 #include "tests/fixtures.h"
 #include "tests/mesh_fixtures.h"
@@ -27,8 +28,10 @@ constexpr double kPi = std::numbers::pi;
 
 // Six children from stacked forks (tests/fixtures.h), sliced with crossing loops kept (as
 // before contours.uncross_loops): the stitched crotches cross in 4 pairs.
+// (With the shape edits of configs/separate.json and crossing loops kept: the whorl folds.)
 test::UpToContours folded_whorl() {
-  return test::up_to_contours(test::six_children(), 1, ContourParams{.uncross_loops = false});
+  return test::up_to_contours(test::six_children(), 1, ContourParams{.uncross_loops = false},
+                              test::separating_skeleton());
 }
 
 TEST(RepairMesh, UntanglesTheStitchedWhorl) {
@@ -39,7 +42,8 @@ TEST(RepairMesh, UntanglesTheStitchedWhorl) {
   ContourSet contours = up.contours;
   MeshResult mesh;
   const RepairInputs in{up.skeleton, up.particles, up.strands, {}, {}};
-  const RepairStats st = repair_mesh(stitch_mesh(up.skeleton, contours), contours, mesh, in);
+  const RepairStats st = repair_mesh(stitch_mesh(up.skeleton, contours), contours, mesh, in,
+                                     RepairParams{.fork_retry = true, .outer_surface = true});
   EXPECT_GT(st.junction_folds.found, 0u);
   EXPECT_GT(st.junction_folds.flips + st.junction_folds.moves + st.junction_folds.collapses, 0u);
   EXPECT_TRUE(st.fork_retry.counted && st.fork_retry.counted_everywhere);

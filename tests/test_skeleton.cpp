@@ -186,7 +186,8 @@ TEST(Skeleton, CollarsAtThinLaterals) {
   // The y fork's lateral (radius 0.055) is thinner than 0.7 x its fork (0.09): a collar node
   // at 0.7 fork radii along it (just inside the fork's surface), with about the lateral's
   // radius, keeps the lateral's round cone from flaring from the fork's full radius.
-  const auto r = build_skeleton(test::y_fork());
+  const SkeletonParams collars{.collar_ratio = 0.7};
+  const auto r = build_skeleton(test::y_fork(), collars);
   EXPECT_EQ(r.report.collars, 1u);
   ASSERT_EQ(r.skeleton.size(), 8u);
   const Skeleton& s = r.skeleton;
@@ -196,7 +197,7 @@ TEST(Skeleton, CollarsAtThinLaterals) {
   EXPECT_NEAR(s.radius[collar.idx()], 0.055 + 0.25 * (0.09 - 0.055), 1e-12);
   EXPECT_EQ(r.report.warnings.total(), 0u);  // a refinement, not a repair
   // Sanitizing the result again changes nothing.
-  EXPECT_EQ(build_skeleton(parse_skeleton_json(skeleton_to_json(s))).skeleton.size(), 8u);
+  EXPECT_EQ(build_skeleton(parse_skeleton_json(skeleton_to_json(s)), collars).skeleton.size(), 8u);
 }
 
 TEST(Skeleton, ShortStubsGetCollarsToo) {
@@ -210,7 +211,7 @@ TEST(Skeleton, ShortStubsGetCollarsToo) {
     raw.add(1, 0, dvec3(0, 0, 0.5), 0.0875);
     raw.add(2, 1, dvec3(0, 0, 1.0), 0.08);
     raw.add(3, 1, dvec3(0, 0, 0.5) + length * dvec3(std::cos(0.3), 0, std::sin(0.3)), 0.04);
-    const auto r = build_skeleton(raw);
+    const auto r = build_skeleton(raw, {.collar_ratio = 0.7});
     EXPECT_EQ(r.report.collars, collars) << length;
   }
 }
@@ -229,7 +230,7 @@ TEST(Skeleton, SteepLateralsGetAnUpturnedBase) {
           0.03);                            // drooping
   raw.add(6, 4, dvec3(0.3, 0, 3.5), 0.05);  // 31 degrees: as it is
   raw.add(7, 4, dvec3(0, 0, 4), 0.06);
-  const auto r = build_skeleton(raw, {.collar_ratio = 0});
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 60});
   EXPECT_EQ(r.report.raised_laterals, 2u);
   EXPECT_EQ(r.report.warnings.total(), 0u);  // a refinement, not a repair
   const Skeleton& s = r.skeleton;
@@ -438,7 +439,7 @@ TEST(Skeleton, DenseHubIsLeftAsItIs) {
   // clears (it used to take 13 s and move twigs 12 m; examining the pairs alone is
   // quadratic). Left in place and reported.
   const RawSkeleton raw = test::star(1000);
-  const auto r = build_skeleton(raw);
+  const auto r = build_skeleton(raw, {.separate = true});
   EXPECT_EQ(r.report.max_separation, 0.0);
   EXPECT_EQ(r.report.warnings.count("separated_branches"), 0u);
   EXPECT_EQ(r.report.warnings.count("dense_branches"), 1u);
@@ -494,7 +495,7 @@ TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
   raw.add(2, 1, dvec3(0, 0, 1.5), 0.09);
   raw.add(3, 2, dvec3(0.25 * std::tan(30.0 * std::numbers::pi / 180), 0, 1.25), 0.05);
   raw.add(4, 3, dvec3(0.6, 0, 1.35), 0.04);
-  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0});
+  const auto r = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .separate = true});
   EXPECT_EQ(r.report.hairpins, 1u);
   EXPECT_EQ(r.report.warnings.count("hairpin"), 1u);
   const Skeleton& s = r.skeleton;
@@ -521,7 +522,7 @@ TEST(Skeleton, HairpinsAreReattachedWhereTheyComeBackTo) {
 }
 
 TEST(Skeleton, ThickChildPolicies) {
-  const auto clamp = build_skeleton(test::thick_child());
+  const auto clamp = build_skeleton(test::thick_child(), {.thick_child_policy = ThickChildPolicy::clamp_child});
   EXPECT_EQ(clamp.report.clamped_children, 1u);
   for (std::size_t i = 1; i < clamp.skeleton.size(); ++i) {
     EXPECT_LE(clamp.skeleton.radius[i], clamp.skeleton.radius[clamp.skeleton.parent[i].idx()] * (1 + 1e-12));
@@ -686,7 +687,11 @@ TEST(Samples, LoadSanitizeRoundTrip) {
   ASSERT_FALSE(files.empty()) << "tests/data/skeletons is empty";
   for (const auto& f : files) {
     SCOPED_TRACE(f.filename().string());
-    const auto r = build_skeleton(read_skeleton(f));
+    for (const SkeletonParams& sp : {SkeletonParams{}, SkeletonParams{.thick_child_policy = ThickChildPolicy::clamp_child,
+                                                                     .collar_ratio = 0.7,
+                                                                     .max_lateral_angle = 60,
+                                                                     .separate = true}}) {
+    const auto r = build_skeleton(read_skeleton(f), sp);
     expect_valid(r.skeleton);
     EXPECT_EQ(r.report.output_nodes, r.skeleton.size());
     EXPECT_LT(max_twist(r.skeleton), 1e-6);
@@ -694,12 +699,13 @@ TEST(Samples, LoadSanitizeRoundTrip) {
     // so the geometric refinements, which can feed each other, are not applied twice).
     const RawSkeleton exported = parse_skeleton_json(skeleton_to_json(r.skeleton));
     EXPECT_TRUE(exported.sanitized);
-    const Skeleton back = built(exported);
+    const Skeleton back = built(exported, sp);
     ASSERT_EQ(back.size(), r.skeleton.size());
     for (std::size_t i = 0; i < back.size(); ++i) {
       ASSERT_EQ(back.position[i], r.skeleton.position[i]);
       ASSERT_EQ(back.radius[i], r.skeleton.radius[i]);
       ASSERT_EQ(back.children[i], r.skeleton.children[i]);
+    }
     }
   }
 }

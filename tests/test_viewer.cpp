@@ -535,8 +535,8 @@ TEST(ViewerParams, FieldsComeFromTheStageTables) {
   const ParamField policy = find(skeleton, "thick_child_policy");
   EXPECT_EQ(policy.kind, ParamKind::choice);
   EXPECT_EQ(policy.choices, (std::vector<std::string>{"clamp_child", "raise_parent", "keep"}));
-  set_field_value(policy, 2);
-  EXPECT_EQ(p.skeleton.thick_child_policy, ThickChildPolicy::keep);
+  set_field_value(policy, 0);
+  EXPECT_EQ(p.skeleton.thick_child_policy, ThickChildPolicy::clamp_child);
   // A range without a slider of its own: the slider spans it.
   auto strands = param_fields(p, Stage::strands);
   EXPECT_DOUBLE_EQ(find(strands, "alpha").max, 1);

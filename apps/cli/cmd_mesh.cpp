@@ -68,7 +68,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     // Which skeleton options were given explicitly (they override the config file).
     std::vector<CLI::Option*> skeleton_opts;
     for (const char* name : {"--max-nodes", "--merge-edge-ratio", "--radius-floor", "--thick-child", "--max-child-ratio",
-                             "--max-edge-ratio", "--keep-input"}) {
+                             "--max-edge-ratio", "--keep-input", "--separate"}) {
       skeleton_opts.push_back(sub.get_option(name));
     }
     return [o, seed, spacing, root, skeleton_opts, &global] {
@@ -87,7 +87,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
       if (skeleton_opts[3]->count()) params.skeleton.thick_child_policy = cli.thick_child_policy;
       if (skeleton_opts[4]->count()) params.skeleton.max_child_ratio = cli.max_child_ratio;
       if (skeleton_opts[5]->count()) params.skeleton.max_edge_ratio = cli.max_edge_ratio;
-      if (skeleton_opts[6]->count()) params.skeleton.separate = cli.separate;
+      if (skeleton_opts[6]->count() || skeleton_opts[7]->count()) params.skeleton.separate = cli.separate;
       (void)defaults;
       apply_export_options(o->export_options, params.output);
       if (o->print_config) {

@@ -64,10 +64,13 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
                                                          {"keep", ThickChildPolicy::keep}};
   sub.add_option("--thick-child", p.thick_child_policy, help_of("thick_child_policy", ": clamp (child), raise (parent), keep"))
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
-      ->default_str("clamp");
+      ->default_str("keep");
   sub.add_flag("!--keep-input", p.separate,
-               "Keep the input where it is: crossing branches are not swung apart nor hairpins re-attached; the "
-               "repair stage fuses crossings where they are (with --thick-child keep, radii as given too)");
+               "Keep the input where it is (the default): crossing branches are not swung apart nor hairpins "
+               "re-attached; the repair stage fuses crossings where they are");
+  sub.add_flag("--separate", p.separate,
+               "Swing crossing branches apart, re-attach hairpins and remove tight bends (moves the input; "
+               "configs/separate.json has every shape edit of earlier versions)");
 }
 
 void check_json_output(const std::string& path, const char* option) {

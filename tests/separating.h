@@ -1,0 +1,29 @@
+#pragma once
+/// The parameters that were the defaults before the input was kept as given: the shape edits
+/// (branches swung apart, hairpins re-attached, tight bends removed, thick children clamped,
+/// collar nodes, raised lateral bases) and the meshing stage's fork retry and outer surface.
+/// Tests of those mechanisms, and of the slicing on trees they made sound, use them
+/// (configs/separate.json holds the same for users).
+
+#include "pipeline/pipeline.h"
+
+namespace sm::test {
+
+inline SkeletonParams separating_skeleton() {
+  SkeletonParams p;
+  p.separate = true;
+  p.thick_child_policy = ThickChildPolicy::clamp_child;
+  p.collar_ratio = 0.7;
+  p.max_lateral_angle = 60.0;
+  return p;
+}
+
+inline PipelineParams separating() {
+  PipelineParams p;
+  p.skeleton = separating_skeleton();
+  p.repair.fork_retry = true;
+  p.repair.outer_surface = true;
+  return p;
+}
+
+}  // namespace sm::test
