@@ -24,6 +24,7 @@
 #include <tbb/global_control.h>
 
 #include "core/errors.h"
+#include "core/file_io.h"
 #include "core/param_table.h"
 #include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
@@ -870,10 +871,11 @@ TEST(Pipeline, KeysTheRepairStageTookStillLoad) {
   // Configs from before the repair stage took its switches over from the meshing section load:
   // each old key is read as its new one; where the new key is given too, it wins.
   const PipelineParams p = parse_params_json(
-      R"({"meshing": {"fork_retry": false, "fold_repair_rounds": 3, "count_pairs_up_to": 10, "tip_dome": 0.5},
+      R"({"meshing": {"fork_retry": true, "fold_repair_rounds": 3, "count_pairs_up_to": 10, "tip_dome": 0.5},
           "repair": {"count_pairs_up_to": 20}})",
       "old.json");
-  EXPECT_FALSE(p.repair.fork_retry);
+  ASSERT_FALSE(RepairParams{}.fork_retry);
+  EXPECT_TRUE(p.repair.fork_retry);
   EXPECT_EQ(p.repair.junction_fold_rounds, 3u);
   EXPECT_EQ(p.repair.count_pairs_up_to, 20u);
   EXPECT_EQ(p.meshing.tip_dome, 0.5);
@@ -903,6 +905,11 @@ TEST(Pipeline, ShippedConfigsLoad) {
     if (e.path().extension() != ".json") continue;
     SCOPED_TRACE(e.path().string());
     EXPECT_NO_THROW(load_params(e.path()));
+    // Written with today's keys (a key that moved would load with a warning).
+    const nlohmann::json j = nlohmann::json::parse(read_file(e.path()));
+    for (const ParamMoved& m : param_table_of<RepairParams>().moved) {
+      EXPECT_FALSE(j.contains(m.section) && j[m.section].contains(m.key)) << m.section << "." << m.key;
+    }
     ++n;
   }
   EXPECT_GE(n, 3u);  // default, preview, high_detail
