@@ -1,5 +1,5 @@
 // Fuzz target: .gltf meshes as `strandmesh check` reads and checks them (meshio/mesh_io.h,
-// meshcheck/checks.h).
+// meshcheck/checks.h), and level 1 of their levels of detail.
 #include "fuzz/fuzz_reader.h"
 #include "meshcheck/checks.h"
 #include "meshio/mesh_io.h"
@@ -7,4 +7,8 @@
 SM_FUZZ_READER(bytes) {
   const sm::Mesh mesh = sm::parse_mesh(bytes, sm::MeshFormat::gltf, "fuzz.gltf");
   (void)sm::check_mesh(mesh);
+  // A level of detail (MSFT_lod), as `check --lod 1` reads it.
+  sm::MeshReadParams level;
+  level.lod = 1;
+  (void)sm::parse_mesh(bytes, sm::MeshFormat::gltf, "fuzz.gltf", level);
 }

@@ -237,7 +237,8 @@ class Simplifier {
     for (std::size_t i = 0; i < fan.size() && !crossing; ++i) {
       ++stamp_;
       for (const std::uint32_t f : fan) seen_[f] = stamp_;
-      const auto [lo, hi] = box(fan[i]);
+      const std::pair<dvec3, dvec3> fan_box = box(fan[i]);  // not a structured binding: clang 14 (sanitizer build) cannot capture one
+      const dvec3 lo = fan_box.first, hi = fan_box.second;
       grid_.query(lo, hi, [&](std::uint32_t g) {
         if (crossing || dead_[g] || seen_[g] == stamp_) return;
         seen_[g] = stamp_;

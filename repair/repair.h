@@ -35,9 +35,9 @@ namespace sm {
 
 struct RepairParams {
   /// Largest mesh (triangles) whose self-intersecting pairs are looked for over the whole
-  /// mesh. On a larger one only the pairs the fold repair near the forks leaves there are
-  /// known, and the last step is skipped. configs/high_detail.json counts every mesh.
-  std::size_t count_pairs_up_to = 300'000;
+  /// mesh (default: every mesh). On a larger one only the pairs the fold repair near the forks
+  /// leaves there are known, and the last step is skipped.
+  std::size_t count_pairs_up_to = 1'000'000'000;
   /// Rounds of the fold repair near the forks (step 1; 0 = none).
   std::uint32_t junction_fold_rounds = 8;
   /// Largest vertex move of the fold repair near the forks, relative to the local skeleton

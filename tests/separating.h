@@ -21,6 +21,7 @@ inline SkeletonParams separating_skeleton() {
 inline PipelineParams separating() {
   PipelineParams p;
   p.skeleton = separating_skeleton();
+  p.repair.count_pairs_up_to = 300'000;
   p.repair.fork_retry = true;
   p.repair.outer_surface = true;
   return p;

@@ -22,6 +22,7 @@
 #include "grow/volume.h"
 #include "skeleton/io.h"
 #include "tests/fixtures.h"
+#include "tests/separating.h"
 
 #ifdef STRANDMESH_GROW_SLOW_TESTS
 #include "meshcheck/checks.h"
@@ -497,7 +498,7 @@ TEST(GrowPresetsSlow, LargeMeshesRetryThePairsTheRepairLeft) {
   // the fork retry, given those, slices them again: none left.
   GrowPreset preset = load_grow_preset(kPresetDir / "oak.json");
   preset.params.seed = 3;
-  const PipelineResult r = run_pipeline(grow_tree(preset.params).skeleton, PipelineParams{});
+  const PipelineResult r = run_pipeline(grow_tree(preset.params).skeleton, test::separating());
   EXPECT_GT(r.mesh.mesh.triangles.size(), 300'000u);
   EXPECT_FALSE(r.repair.fork_retry.counted_everywhere);
   EXPECT_GT(r.repair.fork_retry.pairs_before, 0u);
@@ -519,7 +520,7 @@ TEST(GrowPresetsSlow, CountingEverywhereRepairsALargeTree) {
   GrowPreset preset = load_grow_preset(kPresetDir / "conifer.json");
   preset.params.seed = 11;
   const RawSkeleton tree = grow_tree(preset.params).skeleton;
-  PipelineParams p;
+  PipelineParams p = test::separating();  // (the shape edits, fork retry and 300,000 of earlier defaults)
   const PipelineResult limited = run_pipeline(tree, p);
   EXPECT_GT(limited.mesh.mesh.triangles.size(), p.repair.count_pairs_up_to);
   EXPECT_FALSE(limited.repair.fork_retry.counted_everywhere);
