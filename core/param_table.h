@@ -17,6 +17,7 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -67,18 +68,31 @@ auto param_choice(std::span<const char* const> names) {
   }(Member);
 }
 
+/// A field written as text, reached through functions: a list of names, or a choice with
+/// "auto" for an unset optional. `set` throws InvalidInputError for text it does not accept.
+template <class P>
+struct ParamText {
+  std::string (*get)(const P&) = nullptr;
+  void (*set)(P&, std::string_view) = nullptr;
+  const char* accepted = "";  ///< what `set` accepts, as the docs print it
+  friend bool operator==(const ParamText& a, const ParamText& b) { return a.get == b.get && a.set == b.set; }
+};
+
 /// One parameter. Integer members are `unsigned`, `unsigned long` or `unsigned long long`,
 /// which cover std::uint32_t, std::uint64_t and std::size_t on every platform.
 template <class P>
 struct ParamSpec {
-  using Field =
-      std::variant<double P::*, bool P::*, unsigned P::*, unsigned long P::*, unsigned long long P::*, ParamChoice<P>>;
+  using Field = std::variant<double P::*, bool P::*, unsigned P::*, unsigned long P::*, unsigned long long P::*,
+                             ParamChoice<P>, ParamText<P>>;
   const char* key = "";   ///< the config key (and the member's name)
   Field field;            ///< the member
   ParamRange range = {};  ///< accepted values (numbers only)
   const char* unit = "";  ///< "m", "degrees", "count", "x local radius", ...; "" for flags and choices
   const char* help = "";  ///< one line: what it does (the unit is printed beside it)
   ParamSlider slider = {};
+  /// A number that config files may also give as a name ("cm" for 100): the name's value,
+  /// throwing InvalidInputError for a name it does not know (numbers only; nullptr: none).
+  double (*from_name)(std::string_view) = nullptr;
 };
 
 /// A key that moved into a table's section from another section: configs written before
@@ -105,7 +119,7 @@ const ParamTable<P>& param_table_of() {
 }
 
 /// What kind of value a field holds (for readers, writers and widgets).
-enum class ParamKind { real, integer, flag, choice };
+enum class ParamKind { real, integer, flag, choice, text };
 
 template <class P>
 ParamKind param_kind(const ParamSpec<P>& s) {
@@ -116,6 +130,8 @@ ParamKind param_kind(const ParamSpec<P>& s) {
       return ParamKind::flag;
     case 5:
       return ParamKind::choice;
+    case 6:
+      return ParamKind::text;
     default:
       return ParamKind::integer;
   }
@@ -138,13 +154,15 @@ std::uint64_t param_type_max(const ParamSpec<P>& s) {
       s.field);
 }
 
-/// A field's value as a number: flags 0/1, choices their index.
+/// A field's value as a number: flags 0/1, choices their index (text: 0).
 template <class P>
 double param_value(const P& p, const ParamSpec<P>& s) {
   return std::visit(
       [&p]<class M>(M m) -> double {
         if constexpr (std::is_same_v<M, ParamChoice<P>>) {
           return m.get(p);
+        } else if constexpr (std::is_same_v<M, ParamText<P>>) {
+          return 0.0;
         } else {
           return static_cast<double>(p.*m);
         }
@@ -153,7 +171,8 @@ double param_value(const P& p, const ParamSpec<P>& s) {
 }
 
 /// Sets a field from a number: rounded and clamped to the type for integers and choices,
-/// nonzero for flags. No range check (`check_params` does that).
+/// nonzero for flags; text fields are left as they are. No range check (`check_params` does
+/// that).
 template <class P>
 void set_param_value(P& p, const ParamSpec<P>& s, double v) {
   std::visit(
@@ -161,6 +180,8 @@ void set_param_value(P& p, const ParamSpec<P>& s, double v) {
         if constexpr (std::is_same_v<M, ParamChoice<P>>) {
           const double n = static_cast<double>(m.names.size()) - 1;
           m.set(p, static_cast<int>(std::lround(std::isnan(v) ? 0.0 : std::clamp(v, 0.0, n))));
+        } else if constexpr (std::is_same_v<M, ParamText<P>>) {
+          // (Set through text only.)
         } else {
           using T = std::remove_cvref_t<decltype(p.*m)>;
           if constexpr (std::is_same_v<T, bool>) {
@@ -183,14 +204,14 @@ void set_param_value(P& p, const ParamSpec<P>& s, double v) {
 }
 
 /// Throws InvalidInputError "SECTION.KEY must be RULE, got VALUE" for the first number
-/// outside its range (flags and choices are always valid).
+/// outside its range (flags, choices and text are checked as they are set).
 template <class P>
 void check_params(const P& p) {
   const ParamTable<P>& t = param_table_of<P>();
   const ParamChecker check{t.section};
   for (const ParamSpec<P>& s : t.fields) {
     const ParamKind kind = param_kind(s);
-    if (kind == ParamKind::flag || kind == ParamKind::choice) continue;
+    if (kind == ParamKind::flag || kind == ParamKind::choice || kind == ParamKind::text) continue;
     const double x = param_value(p, s);
     check.require(s.range.contains(x), s.key, s.range.rule().c_str(), x);
   }

@@ -313,6 +313,11 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
       for (std::size_t k = 0; k < c.inside.size() && r.outside_node_examples.size() < params.max_examples; ++k) {
         if (!c.inside[k]) r.outside_node_examples.push_back(thick_ids[k]);
       }
+      // Every node, by winding number in one pass (informative: ok() asks the thick ones only).
+      const std::vector<glm::dvec3>& all = params.skeleton->position;
+      const std::vector<int> w = winding_numbers(mesh, std::span<const glm::dvec3>(all.data(), all.size()));
+      r.nodes = all.size();
+      r.nodes_inside = static_cast<std::size_t>(std::count_if(w.begin(), w.end(), [](int x) { return x >= 1; }));
     }
     for (const auto& e : c.timings.entries) r.timings.add(e.name, e.seconds);
   }
@@ -416,6 +421,7 @@ std::string to_text(const MeshCheckReport& r) {
       ex = " (" + n(r.thick_nodes_in_overlaps) + " of them where parts overlap, by winding number)" + ex;
     line("thick nodes inside",
          r.inside_checked ? n(r.thick_nodes_inside) + " / " + n(r.thick_nodes) + ex : std::string("not checked"));
+    if (r.inside_checked) line("all nodes inside", n(r.nodes_inside) + " / " + n(r.nodes) + " (by winding number)");
   }
   if (r.quality_checked) {
     const TriangleQuality& q = r.quality;
@@ -486,6 +492,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
     j["thick_nodes"] = r.thick_nodes;
     j["thick_nodes_inside"] = r.thick_nodes_inside;
     j["thick_nodes_in_overlaps"] = r.thick_nodes_in_overlaps;
+    j["nodes"] = r.nodes;
+    j["nodes_inside"] = r.nodes_inside;
   }
   if (r.quality_checked) {
     const TriangleQuality& q = r.quality;

@@ -109,6 +109,8 @@ struct MeshCheckReport {
   std::size_t thick_nodes = 0;         ///< skeleton nodes with radius >= the median radius
   std::size_t thick_nodes_inside = 0;  ///< of those, how many lie inside the mesh (or on it)
   std::size_t thick_nodes_in_overlaps = 0;  ///< of those, inside overlapping parts (winding number >= 2)
+  std::size_t nodes = 0;               ///< all skeleton nodes (with inside_checked)
+  std::size_t nodes_inside = 0;        ///< of those, inside the mesh by winding number (a node on the surface may count out)
 
   std::vector<std::array<std::uint32_t, 2>> boundary_edge_examples;      ///< vertex pairs
   std::vector<std::array<std::uint32_t, 2>> nonmanifold_edge_examples;   ///< vertex pairs

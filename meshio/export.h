@@ -48,6 +48,7 @@
 #include <glm/glm.hpp>
 
 #include "core/mesh.h"
+#include "core/param_table.h"
 #include "core/progress.h"
 #include "meshio/placement.h"
 #include "skeleton/skeleton.h"
@@ -98,6 +99,12 @@ struct ExportParams {
   Compression compress = Compression::none;  ///< glTF: buffer compression (default none)
   bool quantize = false;       ///< glTF: KHR_mesh_quantization, 16-bit positions and 8-bit normals (default false)
 };
+
+/// The config key, accepted values, unit and help of each key of the config's `export` section
+/// (core/param_table.h; meshio/param_table.cpp): the file's up axis, pivot, scale, attributes,
+/// optimize, compression, quantization and levels of detail. The mesh's own up axis, root and
+/// skeleton are set by the caller, not by configs.
+const ParamTable<ExportParams>& param_table(std::type_identity<ExportParams>);
 
 /// The up axis, pivot and scale `params` give a file of `format` for `mesh`: the map from mesh
 /// to file coordinates (meshio/placement.h). The pivot is put on the export grid (core/mesh.h

@@ -13,7 +13,6 @@
 #include "core/input_limits.h"
 #include "core/log.h"
 #include "core/suggest.h"
-#include "meshio/export_json.h"
 #include "pipeline/pipeline.h"
 
 namespace sm {
@@ -36,8 +35,18 @@ struct Reader {
   void read(P& p, const ParamSpec<P>& s, const json& v) const {
     switch (param_kind(s)) {
       case ParamKind::real: {
-        if (!v.is_number()) fail(s.key, "a number", v);
-        const double x = v.get<double>();
+        double x = 0;
+        if (v.is_string() && s.from_name != nullptr) {
+          try {
+            x = s.from_name(v.get<std::string>());
+          } catch (const InvalidInputError& e) {
+            throw InvalidInputError(where + "." + s.key + ": " + e.what());
+          }
+        } else if (v.is_number()) {
+          x = v.get<double>();
+        } else {
+          fail(s.key, "a number", v);
+        }
         if (!std::isfinite(x)) throw InvalidInputError(where + "." + s.key + ": must be finite");
         set_param_value(p, s, x);
         return;
@@ -71,6 +80,20 @@ struct Reader {
           list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + std::string("\"") + names[i] + "\"";
         }
         fail(s.key, list, v);
+      }
+      case ParamKind::text: {
+        const auto& text = std::get<ParamText<P>>(s.field);
+        if (!v.is_string()) {
+          std::string accepted = text.accepted;
+          std::erase(accepted, '`');
+          fail(s.key, "a string: " + accepted, v);
+        }
+        try {
+          text.set(p, v.get<std::string>());
+        } catch (const InvalidInputError& e) {
+          throw InvalidInputError(where + "." + s.key + ": " + e.what());
+        }
+        return;
       }
     }
   }
@@ -121,6 +144,8 @@ json write_section(const P& p) {
         [&]<class M>(M m) {
           if constexpr (std::is_same_v<M, ParamChoice<P>>) {
             j[s.key] = m.names[static_cast<std::size_t>(m.get(p))];
+          } else if constexpr (std::is_same_v<M, ParamText<P>>) {
+            j[s.key] = m.get(p);
           } else {
             j[s.key] = p.*m;
           }
@@ -138,7 +163,7 @@ void add_keys(std::vector<std::pair<std::string, std::string>>& out) {
 std::vector<std::pair<std::string, std::string>> all_keys() {
   std::vector<std::pair<std::string, std::string>> out;
   const PipelineParams defaults;
-  for_each_stage_params(defaults, [&out]<class P>(const P&) { add_keys<P>(out); });
+  for_each_config_section(defaults, [&out]<class P>(const P&) { add_keys<P>(out); });
   return out;
 }
 
@@ -188,8 +213,9 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
   std::vector<std::string> sections;
   const PipelineParams defaults;
-  for_each_stage_params(defaults, [&sections]<class P>(const P&) { sections.emplace_back(param_table_of<P>().section); });
-  for (const char* other : {"export", "description", "comment"}) sections.emplace_back(other);
+  for_each_config_section(defaults,
+                          [&sections]<class P>(const P&) { sections.emplace_back(param_table_of<P>().section); });
+  for (const char* other : {"description", "comment"}) sections.emplace_back(other);
   for (auto it = doc.begin(); it != doc.end(); ++it) {
     if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
       const std::string near = closest_name(it.key(), sections);
@@ -200,13 +226,11 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
     }
   }
   PipelineParams p = base;
-  for_each_stage_params(p, [&]<class P>(P&) { move_renamed_keys<P>(doc, name); });
-  for_each_stage_params(p, [&]<class P>(P& stage) { read_section(doc, name, stage); });
-  // The writer's options (not a stage): their own reader, meshio/export_json.h.
-  if (const auto it = doc.find("export"); it != doc.end()) read_export_json(*it, name + ": export", p.output);
+  for_each_config_section(p, [&]<class P>(P&) { move_renamed_keys<P>(doc, name); });
+  for_each_config_section(p, [&]<class P>(P& section) { read_section(doc, name, section); });
   // Values out of range, named with the file (the stages check them again).
   try {
-    for_each_stage_params(p, []<class P>(const P& stage) { check_params(stage); });
+    for_each_config_section(p, []<class P>(const P& section) { check_params(section); });
   } catch (const InvalidInputError& e) {
     throw InvalidInputError(name + ": " + e.what());
   }
@@ -219,8 +243,8 @@ PipelineParams load_params(const std::filesystem::path& path, const PipelinePara
 
 std::string params_to_json(const PipelineParams& p) {
   json doc;
-  for_each_stage_params(p, [&doc]<class P>(const P& stage) { doc[param_table_of<P>().section] = write_section(stage); });
-  doc["export"] = export_to_json(p.output);
+  for_each_config_section(p,
+                          [&doc]<class P>(const P& section) { doc[param_table_of<P>().section] = write_section(section); });
   return doc.dump(2) + "\n";
 }
 
@@ -236,6 +260,8 @@ std::string accepted(const ParamSpec<P>& s) {
       for (const char* n : std::get<ParamChoice<P>>(s.field).names) list += (list.empty() ? "`" : ", `") + std::string(n) + "`";
       return list;
     }
+    case ParamKind::text:
+      return std::get<ParamText<P>>(s.field).accepted;
     default:
       return s.range.rule();
   }
@@ -275,16 +301,16 @@ std::string params_reference(bool markdown) {
   if (!markdown) {
     std::string out;
     const PipelineParams defaults;
-    for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, false); });
+    for_each_config_section(defaults, [&out]<class P>(const P& p) { reference_section(out, p, false); });
     return out;
   }
   std::string out =
       "Every key of a config file, by section, with its default (the initializer in the stage's\n"
       "Params header), the values accepted and the unit (\"x local radius\": relative to the\n"
       "branch radius there; lambda: the particle spacing in a cross-section). The `export`\n"
-      "section, how the mesh is written, is described in [export.md](export.md).\n";
+      "section, how the mesh is written, is described further in [export.md](export.md).\n";
   const PipelineParams defaults;
-  for_each_stage_params(defaults, [&out]<class P>(const P& p) { reference_section(out, p, true); });
+  for_each_config_section(defaults, [&out]<class P>(const P& p) { reference_section(out, p, true); });
   return out;
 }
 

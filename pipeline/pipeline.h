@@ -26,7 +26,7 @@ struct PipelineParams {
   ContourParams contours;
   MeshParams meshing;
   RepairParams repair;
-  /// How the mesh is written (config section "export"; meshio/export_json.h). Not a stage:
+  /// How the mesh is written (config section "export"; meshio/param_table.cpp). Not a stage:
   /// the pipeline only carries it from the config file to the command that writes.
   ExportParams output;
 };
@@ -45,12 +45,23 @@ void for_each_stage_params(PP& p, F&& f) {
   f(p.repair);
 }
 
+/// for_each_stage_params, then the writer's options (PipelineParams::output, section
+/// "export"): every section of a config file, as the reader, the writer, validation and the
+/// reference walk them.
+template <class PP, class F>
+  requires std::is_same_v<std::remove_const_t<PP>, PipelineParams>
+void for_each_config_section(PP& p, F&& f) {
+  for_each_stage_params(p, f);
+  f(p.output);
+}
+
 /// The stages, in order; `rerun_pipeline` restarts from one of them.
 enum class Stage { skeleton = 0, particles, strands, contours, meshing };
 const char* stage_name(Stage s);
 
 /// Parses a config file: {"skeleton": {...}, "particles": {...}, "strands": {...},
-/// "contours": {...}, "meshing": {...}}, every section and key optional, values overriding
+/// "contours": {...}, "meshing": {...}, "repair": {...}, "export": {...}}, every section and
+/// key optional, values overriding
 /// the defaults in `base`. An unknown section or key, or a value of the wrong type, throws
 /// InvalidInputError naming the file, the key and the accepted keys.
 PipelineParams parse_params_json(std::string_view text, const std::string& name, const PipelineParams& base = {});

@@ -17,7 +17,7 @@
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
 #include "meshio/export.h"
-#include "meshio/export_json.h"
+#include "meshio/export_text.h"
 #include "meshio/mesh_io.h"
 #include "meshio/tree_attributes.h"
 #include "tests/fixtures.h"
@@ -311,32 +311,17 @@ TEST(Placement, UpAxisPivotAndScaleOptions) {
   EXPECT_THROW(encode_mesh(m, MeshFormat::obj, {.scale = 0}), InvalidInputError);
 }
 
-TEST(Placement, ConfigSectionAndAttributeNames) {
+TEST(Placement, AttributeNames) {
+  // (The config's `export` section: test_pipeline.cpp, ExportSectionFromTheTable.)
   ExportParams p;
-  read_export_json(nlohmann::json::parse(R"({"up_axis": "z", "pivot": "center", "scale": "cm", "attributes": "normal"})"),
-                   "c.json: export", p);
-  EXPECT_EQ(p.file_up_axis, UpAxis::z);
-  EXPECT_EQ(p.pivot, Pivot::center);
-  EXPECT_EQ(p.scale, 100.0);
-  EXPECT_TRUE(p.normals);
-  EXPECT_FALSE(p.uvs);
-  EXPECT_FALSE(p.branch_ids);
-  ExportParams q;
-  read_export_json(export_to_json(p), "x", q);  // round trip
-  EXPECT_EQ(export_to_json(q), export_to_json(p));
-  try {
-    read_export_json(nlohmann::json::parse(R"({"pivott": "root"})"), "c.json: export", p);
-    ADD_FAILURE();
-  } catch (const InvalidInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("did you mean \"pivot\""), std::string::npos) << e.what();
-  }
-  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"scale": -1})"), "c", p), InvalidInputError);
-  EXPECT_THROW(read_export_json(nlohmann::json::parse(R"({"up_axis": 3})"), "c", p), InvalidInputError);
   EXPECT_THROW(set_attributes("normal,brnch_id", p), InvalidInputError);
   set_attributes("all", p);
   EXPECT_EQ(attribute_list(p), "normal,uv,branch_id,level,root_distance,pivot,direction,phase,thickness,color,uv1,tangent");
   set_attributes("normal,wind", p);
   EXPECT_EQ(attribute_list(p), "normal,level,root_distance,pivot,direction,phase,thickness");
+  EXPECT_EQ(parse_scale("cm"), 100.0);
+  EXPECT_EQ(parse_pivot("centre"), Pivot::center);
+  EXPECT_THROW(parse_up_axis("x"), InvalidInputError);
 }
 
 // ---------------------------------------------------------------- compression

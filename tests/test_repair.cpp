@@ -262,6 +262,10 @@ TEST(Repair, FaithfulConfigMeshesTheTreeAsGiven) {
   EXPECT_TRUE(rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented);
   EXPECT_EQ(rep.components, 1u);
   EXPECT_LE(rep.fidelity_p95, 0.15);
+  // Every input node counted by winding number, the thick ones among them.
+  EXPECT_EQ(rep.nodes, input.size());
+  EXPECT_GE(rep.nodes_inside, rep.thick_nodes_inside);
+  EXPECT_GE(double(rep.nodes_inside), 0.9 * double(rep.nodes));
   // (Not yet free of self-intersections on every tree: docs/repair.md.)
   EXPECT_LT(rep.self_intersecting_pairs, 100u);
 }

@@ -110,6 +110,10 @@ bool field_widget(const ParamField& f, const ParamField& applied) {
       instant = true;
       break;
     }
+    case ParamKind::text:
+      // (Only the export section has text fields, and the viewer's panels are the stages'.)
+      ImGui::TextDisabled("%s", key);
+      break;
   }
   bool done = ImGui::IsItemDeactivatedAfterEdit() || (instant && ImGui::IsItemEdited());
   if (changed_from_applied) ImGui::PopStyleColor();

@@ -133,7 +133,13 @@ RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& 
     note += ", mesh from " + mesh_path.filename().string();
   } else if (run.has_stage(Stage::contours)) {
     report("meshing", 0);
-    run.result.mesh = build_mesh(s, run.result.contours, params.meshing);
+    // Stitched and repaired as the run was, but for the fork retry: it slices contours again,
+    // from particles a dump may not have.
+    RepairParams repair = params.repair;
+    repair.fork_retry = false;
+    const RepairInputs inputs{s, run.result.particles, run.result.strands, params.contours, params.meshing};
+    run.result.repair = repair_mesh(stitch_mesh(s, run.result.contours, params.meshing), run.result.contours,
+                                    run.result.mesh, inputs, repair);
     run.has[idx(Stage::meshing)] = true;
     note += ", mesh (rebuilt from the contours)";
   }

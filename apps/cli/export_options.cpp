@@ -1,6 +1,6 @@
 #include "apps/cli/export_options.h"
 
-#include "meshio/export_json.h"
+#include "meshio/export_text.h"
 
 namespace sm::cli {
 

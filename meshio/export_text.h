@@ -1,23 +1,14 @@
 #pragma once
-/// ExportParams as text: the `export` section of a config file and the names the CLI accepts
-/// (docs/export.md lists them with what an engine does with each).
+/// ExportParams as text: the names the CLI and the config's `export` section accept
+/// (meshio/param_table.cpp; docs/export.md lists them with what an engine does with each).
 
+#include <optional>
 #include <string>
 #include <string_view>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "meshio/export.h"
 
 namespace sm {
-
-/// Reads the keys of an `export` config section into `params` (absent keys keep their value).
-/// An unknown key or a wrong value throws InvalidInputError naming `where` ("tree.json: export"),
-/// the key and what is accepted.
-void read_export_json(const nlohmann::json& section, const std::string& where, ExportParams& params);
-
-/// Every key of the `export` section with its current value (read_export_json reads it back).
-nlohmann::json export_to_json(const ExportParams& params);
 
 /// Parses "y" or "z" (nullopt for "auto": the format's convention). Throws InvalidInputError.
 std::optional<UpAxis> parse_up_axis(std::string_view text);

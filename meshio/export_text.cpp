@@ -1,6 +1,6 @@
-// The `export` section of config files and the attribute names of the CLI.
+// The names of ExportParams' values, for the CLI and config files (see export_text.h).
 
-#include "meshio/export_json.h"
+#include "meshio/export_text.h"
 
 #include <charconv>
 #include <cmath>
@@ -8,16 +8,12 @@
 #include <set>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "core/errors.h"
 #include "core/suggest.h"
 
 namespace sm {
 
 namespace {
-
-using nlohmann::json;
 
 // One optional vertex attribute: its name on the command line and in config files, and its switch.
 struct AttributeName {
@@ -138,59 +134,6 @@ std::string attribute_list(const ExportParams& params) {
     out += a.name;
   }
   return out.empty() ? "none" : out;
-}
-
-void read_export_json(const json& section, const std::string& where, ExportParams& p) {
-  if (!section.is_object()) throw InvalidInputError(where + ": must be an object");
-  // key -> reader of its value; the set of keys is the documented one (export_to_json).
-  const std::vector<std::pair<std::string, std::function<void(const json&)>>> keys{
-      {"up_axis", [&](const json& v) { p.file_up_axis = parse_up_axis(v.get<std::string>()); }},
-      {"pivot", [&](const json& v) { p.pivot = parse_pivot(v.get<std::string>()); }},
-      {"scale", [&](const json& v) { p.scale = v.is_string() ? parse_scale(v.get<std::string>()) : parse_scale(v.dump()); }},
-      {"attributes", [&](const json& v) { set_attributes(v.get<std::string>(), p); }},
-      {"optimize", [&](const json& v) { p.optimize = v.get<bool>(); }},
-      {"compress", [&](const json& v) { p.compress = parse_compression(v.get<std::string>()); }},
-      {"quantize", [&](const json& v) { p.quantize = v.get<bool>(); }},
-      {"lods",
-       [&](const json& v) {
-         const auto n = v.get<std::int64_t>();
-         if (n < 1 || n > 8) throw InvalidInputError("must be 1 (no levels of detail) to 8");
-         p.lods = static_cast<std::uint32_t>(n);
-       }},
-      {"lod_files", [&](const json& v) { p.lod_files = v.get<bool>(); }},
-  };
-  std::vector<std::string> known;
-  for (const auto& [k, f] : keys) known.push_back(k);
-  for (auto it = section.begin(); it != section.end(); ++it) {
-    const auto k = std::find_if(keys.begin(), keys.end(), [&](const auto& e) { return e.first == it.key(); });
-    if (k == keys.end()) {
-      throw InvalidInputError(where + ": unknown key \"" + it.key() + "\"" + hint(it.key(), known) +
-                              " (known keys: " + join(known) + ")");
-    }
-    try {
-      k->second(*it);
-    } catch (const json::exception&) {
-      const json expect = export_to_json(ExportParams{})[k->first];
-      throw InvalidInputError(where + "." + k->first + ": must be a " + expect.type_name() + " (like " +
-                              expect.dump() + "), not " + it->dump());
-    } catch (const InvalidInputError& e) {
-      throw InvalidInputError(where + "." + k->first + ": " + e.what());
-    }
-  }
-}
-
-json export_to_json(const ExportParams& p) {
-  json j;
-  j["up_axis"] = p.file_up_axis ? (*p.file_up_axis == UpAxis::y ? "y" : "z") : "auto";
-  j["pivot"] = !p.pivot ? "auto" : *p.pivot == Pivot::root ? "root" : *p.pivot == Pivot::center ? "center" : "origin";
-  j["scale"] = p.scale;
-  j["attributes"] = attribute_list(p);
-  j["optimize"] = p.optimize;
-  j["compress"] = p.compress == Compression::meshopt ? "meshopt" : "none";
-  j["quantize"] = p.quantize;
-  j["lods"] = p.lods;
-  j["lod_files"] = p.lod_files;
-  return j;
 }
 
 }  // namespace sm
