@@ -140,6 +140,33 @@ TEST(Reliability, NestedConfigAndGltfExitOne) {
   EXPECT_NE(b.err.find("nested deeper than"), std::string::npos) << b.err;
 }
 
+TEST(Reliability, NumberOverflowNamesLineAndColumn) {
+  // nlohmann's "number overflow parsing '1e999'" (out_of_range.406) carries no position: 17 of
+  // 2,754 rejections of the 2026-11-28 campaign named only the file, and `grow --preset` gave
+  // exit 3 (internal error).
+  EXPECT_EQ(json_error_line_col("[1, 2]"), "");
+  EXPECT_EQ(json_error_line_col("{\n  \"a\": [0, 1e999]}"), "2:12");
+  EXPECT_EQ(json_error_line_col("[1, 2"), "1:6");  // end of input: after the last token
+  const fs::path dir = test::temp_dir("rel_overflow");
+  write_file_atomically(dir / "ov.json", "{\"nodes\":[\n{\"id\":0,\"parent\":-1,\"position\":[0,0,0],\"radius\":0.1},\n"
+                                         "{\"id\":1,\"parent\":0,\"position\":[0,0,1e999],\"radius\":0.05}]}\n");
+  const CmdResult info = run("info " + (dir / "ov.json").string());
+  EXPECT_EQ(info.code, 1) << info.err;
+  EXPECT_NE(info.err.find("ov.json:3:36: not valid JSON: number overflow parsing '1e999'"), std::string::npos) << info.err;
+  write_file_atomically(dir / "tree.json", kSixNodes);
+  write_file_atomically(dir / "cfg.json", "{\"contours\": {\"slice_step\": -1e400}}");
+  const CmdResult cfg = run("mesh " + (dir / "tree.json").string() + " --config " + (dir / "cfg.json").string() +
+                            " -o " + (dir / "t.glb").string());
+  EXPECT_EQ(cfg.code, 1) << cfg.err;
+  EXPECT_NE(cfg.err.find("cfg.json:1:29: not valid JSON: number overflow"), std::string::npos) << cfg.err;
+  EXPECT_FALSE(fs::exists(dir / "t.glb"));
+  write_file_atomically(dir / "preset.json", "{\"seed\": 1e999}");
+  const CmdResult grow = run("grow --preset " + (dir / "preset.json").string() + " -o " + (dir / "g.json").string());
+  EXPECT_EQ(grow.code, 1) << grow.err;
+  EXPECT_NE(grow.err.find("preset.json:1:10: not valid JSON"), std::string::npos) << grow.err;
+  EXPECT_FALSE(fs::exists(dir / "g.json"));
+}
+
 TEST(Reliability, OnlyRegularFilesAreRead) {
   const fs::path dir = test::temp_dir("rel_read");
   EXPECT_THROW(read_file(dir), IoError);
