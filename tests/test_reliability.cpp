@@ -167,6 +167,67 @@ TEST(Reliability, NumberOverflowNamesLineAndColumn) {
   EXPECT_FALSE(fs::exists(dir / "g.json"));
 }
 
+/// A glTF binary: header, `json` as the JSON chunk (padded), then `bin` as a BIN chunk whose
+/// header declares `bin_length` bytes (-1: bin.size()); `length` overrides the header's total.
+std::string glb_file(std::string json, const std::string& bin, long bin_length = -1, long length = -1) {
+  while (json.size() % 4) json += ' ';
+  std::string out;
+  auto u32 = [&](std::uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+  const std::size_t total = 12 + 8 + json.size() + (bin.empty() ? 0 : 8 + bin.size());
+  out += "glTF";
+  u32(2);
+  u32(std::uint32_t(length >= 0 ? std::size_t(length) : total));
+  u32(std::uint32_t(json.size()));
+  u32(0x4E4F534A);  // "JSON"
+  out += json;
+  if (!bin.empty()) {
+    u32(std::uint32_t(bin_length >= 0 ? std::size_t(bin_length) : bin.size()));
+    u32(0x004E4942);  // "BIN"
+    out += bin;
+  }
+  return out;
+}
+
+TEST(Reliability, GlbContainerFaultsNameTheirByte) {
+  // tinygltf 2.7 checks a BIN chunk's length without its 8-byte header: a chunk declaring 16
+  // bytes with 8 in the file was accepted and its buffer copied from 8 bytes past the end of
+  // the file (heap-buffer-overflow under ASan, `check` said "result: ok" in Release).
+  const fs::path dir = test::temp_dir("rel_glb");
+  const std::string json = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":16}]})";
+  const std::string padded_json_size = std::to_string((json.size() + 3) / 4 * 4);
+  struct Case {
+    const char* file;
+    std::string bytes, expect;
+  };
+  std::string no_magic = glb_file(json, std::string(16, '\0'));
+  no_magic[0] = 'x';
+  std::string not_json = glb_file(json, std::string(16, '\0'));
+  not_json[16] = 'X';
+  const std::string bin_at = std::to_string(20 + (json.size() + 3) / 4 * 4);
+  const Case cases[] = {
+      {"over.glb", glb_file(json, std::string(8, '\0'), 16), "over.glb: byte " + bin_at + ": BIN chunk of 16 bytes"},
+      {"short.glb", "glTF", "short.glb: 4 bytes, too short for a glTF binary"},
+      {"magic.glb", no_magic, "magic.glb: byte 0: no \"glTF\" magic"},
+      {"length.glb", glb_file(json, std::string(16, '\0'), -1, 100'000), "length.glb: byte 8: total length 100000"},
+      {"type.glb", not_json, "type.glb: byte 16: the first chunk must be JSON"},
+      {"json.glb", glb_file(json, std::string(16, '\0'), -1, 24), "json.glb: byte 12: JSON chunk length " + padded_json_size},
+      {"odd.glb", glb_file(json, std::string(16, '\0'), 6), "odd.glb: byte " + bin_at + ": BIN chunk length 6"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.file);
+    write_file_atomically(dir / c.file, c.bytes);
+    const CmdResult r = run("check " + (dir / c.file).string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+  }
+  // The same container with the whole BIN chunk in the file passes the container check (and
+  // is then refused for having no mesh, not for its container).
+  write_file_atomically(dir / "fits.glb", glb_file(json, std::string(16, '\0')));
+  const CmdResult fits = run("check " + (dir / "fits.glb").string());
+  EXPECT_EQ(fits.err.find("byte "), std::string::npos) << fits.err;
+  EXPECT_EQ(fits.err.find("internal error"), std::string::npos) << fits.err;
+}
+
 TEST(Reliability, OnlyRegularFilesAreRead) {
   const fs::path dir = test::temp_dir("rel_read");
   EXPECT_THROW(read_file(dir), IoError);
