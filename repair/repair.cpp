@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <set>
 #include <tuple>
 
 #include "core/errors.h"
@@ -13,6 +14,10 @@
 #include "repair/self_union.h"
 
 namespace sm {
+namespace {
+constexpr std::uint32_t kNoTriangle = UINT32_MAX;
+}  // namespace
+
 
 namespace {
 
@@ -182,12 +187,21 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     }
   }
   std::vector<std::uint32_t> origin;
+  // Pairs a round left out (their union could not be judged) are not tried again: the rounds
+  // after it meet only the pairs it made.
+  std::set<std::array<std::uint32_t, 2>> left_out;
+  auto ordered = [](std::uint32_t a, std::uint32_t b) { return std::array<std::uint32_t, 2>{std::min(a, b), std::max(a, b)}; };
   // A round is kept only when the mesh stays a closed, oriented 2-manifold and has fewer
   // pairs than before; otherwise the mesh goes back to what it was and the repair stops.
   while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
+    std::vector<std::array<std::uint32_t, 2>> to_try;
+    for (const auto& [f, g] : pairs) {
+      if (!left_out.contains(ordered(f, g))) to_try.push_back({f, g});
+    }
+    if (to_try.empty()) break;
     ++st.rounds;
     MeshResult before = r;
-    const SelfUnionStats u = self_union(mesh, pairs, r.grid, skeleton.position, origin);
+    const SelfUnionStats u = self_union(mesh, to_try, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
       break;
@@ -219,6 +233,20 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];
       r.triangle_kind = std::move(kind);
     }
+    // The pairs left out, in the new numbering: their triangles were not cut, so each is the
+    // one triangle of the result from its origin.
+    std::vector<std::uint32_t> now(before.mesh.triangles.size(), kNoTriangle), count(now.size(), 0);
+    for (std::uint32_t f = 0; f < origin.size(); ++f) {
+      now[origin[f]] = f;
+      ++count[origin[f]];
+    }
+    std::set<std::array<std::uint32_t, 2>> still;
+    auto carry = [&](std::uint32_t a, std::uint32_t b) {
+      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now[a], now[b]));
+    };
+    for (const auto& [a, b] : left_out) carry(a, b);
+    for (const auto& [a, b] : u.left_out_pairs) carry(a, b);
+    left_out = std::move(still);
     pairs = std::move(after);
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);

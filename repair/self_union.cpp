@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <set>
 #include <tuple>
 
 // CGAL's assertions stay on here even in release builds: a configuration the refinement cannot
@@ -622,9 +623,9 @@ std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
 
 /// Components (through shared vertices) of `out` other than the largest: inner shells (a void
 /// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
-/// apart from the tube it folded) go. A part that holds an anchor is a branch the union cut off
-/// the tree (its tube turned inside out over a whole section): the input triangles it was cut
-/// from are returned, and the mesh is not to be used.
+/// apart from the tube it folded) go. A part that holds an anchor, of either volume, is a branch
+/// the union cut off the tree (its tube turned inside out over a whole section): the input
+/// triangles it was cut from are returned, and the mesh is not to be used.
 std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t>& origin_of,
                                             std::span<const glm::dvec3> anchors,
                                             const std::vector<std::uint8_t>& was_cut, SelfUnionStats& st) {
@@ -656,8 +657,8 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
       keep_comp[c] = 1;
       continue;
     }
-    bool holds = false;
-    if (v > 0) {
+    bool holds = false;  // a void's shell holds no node; one that does is a branch turned over
+    {
       Mesh part;
       part.positions = out.positions;
       glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
@@ -738,6 +739,33 @@ std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
   return failing;
 }
 
+/// Per pair, the crossing curve it lies on (an index into `pairs`, the curve's first pair):
+/// pairs (f, g) and (f', g) are on one curve where f and f' share an edge, and likewise on g's side.
+std::vector<std::uint32_t> crossing_curves(const Mesh& mesh, const VertexCorners& vc,
+                                           const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> index;  // (f, g) both ways
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+    index.try_emplace({pairs[k][0], pairs[k][1]}, k);
+    index.try_emplace({pairs[k][1], pairs[k][0]}, k);
+  }
+  UnionFind joined(pairs.size());
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+    for (int side = 0; side < 2; ++side) {
+      const std::uint32_t f = pairs[k][side], g = pairs[k][1 - side];
+      const auto& t = mesh.triangles[f];
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t n = triangle_with_edge(mesh, vc, t[(e + 1) % 3], t[e]);
+        if (n == kNone) continue;
+        const auto it = index.find({n, g});
+        if (it != index.end()) joined.unite(k, it->second);
+      }
+    }
+  }
+  std::vector<std::uint32_t> curve(pairs.size());
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) curve[k] = joined.find(k);
+  return curve;
+}
+
 }  // namespace
 
 glm::dvec3 step_towards(const glm::dvec3& p, const glm::dvec3& target, double grid) {
@@ -769,35 +797,48 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   const VertexCorners vc = vertex_corners(mesh);
 
   // Attempts: where CGAL cannot refine a cluster of crossings, patches cannot be judged, or
-  // the union cuts a branch off the tree, those crossings are left out, with every pair joined
-  // to them (sharing a vertex), and the rest is tried again.
+  // the union cuts a branch off the tree, the crossing curves through those triangles are left
+  // out whole (a curve cut only in part would leave a cut line ending inside a patch), and the
+  // rest is tried again. A curve is the pairs joined where it passes from a triangle to its
+  // neighbour across their common edge while staying on the same other triangle.
+  const std::vector<std::uint32_t> curve = crossing_curves(mesh, vc, pairs);
   std::vector<std::array<std::uint32_t, 2>> active = pairs;
-  std::vector<std::uint8_t> excluded(mesh.positions.size(), 0);  // per vertex
+  std::vector<std::uint32_t> active_curve = curve;
   auto leave_out = [&](const std::vector<std::uint32_t>& bad) {
-    for (const std::uint32_t f : bad) {
-      for (const std::uint32_t v : mesh.triangles[f]) excluded[v] = 1;
+    std::vector<std::uint8_t> bad_triangle(nf, 0);
+    for (const std::uint32_t f : bad) bad_triangle[f] = 1;
+    std::vector<std::uint8_t> drop_curve(pairs.size(), 0);
+    bool any = false;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      if (!bad_triangle[active[k][0]] && !bad_triangle[active[k][1]]) continue;
+      drop_curve[active_curve[k]] = 1;
+      any = true;
     }
-    for (bool grew = true; grew;) {
-      grew = false;
-      std::vector<std::array<std::uint32_t, 2>> still;
-      for (const auto& pr : active) {
-        bool touches = false;
-        for (const std::uint32_t f : pr) {
-          for (const std::uint32_t v : mesh.triangles[f]) touches = touches || excluded[v];
-        }
-        if (!touches) {
-          still.push_back(pr);
-          continue;
-        }
-        for (const std::uint32_t f : pr) {
+    if (!any) {  // bad triangles no pair holds (open edges next to a cut): the pairs around them
+      std::vector<std::uint8_t> bad_vertex(mesh.positions.size(), 0);
+      for (const std::uint32_t f : bad) {
+        for (const std::uint32_t v : mesh.triangles[f]) bad_vertex[v] = 1;
+      }
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        for (const std::uint32_t f : active[k]) {
           for (const std::uint32_t v : mesh.triangles[f]) {
-            grew = grew || !excluded[v];
-            excluded[v] = 1;
+            if (bad_vertex[v]) drop_curve[active_curve[k]] = 1;
           }
         }
       }
-      active.swap(still);
     }
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      if (drop_curve[active_curve[k]]) continue;
+      active[w] = active[k];
+      active_curve[w] = active_curve[k];
+      ++w;
+    }
+    // Nothing matched (the bad triangles are not in any active pair): leave everything out
+    // rather than loop.
+    if (w == active.size()) w = 0;
+    active.resize(w);
+    active_curve.resize(w);
   };
   Attempt attempt(mesh, vc);
   constexpr int kAttempts = 12;
@@ -860,6 +901,12 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   st.patches = attempt.patches;
   st.cut_triangles = attempt.cut_triangles;
   st.left_out = pairs.size() - active.size();
+  {
+    std::set<std::array<std::uint32_t, 2>> kept(active.begin(), active.end());
+    for (const auto& pr : pairs) {
+      if (!kept.contains(pr)) st.left_out_pairs.push_back(pr);
+    }
+  }
   if (!ready) {
     st.problem = active.empty() ? "no crossing could be judged"
                                 : "crossings still misjudged after " + std::to_string(kAttempts) + " attempts";

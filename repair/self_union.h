@@ -43,6 +43,7 @@ struct SelfUnionStats {
   std::size_t lumps = 0;              ///< other components without an anchor inside, dropped
   std::size_t left_out = 0;           ///< pairs left as they were: their patches could not be judged
   std::size_t unrefined_clusters = 0; ///< attempts where CGAL could not refine some clusters (left out)
+  std::vector<std::array<std::uint32_t, 2>> left_out_pairs;  ///< those pairs, as given
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
 
