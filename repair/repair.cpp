@@ -3,9 +3,11 @@
 #include "repair/repair.h"
 
 #include <algorithm>
+#include <bit>
 #include <numeric>
 #include <set>
 #include <tuple>
+#include <unordered_map>
 
 #include "core/errors.h"
 #include "core/union_find.h"
@@ -115,6 +117,58 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
   return moving.size();
 }
 
+/// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`: pairs
+/// of triangles both found unchanged in `before` (the same three positions) carry over, and
+/// the rest are looked for around the changed triangles only (a pass over the boxes rather than
+/// the whole mesh's search: the repair's edits are local).
+std::vector<std::array<std::uint32_t, 2>> pairs_after_edit(const Mesh& before,
+                                                           const std::vector<std::array<std::uint32_t, 2>>& pairs,
+                                                           const Mesh& after) {
+  using Key = std::array<double, 9>;
+  auto key = [](const Mesh& m, std::uint32_t f) {
+    const auto& t = m.triangles[f];
+    int first = 0;  // the rotation starting at the smallest position: the same triangle, one key
+    for (int k = 1; k < 3; ++k) {
+      const glm::dvec3 &p = m.positions[t[k]], &q = m.positions[t[first]];
+      if (std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z)) first = k;
+    }
+    Key out{};
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3& p = m.positions[t[(first + k) % 3]];
+      out[3 * k] = p.x;
+      out[3 * k + 1] = p.y;
+      out[3 * k + 2] = p.z;
+    }
+    return out;
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const {
+      std::uint64_t h = 1469598103934665603ull;
+      for (const double x : k) h = (h ^ std::bit_cast<std::uint64_t>(x)) * 1099511628211ull;
+      return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+  };
+  std::unordered_map<Key, std::uint32_t, KeyHash> old_index(before.triangles.size());
+  for (std::uint32_t f = 0; f < before.triangles.size(); ++f) old_index.try_emplace(key(before, f), f);
+  std::vector<std::uint32_t> now(before.triangles.size(), kNoTriangle);  // before -> after, unchanged ones
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t f = 0; f < after.triangles.size(); ++f) {
+    const auto it = old_index.find(key(after, f));
+    if (it != old_index.end() && now[it->second] == kNoTriangle) {
+      now[it->second] = f;
+    } else {
+      changed.push_back(f);
+    }
+  }
+  std::vector<std::array<std::uint32_t, 2>> out = TriangleIntersections(after).pairs_touching(changed);
+  for (const auto& [f, g] : pairs) {
+    if (now[f] != kNoTriangle && now[g] != kNoTriangle) out.push_back({std::min(now[f], now[g]), std::max(now[f], now[g])});
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 }  // namespace
 
 void validate_params(const RepairParams& p) { check_params(p); }
@@ -180,10 +234,10 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         st.problem = "the fold repair left " + std::to_string(open) + " unpaired half-edges (undone)";
         st.fold_changes = 0;
         r = std::move(before);
+      } else {
+        pairs = pairs_after_edit(before.mesh, pairs, mesh);
       }
       st.timings.add("folds", clock.lap());
-      pairs = all_pairs();
-      st.timings.add("find_pairs", clock.lap());
     }
   }
   std::vector<std::uint32_t> origin;
@@ -209,7 +263,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     std::vector<std::array<std::uint32_t, 2>> after;
     const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh));
     const std::size_t parts = components(mesh), parts_before = components(before.mesh);
-    if (open == 0 && parts <= parts_before) after = all_pairs();
+    if (open == 0 && parts <= parts_before) after = pairs_after_edit(before.mesh, pairs, mesh);
     st.timings.add("self_union", clock.lap());
     // (A part turned inside out and kept as it was can turn the whole surface over.)
     const bool inverted = open == 0 && !(signed_volume(mesh) > 0);

@@ -43,6 +43,25 @@ TEST(SelfUnion, InterpenetratingBoxesBecomeTheirUnion) {
   EXPECT_NEAR(r.signed_volume, 2.0 - 0.125, 1e-12);
 }
 
+TEST(SelfUnion, PairsTouchingASubsetAreThoseOfTheWholeSearch) {
+  // The repair recounts pairs only around the triangles an edit changed: pairs_touching(S)
+  // must be exactly the whole search's pairs with a triangle in S, for any S.
+  const Mesh m = test::interpenetrating_boxes();
+  const auto all = all_pairs(m);
+  ASSERT_GT(all.size(), 0u);
+  const TriangleIntersections ti(m);
+  for (std::uint32_t step : {1u, 2u, 3u, 7u}) {
+    std::vector<std::uint32_t> subset;
+    for (std::uint32_t f = 0; f < m.triangles.size(); f += step) subset.push_back(f);
+    std::vector<std::array<std::uint32_t, 2>> expected;
+    for (const auto& pr : all) {
+      if (pr[0] % step == 0 || pr[1] % step == 0) expected.push_back(pr);
+    }
+    EXPECT_EQ(ti.pairs_touching(subset), expected) << "every " << step << "th triangle";
+  }
+  EXPECT_TRUE(ti.pairs_touching({}).empty());
+}
+
 TEST(SelfUnion, DisjointPartsAreLeftAsTheyAre) {
   // No pairs: nothing to do, the mesh and the identity origin come back.
   Mesh m = test::box();
