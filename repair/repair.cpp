@@ -14,6 +14,7 @@
 #include "meshcheck/intersections.h"
 #include "repair/fold_repair.h"
 #include "repair/self_union.h"
+#include "repair/verdict.h"
 
 namespace sm {
 namespace {
@@ -245,8 +246,22 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // after it meet only the pairs it made.
   std::set<std::array<std::uint32_t, 2>> left_out;
   auto ordered = [](std::uint32_t a, std::uint32_t b) { return std::array<std::uint32_t, 2>{std::min(a, b), std::max(a, b)}; };
-  // A round is kept only when the mesh stays a closed, oriented 2-manifold and has fewer
-  // pairs than before; otherwise the mesh goes back to what it was and the repair stops.
+  // A round is kept by the repair's rule (verdict.h; a handle allowed, the thick skeleton
+  // nodes inside counted); otherwise the mesh goes back to what it was and the repair stops.
+  std::vector<glm::dvec3> thick;
+  const double median = skeleton.median_radius();
+  for (std::size_t i = 0; i < skeleton.position.size(); ++i) {
+    if (skeleton.radius[i] >= median) thick.push_back(skeleton.position[i]);
+  }
+  auto thick_inside = [&](const Mesh& m) {
+    const std::vector<std::uint8_t> in = inside_closed_mesh(m, thick);
+    return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));
+  };
+  MeshFigures now;
+  if (params.self_union && !pairs.empty()) {
+    now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
+           .thick_inside = thick_inside(mesh)};
+  }
   while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
     std::vector<std::array<std::uint32_t, 2>> to_try;
     for (const auto& [f, g] : pairs) {
@@ -260,22 +275,24 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       st.problem = u.problem;
       break;
     }
+    // The figures after it, measured only as far as the rule reads them (it stops at the first
+    // respect in which the mesh does worse). A part turned inside out and kept as it was can
+    // turn the whole surface over: the volume.
     std::vector<std::array<std::uint32_t, 2>> after;
-    const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh));
-    const std::size_t parts = components(mesh), parts_before = components(before.mesh);
-    if (open == 0 && parts <= parts_before) after = pairs_after_edit(before.mesh, pairs, mesh);
+    MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
+    if (next.sound && next.parts <= now.parts) {
+      next.volume = signed_volume(mesh);
+      after = pairs_after_edit(before.mesh, pairs, mesh);
+      next.pairs = after.size();
+      next.thick_inside = thick_inside(mesh);
+    }
     st.timings.add("self_union", clock.lap());
-    // (A part turned inside out and kept as it was can turn the whole surface over.)
-    const bool inverted = open == 0 && !(signed_volume(mesh) > 0);
-    if (open > 0 || inverted || parts > parts_before || after.size() >= pairs.size()) {
-      st.problem = open > 0 ? "the union left " + std::to_string(open) + " unpaired half-edges"
-                   : inverted ? std::string("the union turned the surface inside out")
-                   : parts > parts_before
-                       ? "the union split the mesh into " + std::to_string(parts) + " parts"
-                       : "the union left " + std::to_string(after.size()) + " pairs of " + std::to_string(pairs.size());
+    if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
+      st.problem = why;
       r = std::move(before);
       break;
     }
+    now = next;
     st.cut_triangles += u.cut_triangles;
     st.dropped_triangles += u.dropped_triangles;
     st.new_vertices += u.new_vertices;

@@ -739,6 +739,43 @@ std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
   return failing;
 }
 
+/// For each anchor `held` before the union but outside `out` (at most 64 of them), the
+/// triangle of the active pairs nearest to it (by its corners and centroid): the crossing whose
+/// union lost it. Empty when no anchor was lost.
+std::vector<std::uint32_t> nearest_cut_to_lost(const Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& active,
+                                               std::span<const glm::dvec3> anchors, const std::vector<std::uint8_t>& held,
+                                               const Mesh& out) {
+  std::vector<glm::dvec3> probe;
+  for (std::size_t k = 0; k < anchors.size(); ++k) {
+    if (held[k]) probe.push_back(anchors[k]);
+  }
+  std::vector<std::uint32_t> near;
+  if (probe.empty() || active.empty()) return near;
+  const std::vector<int> w = winding_numbers(out, probe);
+  std::vector<std::uint32_t> cut;
+  for (const auto& pr : active) cut.insert(cut.end(), {pr[0], pr[1]});
+  std::sort(cut.begin(), cut.end());
+  cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
+  constexpr std::size_t kMaxLost = 64;
+  for (std::size_t k = 0; k < probe.size() && near.size() < kMaxLost; ++k) {
+    if (w[k] != 0) continue;
+    double best = HUGE_VAL;
+    std::uint32_t at = cut.front();
+    for (const std::uint32_t f : cut) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+      const double d = std::min({glm::distance(a, probe[k]), glm::distance(b, probe[k]), glm::distance(c, probe[k]),
+                                 glm::distance((a + b + c) / 3.0, probe[k])});
+      if (d < best) {
+        best = d;
+        at = f;
+      }
+    }
+    near.push_back(at);
+  }
+  return near;
+}
+
 /// Per pair, the crossing curve it lies on (an index into `pairs`, the curve's first pair):
 /// pairs (f, g) and (f', g) are on one curve where f and f' share an edge, and likewise on g's side.
 std::vector<std::uint32_t> crossing_curves(const Mesh& mesh, const VertexCorners& vc,
@@ -840,6 +877,12 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     active.resize(w);
     active_curve.resize(w);
   };
+  // The skeleton nodes the surface holds before the union (winding number not 0).
+  std::vector<std::uint8_t> held(anchors.size(), 0);
+  {
+    const std::vector<int> w = winding_numbers(mesh, anchors);
+    for (std::size_t k = 0; k < w.size(); ++k) held[k] = w[k] != 0;
+  }
   Attempt attempt(mesh, vc);
   constexpr int kAttempts = 12;
   Mesh out;
@@ -887,6 +930,13 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       const std::vector<std::uint32_t> flipped = attempt.flipped();
       if (flipped.empty()) break;
       leave_out(flipped);
+      continue;
+    }
+    // A union that leaves outside a skeleton node the surface held (a part dropped as lying
+    // inside another while it was the tree's own) is not the union of the tree's solids: the
+    // crossing nearest each such node is left out.
+    if (const std::vector<std::uint32_t> near = nearest_cut_to_lost(mesh, active, anchors, held, out); !near.empty()) {
+      leave_out(near);
       continue;
     }
     st.new_vertices = trial.new_vertices;

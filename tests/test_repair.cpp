@@ -11,6 +11,7 @@
 #include "pipeline/pipeline.h"
 #include "repair/repair.h"
 #include "repair/self_union.h"
+#include "repair/verdict.h"
 #include "grow/messy_grower.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
@@ -72,6 +73,30 @@ TEST(SelfUnion, DisjointPartsAreLeftAsTheyAre) {
   EXPECT_EQ(m.triangles, before.triangles);
   ASSERT_EQ(origin.size(), m.triangles.size());
   for (std::uint32_t f = 0; f < origin.size(); ++f) EXPECT_EQ(origin[f], f);
+}
+
+TEST(Repair, OneRuleKeepsOnlyABetterMesh) {
+  const MeshFigures before{.parts = 1, .genus = 0, .volume = 1.0, .pairs = 10, .thick_inside = 50};
+  auto with = [&](auto edit) {
+    MeshFigures f = before;
+    edit(f);
+    return f;
+  };
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; })), "");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.thick_inside = 51; })), "");
+  EXPECT_EQ(refuse(before, before), "no fewer pairs and no more thick nodes inside");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.sound = false; })),
+            "not a closed, oriented 2-manifold");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.parts = 2; })), "2 components");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.thick_inside = 49; })),
+            "1 more thick nodes outside");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.volume = -1; })), "negative volume");
+  // A handle: refused unless allowed (the self-union makes one where crossings close a loop).
+  const MeshFigures handle = with([](MeshFigures& f) { f.pairs = 0; f.genus = 1; });
+  EXPECT_EQ(refuse(before, handle), "genus 1");
+  EXPECT_EQ(refuse(before, handle, {.handles_allowed = true}), "");
+  // Figures a step does not measure are not compared.
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.thick_inside.reset(); })), "");
 }
 
 TEST(Repair, CleanMeshIsUnchanged) {
