@@ -773,7 +773,7 @@ void check_glb_container(std::string_view bytes, const std::string& name) {
     return std::uint64_t{v};
   };
   const auto fail = [&](std::uint64_t byte, const std::string& what) {
-    throw InvalidInputError(name + ": byte " + std::to_string(byte) + ": " + what);
+    throw InvalidInputError(name + ": not a valid glTF binary (.glb) file: byte " + std::to_string(byte) + ": " + what);
   };
   const auto hex = [](std::uint64_t v) {
     char buf[16];
@@ -781,10 +781,10 @@ void check_glb_container(std::string_view bytes, const std::string& name) {
     return std::string(buf);
   };
   if (bytes.size() < 20) {
-    throw InvalidInputError(name + ": " + std::to_string(bytes.size()) +
-                            " bytes, too short for a glTF binary (12-byte header and 8-byte JSON chunk header)");
+    throw InvalidInputError(name + ": not a valid glTF binary (.glb) file: " + std::to_string(bytes.size()) +
+                            " bytes, shorter than its 12-byte header and 8-byte JSON chunk header");
   }
-  if (bytes.substr(0, 4) != "glTF") fail(0, "no \"glTF\" magic: not a glTF binary");
+  if (bytes.substr(0, 4) != "glTF") fail(0, "no \"glTF\" magic");
   const std::uint64_t length = u32(8), json_length = u32(12);
   if (length > bytes.size()) {
     fail(8, "total length " + std::to_string(length) + " exceeds the file's " + std::to_string(bytes.size()) + " bytes");

@@ -205,13 +205,13 @@ TEST(Reliability, GlbContainerFaultsNameTheirByte) {
   not_json[16] = 'X';
   const std::string bin_at = std::to_string(20 + (json.size() + 3) / 4 * 4);
   const Case cases[] = {
-      {"over.glb", glb_file(json, std::string(8, '\0'), 16), "over.glb: byte " + bin_at + ": BIN chunk of 16 bytes"},
-      {"short.glb", "glTF", "short.glb: 4 bytes, too short for a glTF binary"},
-      {"magic.glb", no_magic, "magic.glb: byte 0: no \"glTF\" magic"},
-      {"length.glb", glb_file(json, std::string(16, '\0'), -1, 100'000), "length.glb: byte 8: total length 100000"},
-      {"type.glb", not_json, "type.glb: byte 16: the first chunk must be JSON"},
-      {"json.glb", glb_file(json, std::string(16, '\0'), -1, 24), "json.glb: byte 12: JSON chunk length " + padded_json_size},
-      {"odd.glb", glb_file(json, std::string(16, '\0'), 6), "odd.glb: byte " + bin_at + ": BIN chunk length 6"},
+      {"over.glb", glb_file(json, std::string(8, '\0'), 16), "over.glb: not a valid glTF binary (.glb) file: byte " + bin_at + ": BIN chunk of 16 bytes"},
+      {"short.glb", "glTF", "short.glb: not a valid glTF binary (.glb) file: 4 bytes, shorter than its 12-byte header"},
+      {"magic.glb", no_magic, "magic.glb: not a valid glTF binary (.glb) file: byte 0: no \"glTF\" magic"},
+      {"length.glb", glb_file(json, std::string(16, '\0'), -1, 100'000), "length.glb: not a valid glTF binary (.glb) file: byte 8: total length 100000"},
+      {"type.glb", not_json, "type.glb: not a valid glTF binary (.glb) file: byte 16: the first chunk must be JSON"},
+      {"json.glb", glb_file(json, std::string(16, '\0'), -1, 24), "json.glb: not a valid glTF binary (.glb) file: byte 12: JSON chunk length " + padded_json_size},
+      {"odd.glb", glb_file(json, std::string(16, '\0'), 6), "odd.glb: not a valid glTF binary (.glb) file: byte " + bin_at + ": BIN chunk length 6"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
