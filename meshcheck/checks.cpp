@@ -292,10 +292,12 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
 
   // ---- the genus the skeleton's crossings imply (informative)
   if (params.implied_genus && params.skeleton && !params.skeleton->empty()) {
-    const ImpliedGenus g = sm::implied_genus(*params.skeleton, {.max_examples = params.max_examples});
+    const ImpliedGenus g = sm::implied_genus(
+        *params.skeleton, {.max_examples = params.max_examples, .robust_margin = std::min(params.fidelity_tolerance, 0.9)});
     r.implied_genus_checked = true;
     r.implied_genus = g.genus;
     r.implied_genus_min = g.genus_min;
+    r.implied_genus_robust = g.robust_genus;
     r.crossing_pairs = g.crossing_pairs;
     r.handle_examples = g.handle_examples;
     r.timings.add("implied genus", watch.lap());
@@ -417,12 +419,21 @@ std::string to_text(const MeshCheckReport& r) {
     std::string v = r.implied_genus_min == r.implied_genus
                         ? std::to_string(r.implied_genus)
                         : std::to_string(r.implied_genus_min) + " to " + std::to_string(r.implied_genus);
-    v += " (" + n(r.crossing_pairs) + " crossing edge pairs in the skeleton";
+    v += " (" + std::to_string(r.implied_genus_robust) + " robust: kept from radii x" +
+         fmt(1 - std::min(r.fidelity_tolerance, 0.9), 3) + " to x" + fmt(1 + std::min(r.fidelity_tolerance, 0.9), 3) +
+         "; " + n(r.crossing_pairs) + " crossing edge pairs in the skeleton";
     if (!r.handle_examples.empty()) v += "; handles e.g. at nodes" + pairs(r.handle_examples, "/").substr(5);
     v += ")";
-    const std::optional<bool> agree = r.genus_agrees();
-    if (agree) v += *agree ? "; agrees with the mesh" : "; differs from the mesh's (informative)";
     line("implied genus", v);
+    if (r.genus) {
+      const std::int64_t g = *r.genus;
+      line("  mesh vs implied",
+           g >= r.implied_genus_min && g <= r.implied_genus ? std::string("agree")
+           : g > r.implied_genus ? "the mesh has more handles (fused where the round cones do not meet?)"
+           : g >= r.implied_genus_robust
+               ? std::string("the mesh has fewer, none of them robust (near tangency, or holes thinner than the band)")
+               : "the mesh has fewer than the robust count: a crossing's handle is missing (informative)");
+    }
   }
   {
     std::string ex;
@@ -508,6 +519,7 @@ nlohmann::json to_json(const MeshCheckReport& r) {
   if (r.implied_genus_checked) {
     j["implied_genus"] = r.implied_genus;
     j["implied_genus_min"] = r.implied_genus_min;
+    j["implied_genus_robust"] = r.implied_genus_robust;
     j["crossing_pairs"] = r.crossing_pairs;
     const std::optional<bool> agree = r.genus_agrees();
     j["genus_agrees"] = agree ? nlohmann::json(*agree) : nlohmann::json(nullptr);

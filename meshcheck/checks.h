@@ -35,9 +35,11 @@
 ///    (thick_nodes_in_overlaps; the self-intersections are reported anyway).
 ///  - implied genus (with a skeleton, on request): the genus of the union of the skeleton's
 ///    round cones, from where its branches cross or touch away from a shared node
-///    (meshcheck/implied_genus.h). Informative: a mesh of the crossings should have it, but
-///    near tangency the round cones and the strands' surface can differ, so a mismatch is
-///    reported, not failed.
+///    (meshcheck/implied_genus.h), and how many of those handles are robust: still there with
+///    every radius scaled by 1 - fidelity_tolerance and not yet closed at 1 + fidelity_tolerance.
+///    A solid whose surface keeps within that band of the round cones has at least the robust
+///    genus. Informative: near tangency the round cones and the strands' surface differ, and
+///    the check does not prove the band, so a mismatch is reported, not failed.
 ///
 /// Cost: O(F log F) plus the self-intersection test (box intersection, near-linear on meshes
 /// without many overlaps; parallel with oneTBB) and O(V log N) for fidelity with a bounding-
@@ -120,6 +122,7 @@ struct MeshCheckReport {
   bool implied_genus_checked = false;  ///< the skeleton's implied genus was computed
   std::int64_t implied_genus = 0;      ///< genus of the union of the skeleton's round cones (upper end when a range)
   std::int64_t implied_genus_min = 0;  ///< lower end (equal to implied_genus unless its search cap was reached)
+  std::int64_t implied_genus_robust = 0;  ///< of those, the handles kept with radii x (1 -+ fidelity_tolerance)
   std::size_t crossing_pairs = 0;      ///< skeleton edges whose round cones meet without a shared node
 
   std::vector<std::array<std::uint32_t, 2>> boundary_edge_examples;      ///< vertex pairs
@@ -141,7 +144,8 @@ struct MeshCheckReport {
   /// checked), positive volume, and, when a skeleton was given, fidelity p95 <= tolerance and
   /// every thick node inside; with quality limits, those met too.
   [[nodiscard]] bool ok() const;
-  /// Whether the mesh's genus equals the implied genus; empty when either is unknown.
+  /// Whether the mesh's genus equals the implied genus (lies in its range); empty when either
+  /// is unknown.
   [[nodiscard]] std::optional<bool> genus_agrees() const;
   /// One short sentence per failed criterion ("3 boundary edges (not closed)"); empty when ok().
   [[nodiscard]] std::vector<std::string> failures() const;

@@ -26,6 +26,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -208,8 +210,8 @@ class Columns {
   void ground(std::uint32_t r) { uf_.unite(r, ground_); }
   void join(std::uint32_t r, std::uint32_t s) { uf_.unite(r, s); }
 
-  // A three-entry column reduced modulo the graph and the pivots; empty when dependent.
-  std::vector<std::uint32_t> reduce(const std::array<std::uint32_t, 3>& rows) {
+  // A column reduced modulo the graph and the pivots; empty when dependent.
+  std::vector<std::uint32_t> reduce(std::span<const std::uint32_t> rows) {
     std::vector<std::uint32_t> col;
     const std::uint32_t g = uf_.find(ground_);
     for (const std::uint32_t r : rows) {
@@ -267,15 +269,36 @@ class Columns {
 
 class Solver {
  public:
-  Solver(const Skeleton& skel, const ImpliedGenusParams& params) : skel_(skel), params_(params) {
+  // Radii scaled by `scale` (the robust genus compares the unions at two scales).
+  Solver(const Skeleton& skel, const ImpliedGenusParams& params, double scale = 1.0)
+      : skel_(skel), params_(params), scale_(scale) {
     cone_of_child_.assign(skel.size(), kNone);
     for (std::size_t i = 0; i < skel.size(); ++i) {
       const NodeId p = skel.parent[i];
       if (!p.valid()) continue;
       cone_of_child_[i] = static_cast<std::uint32_t>(cones_.size());
-      cones_.push_back({skel.position[p.idx()], skel.position[i], skel.radius[p.idx()], skel.radius[i],
+      cones_.push_back({skel.position[p.idx()], skel.position[i], scale * skel.radius[p.idx()], scale * skel.radius[i],
                         static_cast<std::uint32_t>(p.idx()), static_cast<std::uint32_t>(i)});
     }
+  }
+
+  // The rank of H1(inner's union) -> H1(this union), inner's cones inside these (smaller
+  // radii): the handles of `inner` that survive here. Each crossing pair of inner stands for its
+  // fundamental cycle, which it is here too; the rank is that of their classes modulo this
+  // union's filled triangles. Consumes this solver's reduction.
+  std::int64_t image_rank(const Solver& inner) {
+    if (!upper_ || inner.pairs_.empty()) return 0;
+    std::int64_t rank = 0;
+    for (const auto& p : inner.pairs_) {
+      const auto it = std::lower_bound(pairs_.begin(), pairs_.end(), p);
+      if (it == pairs_.end() || *it != p) continue;  // (cannot happen: larger cones still meet)
+      const std::uint32_t row = static_cast<std::uint32_t>(it - pairs_.begin());
+      std::vector<std::uint32_t> col = upper_->reduce(std::span<const std::uint32_t>(&row, 1));
+      if (col.empty()) continue;
+      upper_->add(std::move(col));
+      ++rank;
+    }
+    return rank;
   }
 
   ImpliedGenus run() {
@@ -286,7 +309,9 @@ class Solver {
     const std::size_t rows = pairs_.size();
     if (rows == 0) return out;
     build_adjacency();
-    Columns upper(rows), lower(rows);  // triangles proven filled; and those left undecided too
+    upper_.emplace(rows);
+    Columns& upper = *upper_;
+    Columns lower(rows);  // triangles proven filled, and those left undecided too
     // One- and two-entry columns: each triangle from its lowest crossing pair.
     for (std::uint32_t e = 0; e < rows; ++e) {
       const std::uint32_t x = pairs_[e][0], y = pairs_[e][1];
@@ -327,11 +352,12 @@ class Solver {
           ++i;
           ++j;
           if (f <= e || g <= e) continue;
-          std::vector<std::uint32_t> col = upper.reduce({e, f, g});
+          const std::array<std::uint32_t, 3> rows3 = {e, f, g};
+          std::vector<std::uint32_t> col = upper.reduce(rows3);
           if (col.empty()) continue;
           const Verdict v = triangle(x, y, z, out);
           if (v == Verdict::filled) upper.add(std::move(col));
-          if (v != Verdict::empty) lower.add(lower.reduce({e, f, g}));
+          if (v != Verdict::empty) lower.add(lower.reduce(rows3));
         }
       }
     }
@@ -445,7 +471,7 @@ class Solver {
       if (shared != kNone) {
         // The shared node's sphere lies in both: its point nearest the third cone.
         const dvec3 centre = skel_.position[shared];
-        const double r = skel_.radius[shared];
+        const double r = scale_ * skel_.radius[shared];
         const Probe pr = probe(third, centre);
         if (pr.d <= tol) return Verdict::filled;
         if (pr.d <= r && inside(centre - pr.d * pr.n)) return Verdict::filled;
@@ -465,6 +491,8 @@ class Solver {
 
   const Skeleton& skel_;
   const ImpliedGenusParams& params_;
+  double scale_;
+  std::optional<Columns> upper_;  // after run(): the rows reduced modulo the filled triangles
   std::vector<Cone> cones_;
   std::vector<std::uint32_t> cone_of_child_;  // #N: the cone ending at the node, kNone at the root
   std::vector<std::array<std::uint32_t, 2>> pairs_;  // crossing pairs (x < y), ascending
@@ -477,6 +505,18 @@ class Solver {
 ImpliedGenus implied_genus(const Skeleton& skeleton, const ImpliedGenusParams& params) {
   Stopwatch watch;
   ImpliedGenus out = Solver(skeleton, params).run();
+  out.robust_genus = out.genus;
+  // (It is at most the genus: the map factors through this union.)
+  if (params.robust_margin > 0 && out.genus > 0) {
+    Solver outer(skeleton, params, 1 + params.robust_margin);
+    if (outer.run().genus == 0) {
+      out.robust_genus = 0;  // no handle to survive into
+    } else {
+      Solver inner(skeleton, params, 1 - params.robust_margin);
+      inner.run();
+      out.robust_genus = outer.image_rank(inner);
+    }
+  }
   out.seconds = watch.elapsed();
   return out;
 }

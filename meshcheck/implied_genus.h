@@ -44,12 +44,17 @@ struct ImpliedGenusParams {
   double contact_tolerance = 1e-6;      ///< cones this close count as meeting (relative to the smallest radius involved; default 1e-6)
   std::size_t max_searches = 1'000'000;  ///< iterative searches for triangles at most (count; default 1e6); past it, a range
   std::size_t max_examples = 5;          ///< handles located in `handle_examples` (count; default 5)
+  double robust_margin = 0.15;           ///< robust_genus: handles from radii x (1 - this) surviving to x (1 + this) (relative; 0 = skip; default 0.15)
 };
 
 /// What implied_genus found.
 struct ImpliedGenus {
   std::int64_t genus = 0;           ///< b1 of the union of the round cones (the upper end of the range when not exact)
   std::int64_t genus_min = 0;       ///< the lower end: equal to genus unless the search cap was reached
+  /// The handles that do not hinge on tangency or on a hole thinner than the margin: the rank of
+  /// H1(union at radii x (1 - robust_margin)) -> H1(union at x (1 + robust_margin)). Any solid
+  /// between those two unions has at least this genus.
+  std::int64_t robust_genus = 0;
   std::size_t cones = 0;            ///< one per edge
   std::size_t candidate_pairs = 0;  ///< pairs of cones without a shared node whose boxes overlap
   std::size_t crossing_pairs = 0;   ///< of those, the pairs that meet
