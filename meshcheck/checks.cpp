@@ -294,7 +294,7 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   if (params.implied_genus && params.skeleton && !params.skeleton->empty()) {
     const ImpliedGenus g = sm::implied_genus(
         *params.skeleton, {.max_examples = params.max_examples, .robust_margin = std::min(params.fidelity_tolerance, 0.9)});
-    r.implied_genus_checked = true;
+    r.implied_genus_checked = g.complete;  // (not over a tangle of more than 5e7 candidate pairs)
     r.implied_genus = g.genus;
     r.implied_genus_min = g.genus_min;
     r.implied_genus_robust = g.robust_genus;

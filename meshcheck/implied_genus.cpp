@@ -307,14 +307,20 @@ class Solver {
     if (cones_.size() < 2) return out;
     find_crossing_pairs(out);
     const std::size_t rows = pairs_.size();
-    if (rows == 0) return out;
+    if (rows == 0 || !out.complete) return out;
     build_adjacency();
     upper_.emplace(rows);
     Columns& upper = *upper_;
     Columns lower(rows);  // triangles proven filled, and those left undecided too
+    // Triangle candidates listed (a cap: dense tangles of crossing pairs grow with the square of
+    // their crossing degrees); past it, triangles left out make the lower end 0.
+    std::size_t listed = 0;
+    bool cut = false;
     // One- and two-entry columns: each triangle from its lowest crossing pair.
-    for (std::uint32_t e = 0; e < rows; ++e) {
+    for (std::uint32_t e = 0; e < rows && !cut; ++e) {
       const std::uint32_t x = pairs_[e][0], y = pairs_[e][1];
+      listed += 4 + (begin_[x + 1] - begin_[x]) + (begin_[y + 1] - begin_[y]);
+      cut = listed > params_.max_listed;
       for (const std::uint32_t u : {cones_[x].na, cones_[x].nb}) {
         for (const std::uint32_t w : {cones_[y].na, cones_[y].nb}) {
           std::uint32_t z = kNone;
@@ -339,8 +345,10 @@ class Solver {
       }
     }
     // Three-entry columns, modulo the graph above.
-    for (std::uint32_t e = 0; e < rows; ++e) {
+    for (std::uint32_t e = 0; e < rows && !cut; ++e) {
       const std::uint32_t x = pairs_[e][0], y = pairs_[e][1];
+      listed += (begin_[x + 1] - begin_[x]) + (begin_[y + 1] - begin_[y]);
+      cut = listed > params_.max_listed;
       std::uint32_t i = begin_[x], j = begin_[y];
       while (i < begin_[x + 1] && j < begin_[y + 1]) {
         if (adj_[i] < adj_[j]) {
@@ -367,7 +375,7 @@ class Solver {
       std::sort(nodes.begin(), nodes.end());
       out.handle_examples.push_back(nodes);
     }
-    out.genus_min = lower.betti1();
+    out.genus_min = cut ? 0 : lower.betti1();
     return out;
   }
 
@@ -392,12 +400,18 @@ class Solver {
     std::vector<std::array<std::uint32_t, 2>> candidates;
     auto callback = [&](const Box* a, const Box* b) {
       const std::uint32_t i = a->info(), j = b->info();
-      if (!share_node(cones_[i], cones_[j])) candidates.push_back({std::min(i, j), std::max(i, j)});
+      if (share_node(cones_[i], cones_[j])) return;
+      if (candidates.size() < params_.max_candidates) {
+        candidates.push_back({std::min(i, j), std::max(i, j)});
+      } else {
+        out.complete = false;
+      }
     };
     constexpr std::ptrdiff_t kCutoff = 1000;  // as meshcheck/checks_cgal.cpp: the scan beats splitting below it
     CGAL::box_self_intersection_d<CGAL::Sequential_tag>(ptrs.begin(), ptrs.end(), callback, kCutoff);
     ptrs = {};
     boxes = {};
+    if (!out.complete) return;
     std::sort(candidates.begin(), candidates.end());
     out.candidate_pairs = candidates.size();
     // 1: meet, 2: searched (bits), tested in parallel, gathered by index.
@@ -507,7 +521,7 @@ ImpliedGenus implied_genus(const Skeleton& skeleton, const ImpliedGenusParams& p
   ImpliedGenus out = Solver(skeleton, params).run();
   out.robust_genus = out.genus;
   // (It is at most the genus: the map factors through this union.)
-  if (params.robust_margin > 0 && out.genus > 0) {
+  if (params.robust_margin > 0 && out.genus > 0 && out.complete) {
     Solver outer(skeleton, params, 1 + params.robust_margin);
     if (outer.run().genus == 0) {
       out.robust_genus = 0;  // no handle to survive into

@@ -21,14 +21,21 @@
 ///    closest points of the axes. Cones closer than the tolerance count as meeting; tangency
 ///    within a few tolerances is decided either way.
 ///  - b2 (voids enclosed by crossing branches) is not counted; the mesh drops inner shells.
+///  - Near tangency, and around holes thinner than a fraction of a radius (a tight crotch), the
+///    cones have handles no mesh should copy: `robust_genus` counts only the handles that hold
+///    from radii x (1 - robust_margin) to x (1 + robust_margin), persistent homology's rank of
+///    the map between the two unions' H1, computed in the larger union's reduction.
 ///
 /// Cost: candidate pairs by CGAL's box intersection (O(n log n) on trees); then per crossing
 /// pair its triangles, found from the crossing pairs of its two cones (O(sum of squared
 /// crossing degrees)); a triangle is tested only when it can still lower b1 (union-find over
 /// the crossing pairs, then a sparse Z2 elimination for triangles of three crossing pairs).
-/// The 1,000,000-node chain of 1 cm steps and 2 cm radii (4 M crossing pairs) takes seconds.
-/// The iterative searches are capped (`max_searches`); past the cap the undecided triangles
-/// make the result a range [genus_min, genus]. Deterministic; single-threaded.
+/// The 1,000,000-node chain of 1 cm steps and 2 cm radii (3 M crossing pairs) takes seconds.
+/// Capped: the iterative searches (`max_searches`; past it the undecided triangles make the
+/// result a range [genus_min, genus]), the triangle candidates listed (`max_listed`; past it
+/// the range starts at 0) and the candidate pairs kept (`max_candidates`; past it no result). The robust genus runs the same at two more
+/// radius scales (only when the genus is not 0). Pair tests run in parallel (oneTBB); the
+/// result is the same for any thread count.
 
 #include <array>
 #include <cstddef>
@@ -44,6 +51,8 @@ struct ImpliedGenusParams {
   double contact_tolerance = 1e-6;      ///< cones this close count as meeting (relative to the smallest radius involved; default 1e-6)
   std::size_t max_searches = 1'000'000;  ///< iterative searches for triangles at most (count; default 1e6); past it, a range
   std::size_t max_examples = 5;          ///< handles located in `handle_examples` (count; default 5)
+  std::size_t max_candidates = 50'000'000;  ///< pairs of overlapping boxes without a shared node kept at most (count; default 5e7); past it, no result
+  std::size_t max_listed = 500'000'000;     ///< triangle candidates listed at most (count; default 5e8); past it, genus_min is 0
   double robust_margin = 0.15;           ///< robust_genus: handles from radii x (1 - this) surviving to x (1 + this) (relative; 0 = skip; default 0.15)
 };
 
@@ -65,6 +74,9 @@ struct ImpliedGenus {
   /// indices), ascending. Which pair stands for a handle is a choice where loops share pairs.
   std::vector<std::array<std::uint32_t, 2>> handle_examples;
   double seconds = 0;               ///< wall time
+  /// False when more than max_candidates pairs of boxes overlap (a tangle no mesh is made of):
+  /// no figure was computed, the genus fields are 0.
+  bool complete = true;
 
   [[nodiscard]] bool exact() const { return genus == genus_min; }
 };

@@ -692,6 +692,14 @@ TEST(ImpliedGenus, SearchCapGivesARange) {
   EXPECT_FALSE(g.exact());
   EXPECT_LE(g.genus_min, 1);
   EXPECT_GE(g.genus, 1);
+  // Fewer triangle candidates listed than there are: the range starts at 0.
+  const ImpliedGenus listed = implied(test::crossing_laterals(), {.max_listed = 0});
+  EXPECT_EQ(listed.genus_min, 0);
+  EXPECT_GE(listed.genus, 1);
+  // More candidate pairs than allowed: no figure, and `check` leaves it out.
+  const ImpliedGenus tangle = implied(test::crossing_laterals(), {.max_candidates = 1});
+  EXPECT_FALSE(tangle.complete);
+  EXPECT_EQ(tangle.genus, 0);
 }
 
 TEST(ImpliedGenus, ReportedBesideTheMeshGenus) {
