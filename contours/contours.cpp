@@ -1451,14 +1451,19 @@ bool loops_cross(const ContourSet& c, std::uint32_t a, std::uint32_t b, double t
 
 /// Leaves out interior loops of each tube until consecutive loops do not cross: a loop crossing
 /// the last kept one is skipped; the tube's last loop (a junction's or a cap's) is kept, and
-/// kept loops crossing it are dropped instead. The first and last loops always stay. The loops
+/// kept loops crossing it are dropped instead. Loops more than `reach` radii apart along the
+/// branch do not count as crossing. The first and last loops always stay. The loops
 /// left out are then removed from the set (every loop stays in exactly one tube).
-void uncross_loops(ContourSet& c, double tol) {
+void uncross_loops(ContourSet& c, double tol, double reach) {
   std::vector<std::uint8_t> dropped(c.loop_count(), 0);
   for (Tube& t : c.tubes) {
     if (t.loops.size() < 3) continue;
     std::vector<std::uint32_t> kept{t.loops.front()};
-    auto cross = [&](std::uint32_t a, std::uint32_t b) { return loops_cross(c, a, b, tol, a != t.loops.front()); };
+    auto cross = [&](std::uint32_t a, std::uint32_t b) {
+      const double apart = std::abs(c.loop_distance[b] - c.loop_distance[a]);
+      if (apart > reach * std::max(c.loop_radius[a], c.loop_radius[b])) return false;
+      return loops_cross(c, a, b, tol, a != t.loops.front());
+    };
     for (std::size_t k = 1; k + 1 < t.loops.size(); ++k) {
       if (!cross(kept.back(), t.loops[k])) kept.push_back(t.loops[k]);
     }
@@ -1598,7 +1603,7 @@ ContourSet compute_contours(const Skeleton& skeleton, const ParticleField& field
   const double t_walk = clock.lap();
 
   ContourSet out = assemble(*root);
-  if (params.uncross_loops) uncross_loops(out, params.uncross_tolerance);
+  if (params.uncross_loops) uncross_loops(out, params.uncross_tolerance, params.uncross_reach);
   out.stats.timings.add("tables", t_tables);
   out.stats.timings.add("slicing", t_walk);
   out.stats.timings.add("assembly", clock.lap());

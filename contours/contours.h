@@ -130,6 +130,10 @@ struct ContourParams {
   bool uncross_loops = true;
   /// How far a loop's point may lie behind its predecessor's plane (x loop radius).
   double uncross_tolerance = 0.02;
+  /// Loops farther apart along the branch than this (x the larger loop radius) never count as
+  /// crossing: that far, a crossing is a fork's tilted section, not a bend within the radius,
+  /// and leaving out every loop between them would make one long strip.
+  double uncross_reach = 8.0;
   /// Bisection steps refining the split position between two slices (a count).
   std::uint32_t split_bisection_steps = 8;
   /// Angular walk: concave turns sharper than this (degrees) remove the middle point; 0 gives

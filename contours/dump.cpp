@@ -89,6 +89,9 @@ ContourSet contours_from_json(const std::string& text, const Skeleton& skeleton,
     j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InvalidInputError(name + ": not JSON: " + e.what());
+  } catch (const nlohmann::json::exception& e) {  // a number overflow (out_of_range.406) carries no position
+    const std::string place = json_error_line_col(text);
+    throw InvalidInputError(name + (place.empty() ? "" : ":" + place) + ": not JSON: " + e.what());
   }
   ContourSet c;
   c.loop_begin.push_back(0);

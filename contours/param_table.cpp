@@ -39,6 +39,8 @@ const ParamSpec<C> kFields[] = {
     {.key = "uncross_tolerance", .field = &C::uncross_tolerance, .range = {.min = 0}, .unit = "x loop radius",
      .help = "how far a loop may reach behind its predecessor's plane before it counts as crossing",
      .slider = {0, 0.5}},
+    {.key = "uncross_reach", .field = &C::uncross_reach, .range = {.min = 0}, .unit = "x loop radius",
+     .help = "loops farther apart along the branch than this never count as crossing", .slider = {0, 30}},
     // (More than 64 halvings are below a double's precision.)
     {.key = "split_bisection_steps", .field = &C::split_bisection_steps, .range = {.min = 0, .max = 64},
      .unit = "count", .help = "bisection steps refining a split", .slider = {0, 30}},

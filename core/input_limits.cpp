@@ -1,5 +1,9 @@
 #include "core/input_limits.h"
 
+#include <algorithm>
+
+#include <nlohmann/json.hpp>
+
 #include "core/errors.h"
 
 namespace sm {
@@ -45,6 +49,49 @@ void check_json_nesting(std::string_view text, const std::string& name, int max_
         break;
     }
   }
+}
+
+namespace {
+
+/// Accepts every value and remembers where the parser gave up.
+struct StopFinder final : nlohmann::json_sax<nlohmann::json> {
+  using json = nlohmann::json;
+  std::size_t stop = std::string::npos;
+  std::size_t token_size = 0;
+  bool null() override { return true; }
+  bool boolean(bool) override { return true; }
+  bool number_integer(json::number_integer_t) override { return true; }
+  bool number_unsigned(json::number_unsigned_t) override { return true; }
+  bool number_float(json::number_float_t, const json::string_t&) override { return true; }
+  bool string(json::string_t&) override { return true; }
+  bool binary(json::binary_t&) override { return true; }
+  bool start_object(std::size_t) override { return true; }
+  bool key(json::string_t&) override { return true; }
+  bool end_object() override { return true; }
+  bool start_array(std::size_t) override { return true; }
+  bool end_array() override { return true; }
+  bool parse_error(std::size_t position, const std::string& last_token, const json::exception&) override {
+    stop = position;  // bytes read, the offending token included
+    token_size = last_token.size();
+    return false;
+  }
+};
+
+}  // namespace
+
+std::string json_error_line_col(std::string_view text) {
+  StopFinder finder;
+  nlohmann::json::sax_parse(text.begin(), text.end(), &finder);
+  if (finder.stop == std::string::npos) return "";
+  const std::size_t start = std::min(text.size(), finder.stop >= finder.token_size ? finder.stop - finder.token_size : 0);
+  std::size_t line = 1, line_start = 0;
+  for (std::size_t i = 0; i < start; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      line_start = i + 1;
+    }
+  }
+  return std::to_string(line) + ":" + std::to_string(start - line_start + 1);
 }
 
 std::string excerpt(std::string_view value, std::size_t max_chars) {

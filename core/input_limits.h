@@ -24,6 +24,12 @@ inline constexpr int kMaxJsonDepth = 100;
 /// escapes) are skipped. Linear, no recursion; says nothing about whether `text` is valid JSON.
 void check_json_nesting(std::string_view text, const std::string& name, int max_depth = kMaxJsonDepth);
 
+/// "LINE:COL" (1-based) of the token where nlohmann's parser stops on `text`, or "" when it
+/// parses. For the errors whose exception carries no position: a number beyond double's range
+/// (out_of_range.406, "number overflow parsing '1e999'"). A second, iterative (SAX) pass: call
+/// it on the error path only, after check_json_nesting.
+std::string json_error_line_col(std::string_view text);
+
 /// `value` as it can be echoed in a message: unchanged when at most `max_chars` long, else
 /// its first `max_chars` characters, "..." and its full length ("[[[[... (200000 characters)").
 /// Control characters are shown as '?'.

@@ -327,6 +327,9 @@ GrowPreset parse_grow_preset(std::string_view text, const std::string& name, con
     j = json::parse(text);
   } catch (const json::parse_error& e) {
     throw InvalidInputError(name + ": not valid JSON (" + std::string(e.what()) + ")");
+  } catch (const json::exception& e) {  // a number overflow (out_of_range.406) carries no position
+    const std::string place = json_error_line_col(text);
+    throw InvalidInputError(name + (place.empty() ? "" : ":" + place) + ": not valid JSON (" + std::string(e.what()) + ")");
   }
   GrowPreset preset;
   preset.name = std::filesystem::path(name).stem().string();

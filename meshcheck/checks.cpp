@@ -29,6 +29,7 @@
 #include "core/union_find.h"
 #include "meshcheck/checks_cgal.h"
 #include "meshcheck/cone_tree.h"
+#include "meshcheck/implied_genus.h"
 
 namespace sm {
 
@@ -289,6 +290,19 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   }
   r.timings.add("fidelity", watch.lap());
 
+  // ---- the genus the skeleton's crossings imply (informative)
+  if (params.implied_genus && params.skeleton && !params.skeleton->empty()) {
+    const ImpliedGenus g = sm::implied_genus(
+        *params.skeleton, {.max_examples = params.max_examples, .robust_margin = std::min(params.fidelity_tolerance, 0.9)});
+    r.implied_genus_checked = g.complete;  // (not over a tangle of more than 5e7 candidate pairs)
+    r.implied_genus = g.genus;
+    r.implied_genus_min = g.genus_min;
+    r.implied_genus_robust = g.robust_genus;
+    r.crossing_pairs = g.crossing_pairs;
+    r.handle_examples = g.handle_examples;
+    r.timings.add("implied genus", watch.lap());
+  }
+
   // ---- triangle quality (informative unless limits are given)
   if (params.quality && r.nonfinite_vertices == 0) {
     r.quality = measure_quality(mesh, params.skeleton && !params.skeleton->empty() ? params.skeleton : nullptr,
@@ -366,6 +380,11 @@ bool MeshCheckReport::ok() const {
   return failures().empty();
 }
 
+std::optional<bool> MeshCheckReport::genus_agrees() const {
+  if (!implied_genus_checked || !genus) return std::nullopt;
+  return *genus >= implied_genus_min && *genus <= implied_genus;
+}
+
 std::string to_text(const MeshCheckReport& r) {
   std::string s;
   auto line = [&](const char* key, const std::string& value) {
@@ -402,6 +421,26 @@ std::string to_text(const MeshCheckReport& r) {
   line("euler characteristic", std::to_string(r.euler_characteristic));
   line("genus", r.genus ? std::to_string(*r.genus) + (*r.genus > 0 ? " (handles where branches cross and fuse)" : "")
                        : std::string("undefined (not a closed oriented manifold)"));
+  if (r.implied_genus_checked) {
+    std::string v = r.implied_genus_min == r.implied_genus
+                        ? std::to_string(r.implied_genus)
+                        : std::to_string(r.implied_genus_min) + " to " + std::to_string(r.implied_genus);
+    v += " (" + std::to_string(r.implied_genus_robust) + " robust: kept from radii x" +
+         fmt(1 - std::min(r.fidelity_tolerance, 0.9), 3) + " to x" + fmt(1 + std::min(r.fidelity_tolerance, 0.9), 3) +
+         "; " + n(r.crossing_pairs) + " crossing edge pairs in the skeleton";
+    if (!r.handle_examples.empty()) v += "; handles e.g. at nodes" + pairs(r.handle_examples, "/").substr(5);
+    v += ")";
+    line("implied genus", v);
+    if (r.genus) {
+      const std::int64_t g = *r.genus;
+      line("  mesh vs implied",
+           g >= r.implied_genus_min && g <= r.implied_genus ? std::string("agree")
+           : g > r.implied_genus ? "the mesh has more handles (fused where the round cones do not meet?)"
+           : g >= r.implied_genus_robust
+               ? std::string("the mesh has fewer, none of them robust (near tangency, or holes thinner than the band)")
+               : "the mesh has fewer than the robust count: a crossing's handle is missing (informative)");
+    }
+  }
   {
     std::string ex;
     for (const auto t : r.degenerate_triangle_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(t);
@@ -502,6 +541,14 @@ nlohmann::json to_json(const MeshCheckReport& r) {
   j["oriented"] = r.oriented;
   j["euler_characteristic"] = r.euler_characteristic;
   j["genus"] = r.genus ? nlohmann::json(*r.genus) : nlohmann::json(nullptr);
+  if (r.implied_genus_checked) {
+    j["implied_genus"] = r.implied_genus;
+    j["implied_genus_min"] = r.implied_genus_min;
+    j["implied_genus_robust"] = r.implied_genus_robust;
+    j["crossing_pairs"] = r.crossing_pairs;
+    const std::optional<bool> agree = r.genus_agrees();
+    j["genus_agrees"] = agree ? nlohmann::json(*agree) : nlohmann::json(nullptr);
+  }
   j["degenerate_triangles"] = r.degenerate_triangles;
   j["min_triangle_area"] = r.min_triangle_area;
   j["signed_volume"] = r.signed_volume;
@@ -583,7 +630,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                    {"degenerate_triangles", r.degenerate_triangle_examples},
                    {"self_intersections", pairs(r.self_intersection_examples)},
                    {"outside_nodes", r.outside_node_examples},
-                   {"fidelity_outliers", r.fidelity_outlier_examples}};
+                   {"fidelity_outliers", r.fidelity_outlier_examples},
+                   {"handles", pairs(r.handle_examples)}};
   nlohmann::json t = nlohmann::json::object();
   for (const auto& e : r.timings.entries) t[e.name] = e.seconds;
   j["timings"] = t;

@@ -30,6 +30,11 @@ class TriangleIntersections {
   [[nodiscard]] bool intersect(std::uint32_t i, std::uint32_t j) const;
   /// The intersecting pairs among `triangles` (i < j), sorted; degenerate triangles skipped.
   [[nodiscard]] std::vector<std::array<std::uint32_t, 2>> pairs(const std::vector<std::uint32_t>& triangles) const;
+  /// The intersecting pairs (i < j) of the whole mesh with at least one triangle in `triangles`,
+  /// sorted: after a local edit, the pairs the edited triangles take part in. Its cost is a
+  /// pass over the mesh's boxes plus the tests near `triangles`, not the whole mesh's.
+  [[nodiscard]] std::vector<std::array<std::uint32_t, 2>> pairs_touching(
+      const std::vector<std::uint32_t>& triangles) const;
 
  private:
   struct Impl;

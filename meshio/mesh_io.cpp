@@ -12,6 +12,7 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <optional>
@@ -761,6 +762,54 @@ std::string_view gltf_json_part(std::string_view bytes, bool binary) {
   return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
 }
 
+// The GLB container (header, JSON chunk, BIN chunk) checked before tinygltf reads it, each fault
+// named by its byte where tinygltf says only "Invalid glTF binary.". Accepts what tinygltf 2.7
+// accepts, except a BIN chunk whose length leaves no room for its 8-byte header: tinygltf takes
+// it and copies the buffer from up to 8 bytes past the end of the file.
+void check_glb_container(std::string_view bytes, const std::string& name) {
+  const auto u32 = [&](std::uint64_t at) {
+    std::uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return std::uint64_t{v};
+  };
+  const auto fail = [&](std::uint64_t byte, const std::string& what) {
+    throw InvalidInputError(name + ": not a valid glTF binary (.glb) file: byte " + std::to_string(byte) + ": " + what);
+  };
+  const auto hex = [](std::uint64_t v) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "0x%08llX", static_cast<unsigned long long>(v));
+    return std::string(buf);
+  };
+  if (bytes.size() < 20) {
+    throw InvalidInputError(name + ": not a valid glTF binary (.glb) file: " + std::to_string(bytes.size()) +
+                            " bytes, shorter than its 12-byte header and 8-byte JSON chunk header");
+  }
+  if (bytes.substr(0, 4) != "glTF") fail(0, "no \"glTF\" magic");
+  const std::uint64_t length = u32(8), json_length = u32(12);
+  if (length > bytes.size()) {
+    fail(8, "total length " + std::to_string(length) + " exceeds the file's " + std::to_string(bytes.size()) + " bytes");
+  }
+  if (u32(16) != 0x4E4F534A) fail(16, "the first chunk must be JSON (type 0x4E4F534A), not " + hex(u32(16)));
+  if (json_length < 1 || 20 + json_length > length) {
+    fail(12, "JSON chunk length " + std::to_string(json_length) + " does not fit the total length " +
+                 std::to_string(length) + " (byte 8)");
+  }
+  const std::uint64_t bin_at = 20 + json_length;
+  if (bin_at == length) return;  // no BIN chunk
+  if (bin_at + 12 > length) {
+    fail(bin_at, std::to_string(length - bin_at) + " bytes after the JSON chunk, too few for a BIN chunk");
+  }
+  const std::uint64_t bin_length = u32(bin_at);
+  if (bin_length < 4 || bin_length % 4 != 0) {
+    fail(bin_at, "BIN chunk length " + std::to_string(bin_length) + " must be a positive multiple of 4");
+  }
+  if (bin_at + 8 + bin_length > length) {
+    fail(bin_at, "BIN chunk of " + std::to_string(bin_length) + " bytes (from byte " + std::to_string(bin_at + 8) +
+                     ") runs past the total length " + std::to_string(length) + " (byte 8)");
+  }
+  if (u32(bin_at + 4) != 0x004E4942) fail(bin_at + 4, "the second chunk must be BIN (type 0x004E4942), not " + hex(u32(bin_at + 4)));
+}
+
 // ---------------------------------------------------------------- EXT_meshopt_compression
 
 // A buffer view stored compressed: where its encoded bytes are and how to decode them.
@@ -959,6 +1008,7 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
   const std::string name = source.string();
   if (bytes.size() > std::numeric_limits<unsigned int>::max())
     throw InvalidInputError(name + ": file too large for glTF");
+  if (binary) check_glb_container(bytes, name);
   // tinygltf parses recursively (extras nested 20,000 deep overflowed the stack).
   check_json_nesting(gltf_json_part(bytes, binary), name);
   std::vector<MeshoptView> meshopt_views;

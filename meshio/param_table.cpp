@@ -46,9 +46,10 @@ const ParamSpec<E> kFields[] = {
     {.key = "quantize", .field = &E::quantize,
      .help = "glTF: 16-bit positions and 8-bit normals (KHR_mesh_quantization)"},
     {.key = "lods", .field = &E::lods, .range = {.min = 1, .max = 8}, .unit = "count",
-     .help = "levels of detail `mesh` writes, the full mesh included (1 = none)"},
+     .help = "levels of detail `mesh` writes, the full mesh included (1 = none), each a closed mesh of the pipeline "
+             "run again on coarser settings; glTF: all in one file (MSFT_lod), OBJ and PLY: level k in OUT_lodK.EXT"},
     {.key = "lod_files", .field = &E::lod_files,
-     .help = "each level of detail in a file of its own rather than one glTF file with MSFT_lod"},
+     .help = "glTF too: each level of detail in a file of its own (OUT_lodK.EXT) rather than one file with MSFT_lod"},
 };
 
 }  // namespace

@@ -206,9 +206,12 @@ PipelineParams parse_params_json(std::string_view text, const std::string& name,
   try {
     doc = json::parse(text.begin(), text.end());
   } catch (const json::exception& e) {
+    // A parse error names its line and column in `what`; a number overflow (out_of_range.406) does not.
     std::string what = e.what();
     const auto bracket = what.find("] ");
-    throw InvalidInputError(name + ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
+    const std::string place = e.id == 406 ? json_error_line_col(text) : "";
+    throw InvalidInputError(name + (place.empty() ? "" : ":" + place) + ": not valid JSON: " +
+                            (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": a config file must be a JSON object");
   std::vector<std::string> sections;

@@ -2,6 +2,7 @@
 // outer_surface.h).
 
 #include "repair/outer_surface.h"
+#include "repair/verdict.h"
 
 #include <algorithm>
 #include <array>
@@ -36,26 +37,6 @@ glm::dvec3 barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec
   glm::dvec3 l = glm::max(glm::dvec3(1.0 - v - w, v, w), glm::dvec3(0.0));
   const double s = l.x + l.y + l.z;
   return s > 0 ? l / s : glm::dvec3(1.0, 0.0, 0.0);
-}
-
-/// Why `after` does worse than `before` in some respect the checks measure (empty if it
-/// does not): the outer surface may only make the mesh better.
-std::string worse(const MeshCheckReport& before, const MeshCheckReport& after) {
-  if (after.nonfinite_vertices > 0) return "non-finite vertices";
-  if (!after.closed || !after.edge_manifold || !after.vertex_manifold || !after.oriented)
-    return "not a closed, oriented 2-manifold";
-  if (after.components > before.components) return std::to_string(after.components) + " components";
-  if (after.genus != before.genus) return "genus " + (after.genus ? std::to_string(*after.genus) : std::string("?"));
-  if (after.degenerate_triangles > before.degenerate_triangles)
-    return std::to_string(after.degenerate_triangles) + " degenerate triangles";
-  if (!(after.signed_volume > 0)) return "negative volume";
-  if (after.thick_nodes_inside < before.thick_nodes_inside)
-    return std::to_string(before.thick_nodes_inside - after.thick_nodes_inside) + " more thick nodes outside";
-  if (after.fidelity_p95 > std::max(before.fidelity_p95, before.fidelity_tolerance))
-    return "fidelity p95 " + std::to_string(after.fidelity_p95);
-  if (after.self_intersecting_pairs > before.self_intersecting_pairs)
-    return std::to_string(after.self_intersecting_pairs) + " self-intersecting pairs";
-  return {};
 }
 
 /// `outer` (cut from `base`'s mesh) as a mesh with the attributes of the triangles it was cut from.
@@ -255,8 +236,8 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, Crossings& crossings, c
   stats.nodes_inside_before = stats.nodes_inside_after = now.thick_nodes_inside;
   stats.triangles_before = stats.triangles_after = result.mesh.triangles.size();
 
-  // The outer surface of `base` replaces the mesh if it checks no worse than the mesh in any
-  // respect and has fewer pairs or more thick nodes inside.
+  // The outer surface of `base` replaces the mesh by the repair's rule (verdict.h), the genus
+  // kept: a handle is the self-union's to make.
   std::vector<std::string> refused;
   auto attempt = [&](const MeshResult& base, const OuterSurface& outer, std::size_t kept, const std::string& what) {
     if (outer.triangles.empty() || !outer.fixed) {
@@ -265,10 +246,7 @@ OuterSurfaceStats keep_outer_surface(MeshResult& result, Crossings& crossings, c
     }
     Candidate cand = candidate_mesh(base, outer, kept);
     const MeshCheckReport after = check_mesh(cand.mesh, check);
-    std::string why = worse(now, after);
-    if (why.empty() && after.self_intersecting_pairs >= now.self_intersecting_pairs &&
-        after.thick_nodes_inside <= now.thick_nodes_inside)
-      why = "no fewer pairs and no more thick nodes inside";
+    const std::string why = refuse(figures_of(now), figures_of(after));
     if (!why.empty()) {
       if (!what.empty()) refused.push_back(what + ": " + why);
       return false;

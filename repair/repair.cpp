@@ -3,16 +3,24 @@
 #include "repair/repair.h"
 
 #include <algorithm>
+#include <bit>
 #include <numeric>
+#include <set>
 #include <tuple>
+#include <unordered_map>
 
 #include "core/errors.h"
 #include "core/union_find.h"
 #include "meshcheck/intersections.h"
 #include "repair/fold_repair.h"
 #include "repair/self_union.h"
+#include "repair/verdict.h"
 
 namespace sm {
+namespace {
+constexpr std::uint32_t kNoTriangle = UINT32_MAX;
+}  // namespace
+
 
 namespace {
 
@@ -110,6 +118,58 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
   return moving.size();
 }
 
+/// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`: pairs
+/// of triangles both found unchanged in `before` (the same three positions) carry over, and
+/// the rest are looked for around the changed triangles only (a pass over the boxes rather than
+/// the whole mesh's search: the repair's edits are local).
+std::vector<std::array<std::uint32_t, 2>> pairs_after_edit(const Mesh& before,
+                                                           const std::vector<std::array<std::uint32_t, 2>>& pairs,
+                                                           const Mesh& after) {
+  using Key = std::array<double, 9>;
+  auto key = [](const Mesh& m, std::uint32_t f) {
+    const auto& t = m.triangles[f];
+    int first = 0;  // the rotation starting at the smallest position: the same triangle, one key
+    for (int k = 1; k < 3; ++k) {
+      const glm::dvec3 &p = m.positions[t[k]], &q = m.positions[t[first]];
+      if (std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z)) first = k;
+    }
+    Key out{};
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3& p = m.positions[t[(first + k) % 3]];
+      out[3 * k] = p.x;
+      out[3 * k + 1] = p.y;
+      out[3 * k + 2] = p.z;
+    }
+    return out;
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const {
+      std::uint64_t h = 1469598103934665603ull;
+      for (const double x : k) h = (h ^ std::bit_cast<std::uint64_t>(x)) * 1099511628211ull;
+      return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+  };
+  std::unordered_map<Key, std::uint32_t, KeyHash> old_index(before.triangles.size());
+  for (std::uint32_t f = 0; f < before.triangles.size(); ++f) old_index.try_emplace(key(before, f), f);
+  std::vector<std::uint32_t> now(before.triangles.size(), kNoTriangle);  // before -> after, unchanged ones
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t f = 0; f < after.triangles.size(); ++f) {
+    const auto it = old_index.find(key(after, f));
+    if (it != old_index.end() && now[it->second] == kNoTriangle) {
+      now[it->second] = f;
+    } else {
+      changed.push_back(f);
+    }
+  }
+  std::vector<std::array<std::uint32_t, 2>> out = TriangleIntersections(after).pairs_touching(changed);
+  for (const auto& [f, g] : pairs) {
+    if (now[f] != kNoTriangle && now[g] != kNoTriangle) out.push_back({std::min(now[f], now[g]), std::max(now[f], now[g])});
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 }  // namespace
 
 void validate_params(const RepairParams& p) { check_params(p); }
@@ -175,39 +235,64 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         st.problem = "the fold repair left " + std::to_string(open) + " unpaired half-edges (undone)";
         st.fold_changes = 0;
         r = std::move(before);
+      } else {
+        pairs = pairs_after_edit(before.mesh, pairs, mesh);
       }
       st.timings.add("folds", clock.lap());
-      pairs = all_pairs();
-      st.timings.add("find_pairs", clock.lap());
     }
   }
   std::vector<std::uint32_t> origin;
-  // A round is kept only when the mesh stays a closed, oriented 2-manifold and has fewer
-  // pairs than before; otherwise the mesh goes back to what it was and the repair stops.
+  // Pairs a round left out (their union could not be judged) are not tried again: the rounds
+  // after it meet only the pairs it made.
+  std::set<std::array<std::uint32_t, 2>> left_out;
+  auto ordered = [](std::uint32_t a, std::uint32_t b) { return std::array<std::uint32_t, 2>{std::min(a, b), std::max(a, b)}; };
+  // A round is kept by the repair's rule (verdict.h; a handle allowed, the thick skeleton
+  // nodes inside counted); otherwise the mesh goes back to what it was and the repair stops.
+  std::vector<glm::dvec3> thick;
+  const double median = skeleton.median_radius();
+  for (std::size_t i = 0; i < skeleton.position.size(); ++i) {
+    if (skeleton.radius[i] >= median) thick.push_back(skeleton.position[i]);
+  }
+  auto thick_inside = [&](const Mesh& m) {
+    const std::vector<std::uint8_t> in = inside_closed_mesh(m, thick);
+    return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));
+  };
+  MeshFigures now;
+  if (params.self_union && !pairs.empty()) {
+    now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
+           .thick_inside = thick_inside(mesh)};
+  }
   while (params.self_union && !pairs.empty() && st.rounds < params.max_rounds) {
+    std::vector<std::array<std::uint32_t, 2>> to_try;
+    for (const auto& [f, g] : pairs) {
+      if (!left_out.contains(ordered(f, g))) to_try.push_back({f, g});
+    }
+    if (to_try.empty()) break;
     ++st.rounds;
     MeshResult before = r;
-    const SelfUnionStats u = self_union(mesh, pairs, r.grid, skeleton.position, origin);
+    const SelfUnionStats u = self_union(mesh, to_try, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
       break;
     }
+    // The figures after it, measured only as far as the rule reads them (it stops at the first
+    // respect in which the mesh does worse). A part turned inside out and kept as it was can
+    // turn the whole surface over: the volume.
     std::vector<std::array<std::uint32_t, 2>> after;
-    const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh));
-    const std::size_t parts = components(mesh), parts_before = components(before.mesh);
-    if (open == 0 && parts <= parts_before) after = all_pairs();
+    MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
+    if (next.sound && next.parts <= now.parts) {
+      next.volume = signed_volume(mesh);
+      after = pairs_after_edit(before.mesh, pairs, mesh);
+      next.pairs = after.size();
+      next.thick_inside = thick_inside(mesh);
+    }
     st.timings.add("self_union", clock.lap());
-    // (A part turned inside out and kept as it was can turn the whole surface over.)
-    const bool inverted = open == 0 && !(signed_volume(mesh) > 0);
-    if (open > 0 || inverted || parts > parts_before || after.size() >= pairs.size()) {
-      st.problem = open > 0 ? "the union left " + std::to_string(open) + " unpaired half-edges"
-                   : inverted ? std::string("the union turned the surface inside out")
-                   : parts > parts_before
-                       ? "the union split the mesh into " + std::to_string(parts) + " parts"
-                       : "the union left " + std::to_string(after.size()) + " pairs of " + std::to_string(pairs.size());
+    if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
+      st.problem = why;
       r = std::move(before);
       break;
     }
+    now = next;
     st.cut_triangles += u.cut_triangles;
     st.dropped_triangles += u.dropped_triangles;
     st.new_vertices += u.new_vertices;
@@ -219,6 +304,20 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];
       r.triangle_kind = std::move(kind);
     }
+    // The pairs left out, in the new numbering: their triangles were not cut, so each is the
+    // one triangle of the result from its origin.
+    std::vector<std::uint32_t> now(before.mesh.triangles.size(), kNoTriangle), count(now.size(), 0);
+    for (std::uint32_t f = 0; f < origin.size(); ++f) {
+      now[origin[f]] = f;
+      ++count[origin[f]];
+    }
+    std::set<std::array<std::uint32_t, 2>> still;
+    auto carry = [&](std::uint32_t a, std::uint32_t b) {
+      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now[a], now[b]));
+    };
+    for (const auto& [a, b] : left_out) carry(a, b);
+    for (const auto& [a, b] : u.left_out_pairs) carry(a, b);
+    left_out = std::move(still);
     pairs = std::move(after);
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);

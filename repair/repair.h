@@ -13,8 +13,10 @@
 ///     within two rings untangled and the rest replaced by the boundary of the union of the
 ///     solids the surface wraps (self_union.h). Where crossings close a loop the union has a
 ///     handle: genus > 0 is then the truth, not a defect.
-/// Each step keeps a change only when the mesh does better by its rule (docs/architecture.md
-/// lists them) and otherwise leaves it as it was; a clean mesh passes through unchanged.
+/// Each step keeps a change only when the mesh does better by the stage's one rule
+/// (verdict.h: the whole mesh in steps 4 and 5, the triangles around each change in steps 1
+/// and 3, each crotch in step 2) and otherwise leaves it as it was; a clean mesh passes
+/// through unchanged.
 
 #include <cstddef>
 #include <cstdint>

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <set>
 #include <tuple>
 
 // CGAL's assertions stay on here even in release builds: a configuration the refinement cannot
@@ -622,9 +623,9 @@ std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
 
 /// Components (through shared vertices) of `out` other than the largest: inner shells (a void
 /// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
-/// apart from the tube it folded) go. A part that holds an anchor is a branch the union cut off
-/// the tree (its tube turned inside out over a whole section): the input triangles it was cut
-/// from are returned, and the mesh is not to be used.
+/// apart from the tube it folded) go. A part that holds an anchor, of either volume, is a branch
+/// the union cut off the tree (its tube turned inside out over a whole section): the input
+/// triangles it was cut from are returned, and the mesh is not to be used.
 std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t>& origin_of,
                                             std::span<const glm::dvec3> anchors,
                                             const std::vector<std::uint8_t>& was_cut, SelfUnionStats& st) {
@@ -656,8 +657,8 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
       keep_comp[c] = 1;
       continue;
     }
-    bool holds = false;
-    if (v > 0) {
+    bool holds = false;  // a void's shell holds no node; one that does is a branch turned over
+    {
       Mesh part;
       part.positions = out.positions;
       glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
@@ -738,6 +739,70 @@ std::vector<std::uint32_t> failing_clusters(Attempt& attempt, const Mesh& mesh,
   return failing;
 }
 
+/// For each anchor `held` before the union but outside `out` (at most 64 of them), the
+/// triangle of the active pairs nearest to it (by its corners and centroid): the crossing whose
+/// union lost it. Empty when no anchor was lost.
+std::vector<std::uint32_t> nearest_cut_to_lost(const Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& active,
+                                               std::span<const glm::dvec3> anchors, const std::vector<std::uint8_t>& held,
+                                               const Mesh& out) {
+  std::vector<glm::dvec3> probe;
+  for (std::size_t k = 0; k < anchors.size(); ++k) {
+    if (held[k]) probe.push_back(anchors[k]);
+  }
+  std::vector<std::uint32_t> near;
+  if (probe.empty() || active.empty()) return near;
+  const std::vector<int> w = winding_numbers(out, probe);
+  std::vector<std::uint32_t> cut;
+  for (const auto& pr : active) cut.insert(cut.end(), {pr[0], pr[1]});
+  std::sort(cut.begin(), cut.end());
+  cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
+  constexpr std::size_t kMaxLost = 64;
+  for (std::size_t k = 0; k < probe.size() && near.size() < kMaxLost; ++k) {
+    if (w[k] != 0) continue;
+    double best = HUGE_VAL;
+    std::uint32_t at = cut.front();
+    for (const std::uint32_t f : cut) {
+      const auto& t = mesh.triangles[f];
+      const glm::dvec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+      const double d = std::min({glm::distance(a, probe[k]), glm::distance(b, probe[k]), glm::distance(c, probe[k]),
+                                 glm::distance((a + b + c) / 3.0, probe[k])});
+      if (d < best) {
+        best = d;
+        at = f;
+      }
+    }
+    near.push_back(at);
+  }
+  return near;
+}
+
+/// Per pair, the crossing curve it lies on (an index into `pairs`, the curve's first pair):
+/// pairs (f, g) and (f', g) are on one curve where f and f' share an edge, and likewise on g's side.
+std::vector<std::uint32_t> crossing_curves(const Mesh& mesh, const VertexCorners& vc,
+                                           const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> index;  // (f, g) both ways
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+    index.try_emplace({pairs[k][0], pairs[k][1]}, k);
+    index.try_emplace({pairs[k][1], pairs[k][0]}, k);
+  }
+  UnionFind joined(pairs.size());
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+    for (int side = 0; side < 2; ++side) {
+      const std::uint32_t f = pairs[k][side], g = pairs[k][1 - side];
+      const auto& t = mesh.triangles[f];
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t n = triangle_with_edge(mesh, vc, t[(e + 1) % 3], t[e]);
+        if (n == kNone) continue;
+        const auto it = index.find({n, g});
+        if (it != index.end()) joined.unite(k, it->second);
+      }
+    }
+  }
+  std::vector<std::uint32_t> curve(pairs.size());
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) curve[k] = joined.find(k);
+  return curve;
+}
+
 }  // namespace
 
 glm::dvec3 step_towards(const glm::dvec3& p, const glm::dvec3& target, double grid) {
@@ -769,36 +834,55 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   const VertexCorners vc = vertex_corners(mesh);
 
   // Attempts: where CGAL cannot refine a cluster of crossings, patches cannot be judged, or
-  // the union cuts a branch off the tree, those crossings are left out, with every pair joined
-  // to them (sharing a vertex), and the rest is tried again.
+  // the union cuts a branch off the tree, the crossing curves through those triangles are left
+  // out whole (a curve cut only in part would leave a cut line ending inside a patch), and the
+  // rest is tried again. A curve is the pairs joined where it passes from a triangle to its
+  // neighbour across their common edge while staying on the same other triangle.
+  const std::vector<std::uint32_t> curve = crossing_curves(mesh, vc, pairs);
   std::vector<std::array<std::uint32_t, 2>> active = pairs;
-  std::vector<std::uint8_t> excluded(mesh.positions.size(), 0);  // per vertex
+  std::vector<std::uint32_t> active_curve = curve;
   auto leave_out = [&](const std::vector<std::uint32_t>& bad) {
-    for (const std::uint32_t f : bad) {
-      for (const std::uint32_t v : mesh.triangles[f]) excluded[v] = 1;
+    std::vector<std::uint8_t> bad_triangle(nf, 0);
+    for (const std::uint32_t f : bad) bad_triangle[f] = 1;
+    std::vector<std::uint8_t> drop_curve(pairs.size(), 0);
+    bool any = false;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      if (!bad_triangle[active[k][0]] && !bad_triangle[active[k][1]]) continue;
+      drop_curve[active_curve[k]] = 1;
+      any = true;
     }
-    for (bool grew = true; grew;) {
-      grew = false;
-      std::vector<std::array<std::uint32_t, 2>> still;
-      for (const auto& pr : active) {
-        bool touches = false;
-        for (const std::uint32_t f : pr) {
-          for (const std::uint32_t v : mesh.triangles[f]) touches = touches || excluded[v];
-        }
-        if (!touches) {
-          still.push_back(pr);
-          continue;
-        }
-        for (const std::uint32_t f : pr) {
+    if (!any) {  // bad triangles no pair holds (open edges next to a cut): the pairs around them
+      std::vector<std::uint8_t> bad_vertex(mesh.positions.size(), 0);
+      for (const std::uint32_t f : bad) {
+        for (const std::uint32_t v : mesh.triangles[f]) bad_vertex[v] = 1;
+      }
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        for (const std::uint32_t f : active[k]) {
           for (const std::uint32_t v : mesh.triangles[f]) {
-            grew = grew || !excluded[v];
-            excluded[v] = 1;
+            if (bad_vertex[v]) drop_curve[active_curve[k]] = 1;
           }
         }
       }
-      active.swap(still);
     }
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      if (drop_curve[active_curve[k]]) continue;
+      active[w] = active[k];
+      active_curve[w] = active_curve[k];
+      ++w;
+    }
+    // Nothing matched (the bad triangles are not in any active pair): leave everything out
+    // rather than loop.
+    if (w == active.size()) w = 0;
+    active.resize(w);
+    active_curve.resize(w);
   };
+  // The skeleton nodes the surface holds before the union (winding number not 0).
+  std::vector<std::uint8_t> held(anchors.size(), 0);
+  {
+    const std::vector<int> w = winding_numbers(mesh, anchors);
+    for (std::size_t k = 0; k < w.size(); ++k) held[k] = w[k] != 0;
+  }
   Attempt attempt(mesh, vc);
   constexpr int kAttempts = 12;
   Mesh out;
@@ -848,6 +932,13 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       leave_out(flipped);
       continue;
     }
+    // A union that leaves outside a skeleton node the surface held (a part dropped as lying
+    // inside another while it was the tree's own) is not the union of the tree's solids: the
+    // crossing nearest each such node is left out.
+    if (const std::vector<std::uint32_t> near = nearest_cut_to_lost(mesh, active, anchors, held, out); !near.empty()) {
+      leave_out(near);
+      continue;
+    }
     st.new_vertices = trial.new_vertices;
     st.dropped_triangles = trial.dropped_triangles;
     st.flipped_triangles = trial.flipped_triangles;
@@ -860,6 +951,12 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   st.patches = attempt.patches;
   st.cut_triangles = attempt.cut_triangles;
   st.left_out = pairs.size() - active.size();
+  {
+    std::set<std::array<std::uint32_t, 2>> kept(active.begin(), active.end());
+    for (const auto& pr : pairs) {
+      if (!kept.contains(pr)) st.left_out_pairs.push_back(pr);
+    }
+  }
   if (!ready) {
     st.problem = active.empty() ? "no crossing could be judged"
                                 : "crossings still misjudged after " + std::to_string(kAttempts) + " attempts";

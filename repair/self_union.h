@@ -19,6 +19,9 @@
 /// inside out (winding number -1 in front, 0 behind) is kept flipped rather than dropped,
 /// which would cut its branch off the tree. Components other than the largest go where they
 /// hold none of the `anchors` (skeleton nodes): inner shells of voids and loose lumps.
+/// Crossings whose union cannot be judged, would cut a part holding an anchor off, or would
+/// leave outside an anchor the surface held are left out, each whole crossing curve through
+/// them, and the rest is tried again (at most 12 attempts; `left_out_pairs`).
 
 #include <array>
 #include <cstddef>
@@ -43,6 +46,7 @@ struct SelfUnionStats {
   std::size_t lumps = 0;              ///< other components without an anchor inside, dropped
   std::size_t left_out = 0;           ///< pairs left as they were: their patches could not be judged
   std::size_t unrefined_clusters = 0; ///< attempts where CGAL could not refine some clusters (left out)
+  std::vector<std::array<std::uint32_t, 2>> left_out_pairs;  ///< those pairs, as given
   std::string problem;                ///< why the mesh was left as it was (empty: done)
 };
 

@@ -112,10 +112,12 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
     throw InvalidInputError(name + ":" + std::to_string(line) + ":" + std::to_string(col) +
                             ": not valid JSON: " + detail);
   } catch (const json::exception& e) {
-    // e.g. out_of_range.406 "number overflow parsing '1e999'": strip the library prefix.
+    // e.g. out_of_range.406 "number overflow parsing '1e999'", which carries no position:
+    // find it, and strip the library prefix.
     std::string what = e.what();
     const auto bracket = what.find("] ");
-    throw InvalidInputError(name +
+    const std::string place = json_error_line_col(text);
+    throw InvalidInputError(name + (place.empty() ? "" : ":" + place) +
                             ": not valid JSON: " + (bracket != std::string::npos ? what.substr(bracket + 2) : what));
   }
   if (!doc.is_object()) throw InvalidInputError(name + ": the top level must be an object with a \"nodes\" array");

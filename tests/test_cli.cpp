@@ -27,6 +27,18 @@ TEST(Cli, HelpAndVersion) {
   EXPECT_NE(run("--version").out.find("strandmesh"), std::string::npos);
 }
 
+TEST(Cli, ExportFlagsTakeTheirHelpFromTheParameterTable) {
+  // Each export parameter is described once, in meshio/param_table.cpp: every flag of the
+  // export group names the config key whose help it prints.
+  const CmdResult r = run("mesh --help");
+  ASSERT_EQ(r.code, 0);
+  for (const char* key : {"up_axis", "pivot", "scale", "attributes", "optimize", "compress", "lods", "lod_files",
+                          "quantize"}) {
+    EXPECT_NE(r.out.find(std::string("[config: export.") + key), std::string::npos) << key;
+  }
+  EXPECT_NE(r.out.find("MSFT_lod"), std::string::npos);
+}
+
 TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_EQ(run("").code, 2);
   EXPECT_EQ(run("info").code, 2);

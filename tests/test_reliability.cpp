@@ -140,6 +140,94 @@ TEST(Reliability, NestedConfigAndGltfExitOne) {
   EXPECT_NE(b.err.find("nested deeper than"), std::string::npos) << b.err;
 }
 
+TEST(Reliability, NumberOverflowNamesLineAndColumn) {
+  // nlohmann's "number overflow parsing '1e999'" (out_of_range.406) carries no position: 17 of
+  // 2,754 rejections of the 2026-11-28 campaign named only the file, and `grow --preset` gave
+  // exit 3 (internal error).
+  EXPECT_EQ(json_error_line_col("[1, 2]"), "");
+  EXPECT_EQ(json_error_line_col("{\n  \"a\": [0, 1e999]}"), "2:12");
+  EXPECT_EQ(json_error_line_col("[1, 2"), "1:6");  // end of input: after the last token
+  const fs::path dir = test::temp_dir("rel_overflow");
+  write_file_atomically(dir / "ov.json", "{\"nodes\":[\n{\"id\":0,\"parent\":-1,\"position\":[0,0,0],\"radius\":0.1},\n"
+                                         "{\"id\":1,\"parent\":0,\"position\":[0,0,1e999],\"radius\":0.05}]}\n");
+  const CmdResult info = run("info " + (dir / "ov.json").string());
+  EXPECT_EQ(info.code, 1) << info.err;
+  EXPECT_NE(info.err.find("ov.json:3:36: not valid JSON: number overflow parsing '1e999'"), std::string::npos) << info.err;
+  write_file_atomically(dir / "tree.json", kSixNodes);
+  write_file_atomically(dir / "cfg.json", "{\"contours\": {\"slice_step\": -1e400}}");
+  const CmdResult cfg = run("mesh " + (dir / "tree.json").string() + " --config " + (dir / "cfg.json").string() +
+                            " -o " + (dir / "t.glb").string());
+  EXPECT_EQ(cfg.code, 1) << cfg.err;
+  EXPECT_NE(cfg.err.find("cfg.json:1:29: not valid JSON: number overflow"), std::string::npos) << cfg.err;
+  EXPECT_FALSE(fs::exists(dir / "t.glb"));
+  write_file_atomically(dir / "preset.json", "{\"seed\": 1e999}");
+  const CmdResult grow = run("grow --preset " + (dir / "preset.json").string() + " -o " + (dir / "g.json").string());
+  EXPECT_EQ(grow.code, 1) << grow.err;
+  EXPECT_NE(grow.err.find("preset.json:1:10: not valid JSON"), std::string::npos) << grow.err;
+  EXPECT_FALSE(fs::exists(dir / "g.json"));
+}
+
+/// A glTF binary: header, `json` as the JSON chunk (padded), then `bin` as a BIN chunk whose
+/// header declares `bin_length` bytes (-1: bin.size()); `length` overrides the header's total.
+std::string glb_file(std::string json, const std::string& bin, long bin_length = -1, long length = -1) {
+  while (json.size() % 4) json += ' ';
+  std::string out;
+  auto u32 = [&](std::uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+  const std::size_t total = 12 + 8 + json.size() + (bin.empty() ? 0 : 8 + bin.size());
+  out += "glTF";
+  u32(2);
+  u32(std::uint32_t(length >= 0 ? std::size_t(length) : total));
+  u32(std::uint32_t(json.size()));
+  u32(0x4E4F534A);  // "JSON"
+  out += json;
+  if (!bin.empty()) {
+    u32(std::uint32_t(bin_length >= 0 ? std::size_t(bin_length) : bin.size()));
+    u32(0x004E4942);  // "BIN"
+    out += bin;
+  }
+  return out;
+}
+
+TEST(Reliability, GlbContainerFaultsNameTheirByte) {
+  // tinygltf 2.7 checks a BIN chunk's length without its 8-byte header: a chunk declaring 16
+  // bytes with 8 in the file was accepted and its buffer copied from 8 bytes past the end of
+  // the file (heap-buffer-overflow under ASan, `check` said "result: ok" in Release).
+  const fs::path dir = test::temp_dir("rel_glb");
+  const std::string json = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":16}]})";
+  const std::string padded_json_size = std::to_string((json.size() + 3) / 4 * 4);
+  struct Case {
+    const char* file;
+    std::string bytes, expect;
+  };
+  std::string no_magic = glb_file(json, std::string(16, '\0'));
+  no_magic[0] = 'x';
+  std::string not_json = glb_file(json, std::string(16, '\0'));
+  not_json[16] = 'X';
+  const std::string bin_at = std::to_string(20 + (json.size() + 3) / 4 * 4);
+  const Case cases[] = {
+      {"over.glb", glb_file(json, std::string(8, '\0'), 16), "over.glb: not a valid glTF binary (.glb) file: byte " + bin_at + ": BIN chunk of 16 bytes"},
+      {"short.glb", "glTF", "short.glb: not a valid glTF binary (.glb) file: 4 bytes, shorter than its 12-byte header"},
+      {"magic.glb", no_magic, "magic.glb: not a valid glTF binary (.glb) file: byte 0: no \"glTF\" magic"},
+      {"length.glb", glb_file(json, std::string(16, '\0'), -1, 100'000), "length.glb: not a valid glTF binary (.glb) file: byte 8: total length 100000"},
+      {"type.glb", not_json, "type.glb: not a valid glTF binary (.glb) file: byte 16: the first chunk must be JSON"},
+      {"json.glb", glb_file(json, std::string(16, '\0'), -1, 24), "json.glb: not a valid glTF binary (.glb) file: byte 12: JSON chunk length " + padded_json_size},
+      {"odd.glb", glb_file(json, std::string(16, '\0'), 6), "odd.glb: not a valid glTF binary (.glb) file: byte " + bin_at + ": BIN chunk length 6"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.file);
+    write_file_atomically(dir / c.file, c.bytes);
+    const CmdResult r = run("check " + (dir / c.file).string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+  }
+  // The same container with the whole BIN chunk in the file passes the container check (and
+  // is then refused for having no mesh, not for its container).
+  write_file_atomically(dir / "fits.glb", glb_file(json, std::string(16, '\0')));
+  const CmdResult fits = run("check " + (dir / "fits.glb").string());
+  EXPECT_EQ(fits.err.find("byte "), std::string::npos) << fits.err;
+  EXPECT_EQ(fits.err.find("internal error"), std::string::npos) << fits.err;
+}
+
 TEST(Reliability, OnlyRegularFilesAreRead) {
   const fs::path dir = test::temp_dir("rel_read");
   EXPECT_THROW(read_file(dir), IoError);

@@ -11,6 +11,7 @@
 #include "pipeline/pipeline.h"
 #include "repair/repair.h"
 #include "repair/self_union.h"
+#include "repair/verdict.h"
 #include "grow/messy_grower.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
@@ -43,6 +44,25 @@ TEST(SelfUnion, InterpenetratingBoxesBecomeTheirUnion) {
   EXPECT_NEAR(r.signed_volume, 2.0 - 0.125, 1e-12);
 }
 
+TEST(SelfUnion, PairsTouchingASubsetAreThoseOfTheWholeSearch) {
+  // The repair recounts pairs only around the triangles an edit changed: pairs_touching(S)
+  // must be exactly the whole search's pairs with a triangle in S, for any S.
+  const Mesh m = test::interpenetrating_boxes();
+  const auto all = all_pairs(m);
+  ASSERT_GT(all.size(), 0u);
+  const TriangleIntersections ti(m);
+  for (std::uint32_t step : {1u, 2u, 3u, 7u}) {
+    std::vector<std::uint32_t> subset;
+    for (std::uint32_t f = 0; f < m.triangles.size(); f += step) subset.push_back(f);
+    std::vector<std::array<std::uint32_t, 2>> expected;
+    for (const auto& pr : all) {
+      if (pr[0] % step == 0 || pr[1] % step == 0) expected.push_back(pr);
+    }
+    EXPECT_EQ(ti.pairs_touching(subset), expected) << "every " << step << "th triangle";
+  }
+  EXPECT_TRUE(ti.pairs_touching({}).empty());
+}
+
 TEST(SelfUnion, DisjointPartsAreLeftAsTheyAre) {
   // No pairs: nothing to do, the mesh and the identity origin come back.
   Mesh m = test::box();
@@ -53,6 +73,30 @@ TEST(SelfUnion, DisjointPartsAreLeftAsTheyAre) {
   EXPECT_EQ(m.triangles, before.triangles);
   ASSERT_EQ(origin.size(), m.triangles.size());
   for (std::uint32_t f = 0; f < origin.size(); ++f) EXPECT_EQ(origin[f], f);
+}
+
+TEST(Repair, OneRuleKeepsOnlyABetterMesh) {
+  const MeshFigures before{.parts = 1, .genus = 0, .volume = 1.0, .pairs = 10, .thick_inside = 50};
+  auto with = [&](auto edit) {
+    MeshFigures f = before;
+    edit(f);
+    return f;
+  };
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; })), "");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.thick_inside = 51; })), "");
+  EXPECT_EQ(refuse(before, before), "no fewer pairs and no more thick nodes inside");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.sound = false; })),
+            "not a closed, oriented 2-manifold");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.parts = 2; })), "2 components");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.thick_inside = 49; })),
+            "1 more thick nodes outside");
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.volume = -1; })), "negative volume");
+  // A handle: refused unless allowed (the self-union makes one where crossings close a loop).
+  const MeshFigures handle = with([](MeshFigures& f) { f.pairs = 0; f.genus = 1; });
+  EXPECT_EQ(refuse(before, handle), "genus 1");
+  EXPECT_EQ(refuse(before, handle, {.handles_allowed = true}), "");
+  // Figures a step does not measure are not compared.
+  EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.thick_inside.reset(); })), "");
 }
 
 TEST(Repair, CleanMeshIsUnchanged) {
@@ -98,6 +142,12 @@ TEST(Repair, CrossingBranchesFuseWhereTheyAreWithAHandle) {
   EXPECT_EQ(r.repair.pairs_left, 0u);
   ASSERT_TRUE(rep.genus.has_value());
   EXPECT_EQ(*rep.genus, 1);
+  // `check --skeleton` finds the same genus implied by the input's crossing (implied_genus.h).
+  const Skeleton input = input_skeleton(raw);
+  const MeshCheckReport with_input =
+      check_mesh(r.mesh.mesh, {.self_intersections = false, .skeleton = &input, .implied_genus = true});
+  EXPECT_EQ(with_input.implied_genus, 1);
+  EXPECT_EQ(with_input.genus_agrees(), std::optional<bool>(true));
 }
 
 

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "apps/cli/commands.h"
+#include "apps/cli/param_help.h"
 #include "apps/cli/export_options.h"
 #include "apps/cli/input_options.h"
 #include "apps/cli/skeleton_options.h"
@@ -49,12 +50,12 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         ->check(CLI::IsMember({"glb", "gltf", "obj", "ply"}))
         ->capture_default_str();
     sub.add_option("--config", o->config, "Parameter file (JSON; every key: mesh --print-config; see configs/ and docs/pipeline.md)");
-    auto* seed = sub.add_option("--seed", o->seed, "Random seed of the particle stage")
+    auto* seed = sub.add_option("--seed", o->seed, param_help<ParticleParams>("seed"))
                      ->capture_default_str()
                      ->check(kNotNegative);
-    auto* spacing = sub.add_option("--spacing", o->spacing, "Particle spacing in metres (0 = derived)")
+    auto* spacing = sub.add_option("--spacing", o->spacing, param_help<ParticleParams>("spacing"))
                         ->check(CLI::NonNegativeNumber);
-    auto* root = sub.add_option("--root-strands", o->root_strands, "Choose the spacing so the root has about this many strands")
+    auto* root = sub.add_option("--root-strands", o->root_strands, param_help<ParticleParams>("root_strands"))
                      ->check(CLI::Range(1.0, double(ParticleParams::kMaxRootStrands)));
     sub.add_option("--dump-stages", o->dump_dir, "Also write every stage's result as JSON into this directory");
     sub.add_option("--stats", o->stats_path, "Write the run's figures (counts, seconds per stage) as JSON");

@@ -2,38 +2,33 @@
 
 #include "meshio/export_text.h"
 
+#include <string>
+#include <string_view>
+
+#include "apps/cli/param_help.h"
+#include "meshio/export.h"
+
 namespace sm::cli {
+
+namespace {
+
+std::string help(std::string_view key, std::string_view more = {}) { return param_help<ExportParams>(key, more); }
+
+}  // namespace
 
 void add_export_options(CLI::App& sub, ExportOptions& o) {
   const std::string group = "Export (docs/export.md)";
-  sub.add_option("--up-axis", o.up_axis, "Up axis of the file: y, z or auto (glTF and OBJ y, PLY as the input)")
-      ->check(CLI::IsMember({"y", "z", "auto"}))
-      ->group(group);
-  sub.add_option("--pivot", o.pivot,
-                 "The file's origin: root (base of the trunk), center (of the bounds), origin (the input's "
-                 "coordinates) or auto (root for glTF and OBJ, origin for PLY)")
+  sub.add_option("--up-axis", o.up_axis, help("up_axis"))->check(CLI::IsMember({"y", "z", "auto"}))->group(group);
+  sub.add_option("--pivot", o.pivot, help("pivot"))
       ->check(CLI::IsMember({"root", "center", "origin", "auto"}))
       ->group(group);
-  sub.add_option("--scale", o.scale,
-                 "File units per metre: a number or m, cm, mm, in, ft (default m: the input's metres)")
-      ->group(group);
-  sub.add_option("--attributes", o.attributes,
-                 "Vertex attributes, comma-separated (docs/export.md): normal, uv, branch_id, level, root_distance, "
-                 "pivot, direction, phase, thickness (wind: those six), color, uv1, tangent, all or none "
-                 "(default normal,uv,branch_id)")
-      ->group(group);
-  sub.add_flag("--no-optimize", o.no_optimize, "Keep the mesher's vertex and triangle order")->group(group);
-  sub.add_option("--compress", o.compress, "glTF buffer compression: meshopt (EXT_meshopt_compression) or none")
-      ->check(CLI::IsMember({"meshopt", "none"}))
-      ->group(group);
-  sub.add_option("--lods", o.lods,
-                 "Levels of detail in all (1-8), each a closed mesh from the pipeline run again on coarser settings "
-                 "with thin twigs pruned; glTF: all in OUT (MSFT_lod), OBJ and PLY: level k in OUT_lodK.EXT")
-      ->check(CLI::Range(1, 8))
-      ->group(group);
-  sub.add_flag("--lod-files", o.lod_files, "glTF too: each level of detail in a file of its own, OUT_lodK.EXT")
-      ->group(group);
-  sub.add_flag("--quantize", o.quantize, "glTF: 16-bit positions, 8-bit normals (KHR_mesh_quantization)")->group(group);
+  sub.add_option("--scale", o.scale, help("scale"))->group(group);
+  sub.add_option("--attributes", o.attributes, help("attributes"))->group(group);
+  sub.add_flag("--no-optimize", o.no_optimize, help("optimize", "; this flag turns it off"))->group(group);
+  sub.add_option("--compress", o.compress, help("compress"))->check(CLI::IsMember({"meshopt", "none"}))->group(group);
+  sub.add_option("--lods", o.lods, help("lods"))->check(CLI::Range(1, 8))->group(group);
+  sub.add_flag("--lod-files", o.lod_files, help("lod_files"))->group(group);
+  sub.add_flag("--quantize", o.quantize, help("quantize"))->group(group);
 }
 
 void apply_export_options(const ExportOptions& o, ExportParams& p) {

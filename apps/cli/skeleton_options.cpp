@@ -8,6 +8,7 @@
 #include <string_view>
 #include <tuple>
 
+#include "apps/cli/param_help.h"
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/log.h"
@@ -17,22 +18,9 @@ namespace sm::cli {
 
 namespace {
 
-// A skeleton flag's help and accepted range are its config key's row in the skeleton table
-// (skeleton/param_table.cpp), so the flag and the config file cannot drift apart.
-const ParamSpec<SkeletonParams>& spec(std::string_view key) {
-  for (const auto& s : param_table_of<SkeletonParams>().fields) {
-    if (key == s.key) return s;
-  }
-  throw InternalError("no skeleton parameter " + std::string(key));
-}
+const ParamSpec<SkeletonParams>& spec(std::string_view key) { return param_spec<SkeletonParams>(key); }
 
-std::string help_of(std::string_view key, const std::string& more = "") {
-  const auto& s = spec(key);
-  std::string h = s.help;
-  if (!h.empty()) h[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(h[0])));
-  if (*s.unit) h += std::string(" (") + s.unit + ")";
-  return h + more + " [config: skeleton." + s.key + (param_kind(s) == ParamKind::choice ? "" : "; " + s.range.rule()) + "]";
-}
+std::string help_of(std::string_view key, const std::string& more = "") { return param_help<SkeletonParams>(key, more); }
 
 CLI::Validator range_of(std::string_view key) {
   const ParamRange r = spec(key).range;
@@ -62,7 +50,7 @@ void add_skeleton_options(CLI::App& sub, SkeletonParams& p) {
   const std::map<std::string, ThickChildPolicy> policies{{"clamp", ThickChildPolicy::clamp_child},
                                                          {"raise", ThickChildPolicy::raise_parent},
                                                          {"keep", ThickChildPolicy::keep}};
-  sub.add_option("--thick-child", p.thick_child_policy, help_of("thick_child_policy", ": clamp (child), raise (parent), keep"))
+  sub.add_option("--thick-child", p.thick_child_policy, help_of("thick_child_policy", "; here clamp, raise or keep"))
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case))
       ->default_str("keep");
   sub.add_flag("!--keep-input", p.separate,
