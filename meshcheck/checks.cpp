@@ -311,6 +311,12 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
     r.quality_limits = params.quality_limits;
   }
   r.timings.add("quality", watch.lap());
+  if (params.uvs && r.nonfinite_vertices == 0 && !mesh.corner_uvs.empty() && mesh.corner_uvs.size() == nf) {
+    r.uv = measure_uv_quality(mesh, params.skeleton && !params.skeleton->empty() ? params.skeleton : nullptr,
+                              {.junction_radii = params.junction_radii, .max_examples = params.max_examples});
+    r.uv_checked = true;
+  }
+  r.timings.add("uv_quality", watch.lap());
 
   // ---- CGAL: self-intersections and thick nodes inside
   if (r.nonfinite_vertices == 0 && nf > 0 && (params.self_intersections || !thick.empty())) {
@@ -485,6 +491,25 @@ std::string to_text(const MeshCheckReport& r) {
                                                      : std::string()) +
                                  ex);
   }
+  if (r.uv_checked) {
+    const UvQuality& u = r.uv;
+    line("uv seams", n(u.seam_edges) + " edges: " + n(u.around_seams) + " around the branches, " + n(u.other_seams) +
+                         " other" +
+                         (u.caps_known ? "; at junctions " + n(u.junction_around_seams) + " around, " +
+                                             n(u.junction_other_seams) + " other"
+                                       : std::string()) +
+                         pairs(u.other_seam_examples, "-"));
+    line("uv stretch", "anisotropy p95 " + fmt(u.anisotropy_p95, 3) + ", max " + fmt(u.anisotropy_max, 3) +
+                           "; texel density p95 " + fmt(u.density_p95, 3) + " x the median " +
+                           fmt(u.density_median, 3) + " per m" +
+                           (u.caps_known ? " (caps left out)" : std::string()));
+    if (u.caps_known) {
+      line("  at junctions", "anisotropy p95 " + fmt(u.junction_anisotropy_p95, 3) + ", texel density p95 " +
+                                 fmt(u.junction_density_p95, 3) + " x the median over " + n(u.junction_triangles) +
+                                 " triangles");
+    }
+    line("uv flipped", n(u.flipped) + " triangles mirrored, " + n(u.collapsed) + " collapsed, of " + n(u.triangles));
+  }
   const auto failures = r.failures();
   for (const auto& f : failures) s += "problem: " + f + "\n";
   s += failures.empty() ? "result: ok\n" : "result: FAILED\n";
@@ -574,6 +599,29 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                       {"max_backward_normals", r.quality_limits->max_backward_normals}};
     }
     j["quality"] = qj;
+  }
+  if (r.uv_checked) {
+    const UvQuality& u = r.uv;
+    nlohmann::json uj{{"seam_edges", u.seam_edges},
+                      {"around_seams", u.around_seams},
+                      {"other_seams", u.other_seams},
+                      {"other_seam_examples", pairs(u.other_seam_examples)},
+                      {"caps_known", u.caps_known},
+                      {"triangles", u.triangles},
+                      {"collapsed", u.collapsed},
+                      {"flipped", u.flipped},
+                      {"density_median", u.density_median},
+                      {"anisotropy_p95", u.anisotropy_p95},
+                      {"anisotropy_max", u.anisotropy_max},
+                      {"density_p95", u.density_p95}};
+    if (u.caps_known) {
+      uj["junction_around_seams"] = u.junction_around_seams;
+      uj["junction_other_seams"] = u.junction_other_seams;
+      uj["junction_triangles"] = u.junction_triangles;
+      uj["junction_anisotropy_p95"] = u.junction_anisotropy_p95;
+      uj["junction_density_p95"] = u.junction_density_p95;
+    }
+    j["uv"] = uj;
   }
   j["examples"] = {{"boundary_edges", pairs(r.boundary_edge_examples)},
                    {"nonmanifold_edges", pairs(r.nonmanifold_edge_examples)},

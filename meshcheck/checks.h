@@ -57,6 +57,7 @@
 #include "core/mesh.h"
 #include "core/report.h"
 #include "meshcheck/quality.h"
+#include "meshcheck/uv_quality.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -77,6 +78,7 @@ struct MeshCheckParams {
   /// the quality figures are informative.
   std::optional<QualityLimits> quality_limits;
   double junction_radii = QualityParams{}.junction_radii;  ///< junction edges: within this many fork radii of a fork
+  bool uvs = true;  ///< measure UV seams and stretch where the mesh has UVs (meshcheck/uv_quality.h; default true)
   bool implied_genus = false;  ///< with a skeleton: also the genus its crossing branches imply (implied_genus.h; default false)
 };
 
@@ -137,6 +139,8 @@ struct MeshCheckReport {
   bool quality_checked = false;   ///< triangle quality was measured
   TriangleQuality quality;        ///< angles, aspect ratios, dihedral angles, backward normals
   std::optional<QualityLimits> quality_limits;  ///< the goals ok() applies to `quality`, if any
+  bool uv_checked = false;        ///< the mesh has UVs and they were measured (informative)
+  UvQuality uv;                   ///< seams and stretch of the UVs
   Timings timings;                                                       ///< seconds per phase
 
   /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component

@@ -945,3 +945,76 @@ TEST(CheckCli, QualityLimits) {
 
 }  // namespace
 }  // namespace sm
+
+namespace sm {
+namespace {
+
+// A tube with u = j / 16 once around (a seam where u wraps) and v the height, planar caps:
+// every figure of the UV quality is known.
+TEST(UvQuality, TubeSeamsAndStretch) {
+  const Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true);
+  // The side's map: u grows by 1/16 over a chord of 2 r sin(pi / 16), v by 1 per metre.
+  const double su = (1.0 / 16) / (2 * 0.1 * std::sin(std::numbers::pi / 16));
+
+  const UvQuality plain = measure_uv_quality(tube);
+  EXPECT_FALSE(plain.caps_known);
+  EXPECT_EQ(plain.seam_edges, 8u + 32u);
+  EXPECT_EQ(plain.around_seams, 8u);  // one per ring of quads
+  EXPECT_EQ(plain.other_seams, 32u);  // the rims, where the caps' planar UVs meet the side's
+  EXPECT_EQ(plain.triangles, 256u + 32u);
+  EXPECT_EQ(plain.flipped, 16u);  // one cap is mirrored against the side (planar UVs seen from inside)
+
+  const Skeleton line = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  const UvQuality q = measure_uv_quality(tube, &line);
+  EXPECT_TRUE(q.caps_known);
+  EXPECT_EQ(q.around_seams, 8u);  // a jump of one turn: 1 over the density is 1.26 circumferences
+  EXPECT_EQ(q.other_seams, 32u);
+  EXPECT_EQ(q.triangles, 256u);  // the caps left out
+  EXPECT_EQ(q.flipped, 0u);
+  EXPECT_EQ(q.collapsed, 0u);
+  EXPECT_NEAR(q.anisotropy_p95, su, 1e-5 * su);
+  EXPECT_NEAR(q.anisotropy_max, su, 1e-5 * su);
+  EXPECT_NEAR(q.density_median, std::sqrt(su), 1e-5);
+  EXPECT_NEAR(q.density_p95, 1.0, 1e-5);
+  EXPECT_EQ(q.junction_triangles, 0u);
+
+  // Once around a tube of circumference 1 m the texels are square (but for the chords).
+  const double r1 = 0.5 / std::numbers::pi;
+  const Skeleton line1 = two_node_skeleton({0, 0, 0}, {0, 0, 1}, r1);
+  const UvQuality round = measure_uv_quality(test::capped_tube({0, 0, 0}, {0, 0, 1}, r1, 64, 8, true), &line1);
+  EXPECT_NEAR(round.anisotropy_p95, 1.0, 1e-3);
+  EXPECT_EQ(round.around_seams, 8u);
+}
+
+TEST(UvQuality, JumpsInVAndMirroredTrianglesAreCounted) {
+  Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true);
+  const Skeleton line = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  // v shifted by half a unit on the upper four rows of quads: a ring seam of 16 edges.
+  for (std::size_t f = 0; f < 256; ++f) {
+    if (f / 32 >= 4) {
+      for (auto& uv : tube.corner_uvs[f]) uv.y += 0.5f;
+    }
+  }
+  const UvQuality ring = measure_uv_quality(tube, &line);
+  EXPECT_EQ(ring.around_seams, 8u);
+  EXPECT_EQ(ring.other_seams, 32u + 16u);
+  EXPECT_EQ(ring.flipped, 0u);
+  // One triangle mirrored in UV (two corners swapped): flipped, and its three edges seams.
+  std::swap(tube.corner_uvs[40][1], tube.corner_uvs[40][2]);
+  const UvQuality mirrored = measure_uv_quality(tube, &line);
+  EXPECT_EQ(mirrored.flipped, 1u);
+  EXPECT_GT(mirrored.other_seams, ring.other_seams);
+
+  // Reported by check_mesh, in text and JSON; a mesh without UVs gets no figures.
+  const MeshCheckReport report = check_mesh(tube, {.self_intersections = false, .skeleton = &line});
+  EXPECT_TRUE(report.uv_checked);
+  const std::string text = to_text(report);
+  EXPECT_NE(text.find("uv seams"), std::string::npos) << text;
+  EXPECT_NE(text.find("uv stretch"), std::string::npos) << text;
+  EXPECT_EQ(to_json(report)["uv"]["flipped"].get<std::size_t>(), 1u);
+  tube.corner_uvs.clear();
+  EXPECT_FALSE(check_mesh(tube, {.self_intersections = false}).uv_checked);
+}
+
+}  // namespace
+}  // namespace sm
