@@ -118,9 +118,13 @@ PipelineResult mesh_lod(const RawSkeleton& raw, const PipelineParams& params, st
   }
   l.rerun_pairs = pairs;
   // A clean finer level stays clean when simplified by collapses that refuse every crossing.
+  // The target is the run's triangle count, at most three quarters of the finer level's: a
+  // level is coarser than the one before even where the coarser settings did not thin it
+  // (a tree whose strands were fewer than either level's cap).
   if (pairs > 0 && finer != nullptr) {
     SimplifyStats st;
-    Mesh simpler = simplify_mesh(finer->mesh.mesh, {.target_triangles = r.mesh.mesh.triangle_count()}, &st);
+    const std::size_t target = std::min(r.mesh.mesh.triangle_count(), finer->mesh.mesh.triangle_count() * 3 / 4);
+    Mesh simpler = simplify_mesh(finer->mesh.mesh, {.target_triangles = target}, &st);
     if (st.pairs_after < pairs) {
       PipelineResult s = *finer;
       s.mesh.mesh = std::move(simpler);

@@ -29,6 +29,7 @@
 #include "core/union_find.h"
 #include "meshcheck/checks_cgal.h"
 #include "meshcheck/cone_tree.h"
+#include "meshcheck/implied_genus.h"
 
 namespace sm {
 
@@ -289,6 +290,19 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   }
   r.timings.add("fidelity", watch.lap());
 
+  // ---- the genus the skeleton's crossings imply (informative)
+  if (params.implied_genus && params.skeleton && !params.skeleton->empty()) {
+    const ImpliedGenus g = sm::implied_genus(
+        *params.skeleton, {.max_examples = params.max_examples, .robust_margin = std::min(params.fidelity_tolerance, 0.9)});
+    r.implied_genus_checked = g.complete;  // (not over a tangle of more than 5e7 candidate pairs)
+    r.implied_genus = g.genus;
+    r.implied_genus_min = g.genus_min;
+    r.implied_genus_robust = g.robust_genus;
+    r.crossing_pairs = g.crossing_pairs;
+    r.handle_examples = g.handle_examples;
+    r.timings.add("implied genus", watch.lap());
+  }
+
   // ---- triangle quality (informative unless limits are given)
   if (params.quality && r.nonfinite_vertices == 0) {
     r.quality = measure_quality(mesh, params.skeleton && !params.skeleton->empty() ? params.skeleton : nullptr,
@@ -297,6 +311,12 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
     r.quality_limits = params.quality_limits;
   }
   r.timings.add("quality", watch.lap());
+  if (params.uvs && r.nonfinite_vertices == 0 && !mesh.corner_uvs.empty() && mesh.corner_uvs.size() == nf) {
+    r.uv = measure_uv_quality(mesh, params.skeleton && !params.skeleton->empty() ? params.skeleton : nullptr,
+                              {.junction_radii = params.junction_radii, .max_examples = params.max_examples});
+    r.uv_checked = true;
+  }
+  r.timings.add("uv_quality", watch.lap());
 
   // ---- CGAL: self-intersections and thick nodes inside
   if (r.nonfinite_vertices == 0 && nf > 0 && (params.self_intersections || !thick.empty())) {
@@ -360,6 +380,11 @@ bool MeshCheckReport::ok() const {
   return failures().empty();
 }
 
+std::optional<bool> MeshCheckReport::genus_agrees() const {
+  if (!implied_genus_checked || !genus) return std::nullopt;
+  return *genus >= implied_genus_min && *genus <= implied_genus;
+}
+
 std::string to_text(const MeshCheckReport& r) {
   std::string s;
   auto line = [&](const char* key, const std::string& value) {
@@ -396,6 +421,26 @@ std::string to_text(const MeshCheckReport& r) {
   line("euler characteristic", std::to_string(r.euler_characteristic));
   line("genus", r.genus ? std::to_string(*r.genus) + (*r.genus > 0 ? " (handles where branches cross and fuse)" : "")
                        : std::string("undefined (not a closed oriented manifold)"));
+  if (r.implied_genus_checked) {
+    std::string v = r.implied_genus_min == r.implied_genus
+                        ? std::to_string(r.implied_genus)
+                        : std::to_string(r.implied_genus_min) + " to " + std::to_string(r.implied_genus);
+    v += " (" + std::to_string(r.implied_genus_robust) + " robust: kept from radii x" +
+         fmt(1 - std::min(r.fidelity_tolerance, 0.9), 3) + " to x" + fmt(1 + std::min(r.fidelity_tolerance, 0.9), 3) +
+         "; " + n(r.crossing_pairs) + " crossing edge pairs in the skeleton";
+    if (!r.handle_examples.empty()) v += "; handles e.g. at nodes" + pairs(r.handle_examples, "/").substr(5);
+    v += ")";
+    line("implied genus", v);
+    if (r.genus) {
+      const std::int64_t g = *r.genus;
+      line("  mesh vs implied",
+           g >= r.implied_genus_min && g <= r.implied_genus ? std::string("agree")
+           : g > r.implied_genus ? "the mesh has more handles (fused where the round cones do not meet?)"
+           : g >= r.implied_genus_robust
+               ? std::string("the mesh has fewer, none of them robust (near tangency, or holes thinner than the band)")
+               : "the mesh has fewer than the robust count: a crossing's handle is missing (informative)");
+    }
+  }
   {
     std::string ex;
     for (const auto t : r.degenerate_triangle_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(t);
@@ -446,6 +491,25 @@ std::string to_text(const MeshCheckReport& r) {
                                                      : std::string()) +
                                  ex);
   }
+  if (r.uv_checked) {
+    const UvQuality& u = r.uv;
+    line("uv seams", n(u.seam_edges) + " edges: " + n(u.around_seams) + " around the branches, " + n(u.other_seams) +
+                         " other" +
+                         (u.caps_known ? "; at junctions " + n(u.junction_around_seams) + " around, " +
+                                             n(u.junction_other_seams) + " other"
+                                       : std::string()) +
+                         pairs(u.other_seam_examples, "-"));
+    line("uv stretch", "anisotropy p95 " + fmt(u.anisotropy_p95, 3) + ", max " + fmt(u.anisotropy_max, 3) +
+                           "; texel density p95 " + fmt(u.density_p95, 3) + " x the median " +
+                           fmt(u.density_median, 3) + " per m" +
+                           (u.caps_known ? " (caps left out)" : std::string()));
+    if (u.caps_known) {
+      line("  at junctions", "anisotropy p95 " + fmt(u.junction_anisotropy_p95, 3) + ", texel density p95 " +
+                                 fmt(u.junction_density_p95, 3) + " x the median over " + n(u.junction_triangles) +
+                                 " triangles");
+    }
+    line("uv flipped", n(u.flipped) + " triangles mirrored, " + n(u.collapsed) + " collapsed, of " + n(u.triangles));
+  }
   const auto failures = r.failures();
   for (const auto& f : failures) s += "problem: " + f + "\n";
   s += failures.empty() ? "result: ok\n" : "result: FAILED\n";
@@ -477,6 +541,14 @@ nlohmann::json to_json(const MeshCheckReport& r) {
   j["oriented"] = r.oriented;
   j["euler_characteristic"] = r.euler_characteristic;
   j["genus"] = r.genus ? nlohmann::json(*r.genus) : nlohmann::json(nullptr);
+  if (r.implied_genus_checked) {
+    j["implied_genus"] = r.implied_genus;
+    j["implied_genus_min"] = r.implied_genus_min;
+    j["implied_genus_robust"] = r.implied_genus_robust;
+    j["crossing_pairs"] = r.crossing_pairs;
+    const std::optional<bool> agree = r.genus_agrees();
+    j["genus_agrees"] = agree ? nlohmann::json(*agree) : nlohmann::json(nullptr);
+  }
   j["degenerate_triangles"] = r.degenerate_triangles;
   j["min_triangle_area"] = r.min_triangle_area;
   j["signed_volume"] = r.signed_volume;
@@ -528,6 +600,29 @@ nlohmann::json to_json(const MeshCheckReport& r) {
     }
     j["quality"] = qj;
   }
+  if (r.uv_checked) {
+    const UvQuality& u = r.uv;
+    nlohmann::json uj{{"seam_edges", u.seam_edges},
+                      {"around_seams", u.around_seams},
+                      {"other_seams", u.other_seams},
+                      {"other_seam_examples", pairs(u.other_seam_examples)},
+                      {"caps_known", u.caps_known},
+                      {"triangles", u.triangles},
+                      {"collapsed", u.collapsed},
+                      {"flipped", u.flipped},
+                      {"density_median", u.density_median},
+                      {"anisotropy_p95", u.anisotropy_p95},
+                      {"anisotropy_max", u.anisotropy_max},
+                      {"density_p95", u.density_p95}};
+    if (u.caps_known) {
+      uj["junction_around_seams"] = u.junction_around_seams;
+      uj["junction_other_seams"] = u.junction_other_seams;
+      uj["junction_triangles"] = u.junction_triangles;
+      uj["junction_anisotropy_p95"] = u.junction_anisotropy_p95;
+      uj["junction_density_p95"] = u.junction_density_p95;
+    }
+    j["uv"] = uj;
+  }
   j["examples"] = {{"boundary_edges", pairs(r.boundary_edge_examples)},
                    {"nonmanifold_edges", pairs(r.nonmanifold_edge_examples)},
                    {"nonmanifold_vertices", r.nonmanifold_vertex_examples},
@@ -535,7 +630,8 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                    {"degenerate_triangles", r.degenerate_triangle_examples},
                    {"self_intersections", pairs(r.self_intersection_examples)},
                    {"outside_nodes", r.outside_node_examples},
-                   {"fidelity_outliers", r.fidelity_outlier_examples}};
+                   {"fidelity_outliers", r.fidelity_outlier_examples},
+                   {"handles", pairs(r.handle_examples)}};
   nlohmann::json t = nlohmann::json::object();
   for (const auto& e : r.timings.entries) t[e.name] = e.seconds;
   j["timings"] = t;

@@ -33,6 +33,13 @@
 ///    tested on a closed, manifold, oriented mesh. A node inside two overlapping parts, where
 ///    the mesh intersects itself, has winding number 2 and is inside
 ///    (thick_nodes_in_overlaps; the self-intersections are reported anyway).
+///  - implied genus (with a skeleton, on request): the genus of the union of the skeleton's
+///    round cones, from where its branches cross or touch away from a shared node
+///    (meshcheck/implied_genus.h), and how many of those handles are robust: still there with
+///    every radius scaled by 1 - fidelity_tolerance and not yet closed at 1 + fidelity_tolerance.
+///    A solid whose surface keeps within that band of the round cones has at least the robust
+///    genus. Informative: near tangency the round cones and the strands' surface differ, and
+///    the check does not prove the band, so a mismatch is reported, not failed.
 ///
 /// Cost: O(F log F) plus the self-intersection test (box intersection, near-linear on meshes
 /// without many overlaps; parallel with oneTBB) and O(V log N) for fidelity with a bounding-
@@ -50,6 +57,7 @@
 #include "core/mesh.h"
 #include "core/report.h"
 #include "meshcheck/quality.h"
+#include "meshcheck/uv_quality.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -70,6 +78,8 @@ struct MeshCheckParams {
   /// the quality figures are informative.
   std::optional<QualityLimits> quality_limits;
   double junction_radii = QualityParams{}.junction_radii;  ///< junction edges: within this many fork radii of a fork
+  bool uvs = true;  ///< measure UV seams and stretch where the mesh has UVs (meshcheck/uv_quality.h; default true)
+  bool implied_genus = false;  ///< with a skeleton: also the genus its crossing branches imply (implied_genus.h; default false)
 };
 
 /// What check_mesh found. Counts are exact; `*_examples` list the first few offenders
@@ -111,6 +121,11 @@ struct MeshCheckReport {
   std::size_t thick_nodes_in_overlaps = 0;  ///< of those, inside overlapping parts (winding number >= 2)
   std::size_t nodes = 0;               ///< all skeleton nodes (with inside_checked)
   std::size_t nodes_inside = 0;        ///< of those, inside the mesh by winding number (a node on the surface may count out)
+  bool implied_genus_checked = false;  ///< the skeleton's implied genus was computed
+  std::int64_t implied_genus = 0;      ///< genus of the union of the skeleton's round cones (upper end when a range)
+  std::int64_t implied_genus_min = 0;  ///< lower end (equal to implied_genus unless its search cap was reached)
+  std::int64_t implied_genus_robust = 0;  ///< of those, the handles kept with radii x (1 -+ fidelity_tolerance)
+  std::size_t crossing_pairs = 0;      ///< skeleton edges whose round cones meet without a shared node
 
   std::vector<std::array<std::uint32_t, 2>> boundary_edge_examples;      ///< vertex pairs
   std::vector<std::array<std::uint32_t, 2>> nonmanifold_edge_examples;   ///< vertex pairs
@@ -120,9 +135,12 @@ struct MeshCheckReport {
   std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
   std::vector<std::uint32_t> outside_node_examples;                      ///< skeleton node indices (thick, outside)
   std::vector<std::uint32_t> fidelity_outlier_examples;                  ///< vertex indices (beyond the tolerance)
+  std::vector<std::array<std::uint32_t, 2>> handle_examples;  ///< skeleton node pairs: the child nodes of two crossing edges, one per implied handle
   bool quality_checked = false;   ///< triangle quality was measured
   TriangleQuality quality;        ///< angles, aspect ratios, dihedral angles, backward normals
   std::optional<QualityLimits> quality_limits;  ///< the goals ok() applies to `quality`, if any
+  bool uv_checked = false;        ///< the mesh has UVs and they were measured (informative)
+  UvQuality uv;                   ///< seams and stretch of the UVs
   Timings timings;                                                       ///< seconds per phase
 
   /// True when every check passed: closed, edge- and vertex-manifold, oriented, one component
@@ -130,6 +148,9 @@ struct MeshCheckReport {
   /// checked), positive volume, and, when a skeleton was given, fidelity p95 <= tolerance and
   /// every thick node inside; with quality limits, those met too.
   [[nodiscard]] bool ok() const;
+  /// Whether the mesh's genus equals the implied genus (lies in its range); empty when either
+  /// is unknown.
+  [[nodiscard]] std::optional<bool> genus_agrees() const;
   /// One short sentence per failed criterion ("3 boundary edges (not closed)"); empty when ok().
   [[nodiscard]] std::vector<std::string> failures() const;
 };

@@ -20,7 +20,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/errors.h"
-#include "meshcheck/cone_tree.h"
+#include "meshcheck/regions.h"
 
 namespace sm {
 namespace {
@@ -43,37 +43,6 @@ std::string percent(double share) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g %%", 100.0 * share);
   return buf;
-}
-
-/// Per vertex: the end (tip node + 1, or the root + 1) whose cap it belongs to, else 0
-/// (quality.h: caps).
-std::vector<std::uint32_t> cap_ends(const Mesh& mesh, const Skeleton& skel) {
-  std::vector<std::uint32_t> end(mesh.positions.size(), 0);
-  std::vector<detail::Cone> cones = detail::skeleton_cones(skel);
-  if (cones.empty() || skel.size() < 2) return end;
-  std::vector<std::uint32_t> children(skel.size(), 0);
-  for (std::size_t i = 0; i < skel.size(); ++i) {
-    if (skel.parent[i].valid()) ++children[skel.parent[i].idx()];
-  }
-  const detail::ConeTree tree(std::move(cones));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, end.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v) {
-      const dvec3& p = mesh.positions[v];
-      const std::uint32_t n = tree.nearest(p).id;
-      const NodeId parent = skel.parent[n];
-      if (!parent.valid()) continue;
-      const dvec3 a = skel.position[parent.idx()], b = skel.position[n];
-      const double len = glm::length(b - a);
-      if (!(len > 0)) continue;
-      const dvec3 d = (b - a) / len;
-      if (children[n] == 0 && glm::dot(p - b, d) >= -0.05 * skel.radius[n]) {
-        end[v] = n + 1;
-      } else if (!skel.parent[parent.idx()].valid() && glm::dot(p - a, d) <= 0.05 * skel.radius[parent.idx()]) {
-        end[v] = parent.value + 1;
-      }
-    }
-  });
-  return end;
 }
 
 }  // namespace
@@ -160,22 +129,9 @@ TriangleQuality measure_quality(const Mesh& mesh, const Skeleton* skeleton, cons
   if (skeleton && skeleton->size() >= 2) {
     const Skeleton& s = *skeleton;
     q.caps_known = true;
-    cap_end = cap_ends(mesh, s);
-    for (std::size_t f = 0; f < nf; ++f) {
-      const auto& t = mesh.triangles[f];
-      cap_triangle[f] = cap_end[t[0]] != 0 && cap_end[t[0]] == cap_end[t[1]] && cap_end[t[0]] == cap_end[t[2]];
-    }
-    std::vector<std::uint32_t> children(s.size(), 0);
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      if (s.parent[i].valid()) ++children[s.parent[i].idx()];
-    }
-    std::vector<detail::Cone> spheres;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      if (children[i] < 2) continue;
-      const double r = params.junction_radii * s.radius[i];
-      spheres.push_back({s.position[i], s.position[i], r, r, static_cast<std::uint32_t>(i)});
-    }
-    if (!spheres.empty()) forks = std::make_unique<detail::ConeTree>(std::move(spheres));
+    cap_end = detail::cap_ends(mesh, s);
+    cap_triangle = detail::cap_triangles(mesh, cap_end);
+    forks = detail::junction_balls(s, params.junction_radii);
   }
 
   // ---- edges: each once, from its lower vertex; dihedral angle where it has two triangles

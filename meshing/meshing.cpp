@@ -12,6 +12,7 @@
 #include <numeric>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -460,7 +461,9 @@ class Builder {
   /// The cap's ring and apex are the vertices first .. first + loop size (allocated by run()).
   void tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t first, Part& out);
   void root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t centre, Part& out);
-  void set_vertex(std::uint32_t i, const glm::dvec3& p, NodeId node, double u, double v, double period) {
+  void set_vertex(std::uint32_t i, const glm::dvec3& p, NodeId node, double u, double v, double period,
+                  bool pole = false) {
+    vertex_pole_[i] = pole;
     mesh_.positions[i] = p;
     mesh_.vertex_strand[i] = StrandId{};
     mesh_.vertex_node[i] = node;
@@ -469,6 +472,23 @@ class Builder {
     vertex_period_[i] = period;
   }
   void compute_uvs();
+  /// A point on a loop's polygon: its arc length from the loop's first vertex, its distance
+  /// from the point asked about, and where it is.
+  struct LoopPoint {
+    std::uint32_t vertex;  // the point is on the edge from this vertex to the next
+    double t, arc, distance;
+  };
+  /// With `side` (#loop l's vertices), only edges whose ends are labelled `only` or 2 (a
+  /// junction's lower_side), unless there are none.
+  /// Only the `count` edges from the loop's vertex `from` on (its index in the loop), if given.
+  LoopPoint nearest_on_loop(std::uint32_t l, const glm::dvec3& q, const std::uint8_t* side = nullptr,
+                            std::uint8_t only = 0, std::uint32_t from = 0, std::uint32_t count = UINT32_MAX) const;
+  /// Puts loop l's seam at arc length `arc` (taken modulo the perimeter).
+  void set_seam(std::uint32_t l, double arc);
+  /// The UVs of loop l's vertices, continuing those of loop `prev` (the one below it). For the
+  /// first loop of a child tube, `side` labels prev's vertices (Junction::lower_side) and
+  /// `only` is the child's label: its strands come from that side of the parent.
+  void continue_uvs(std::uint32_t prev, std::uint32_t l, const std::uint8_t* side = nullptr, std::uint8_t only = 0);
 
   const Skeleton& s_;
   const ContourSet& c_;
@@ -478,7 +498,25 @@ class Builder {
   std::vector<double> loop_v_;               // per loop
   std::vector<double> vertex_u_, vertex_v_;  // per vertex
   std::vector<double> vertex_period_;        // per vertex: u once around its loop (MeshParams::uv_metres)
+  std::vector<std::uint8_t> vertex_pole_;    // per vertex: a cap's apex or centre
   std::vector<double> vertex_angle_;         // per loop vertex: angle around its loop's centroid
+  std::vector<double> vertex_arc_;           // per loop vertex: arc length from its loop's first vertex (metres)
+  // Per loop: perimeter (metres), seam (arc length), u at the seam and per metre, u of one turn.
+  std::vector<double> loop_perimeter_, loop_seam_, loop_u0_, loop_scale_, loop_period_;
+  std::vector<glm::dvec3> loop_seam_point_;  // per loop: where its seam is
+  std::uint32_t strand_count_ = 0;           // strand ids are below this
+  /// continue_uvs' working arrays, one set per thread.
+  struct UvScratch {
+    struct Match {
+      double u, v, rel, distance, weight;
+      bool central;
+    };
+    std::vector<Match> match;
+    std::vector<double> dist;
+    std::vector<std::uint32_t> on, slot;  // slot: per strand, its vertex on the loop below (or none)
+    std::vector<std::pair<double, double>> proposal;
+  };
+  tbb::enumerable_thread_specific<UvScratch> uv_scratch_;
   /// Per junction: the triangles of its k-way fusion when stacked junctions above it were
   /// merged into it (plan_stacked_junctions), else empty.
   std::vector<std::vector<Mesh::Triangle>> merged_fusion_;
@@ -630,11 +668,12 @@ void Builder::tip_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t fi
   std::vector<std::uint32_t> ring(ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k) {
     ring[k] = first + static_cast<std::uint32_t>(k);
-    set_vertex(ring[k], c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]], v0 + 0.6 * h * dv,
-               vertex_period_[ids[k]]);
+    set_vertex(ring[k], c + 0.8 * (c_.point[ids[k]] - c) + 0.6 * h * t, node, vertex_u_[ids[k]],
+               vertex_v_[ids[k]] + 0.6 * h * dv, vertex_period_[ids[k]]);
   }
   const std::uint32_t apex = first + static_cast<std::uint32_t>(ids.size());
-  set_vertex(apex, c + h * t, node, 0.5 * vertex_period_[ids[0]], v0 + h * dv, vertex_period_[ids[0]]);
+  set_vertex(apex, c + h * t, node, loop_u0_[loop] + 0.5 * loop_period_[loop], v0 + h * dv, loop_period_[loop],
+             true);
   out.scratch.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const std::size_t k1 = (k + 1) % ids.size();
@@ -654,62 +693,331 @@ void Builder::root_cap(std::uint32_t loop, std::uint32_t branch, std::uint32_t c
   // A very shallow dome downwards (5% of the radius), so the root node lies strictly inside
   // the mesh rather than exactly on its base, where float32 export could put it either side.
   c -= f.tangent * (0.05 * c_.loop_radius[loop]);
-  const double period = vertex_period_[ids[0]];
-  set_vertex(centre, c, c_.loop_node[loop], 0.5 * period, loop_v_[loop], period);
+  // v: the distance from the rim (a polar mapping; the rim's own v is constant).
+  const double r = c_.loop_radius[loop];
+  const double below = p_.uv_metres > 0 ? r / p_.uv_metres : p_.uv_repeat_u / kTwoPi;
+  set_vertex(centre, c, c_.loop_node[loop], loop_u0_[loop] + 0.5 * loop_period_[loop], loop_v_[loop] - below,
+             loop_period_[loop], true);
   out.scratch.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) out.scratch.push_back({ids[(k + 1) % ids.size()], ids[k], centre});
   out.emit(branch, TriangleKind::root_cap);
 }
 
-void Builder::compute_uvs() {
-  // v: distance along the branch over its circumference (square texels); continuous from
-  // parent tube to child tube. Tubes are numbered parents first.
-  loop_v_.assign(c_.loop_count(), 0.0);
-  const double repeat = p_.uv_repeat_u;
-  for (const Tube& t : c_.tubes) {
-    double v = 0;
-    std::uint32_t prev = UINT32_MAX;
-    if (t.start_junction != UINT32_MAX) prev = c_.junctions[t.start_junction].lower;
-    for (std::uint32_t l : t.loops) {
-      if (prev != UINT32_MAX) {
-        const double r = std::max(0.5 * (c_.loop_radius[prev] + c_.loop_radius[l]), 1e-12);
-        const double along = std::abs(c_.loop_distance[l] - c_.loop_distance[prev]);
-        v = loop_v_[prev] + (p_.uv_metres > 0 ? along / p_.uv_metres : repeat * along / (kTwoPi * r));
-      }
-      loop_v_[l] = v;
-      prev = l;
+Builder::LoopPoint Builder::nearest_on_loop(std::uint32_t l, const glm::dvec3& q, const std::uint8_t* side,
+                                             std::uint8_t only, std::uint32_t from, std::uint32_t count) const {
+  LoopPoint best{c_.loop_begin[l], 0.0, 0.0, std::numeric_limits<double>::infinity()};
+  const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1], n = e - b;
+  count = std::min(count, n);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const std::uint32_t v = b + (from + i) % n, w = v + 1 < e ? v + 1 : b;
+    if (side && ((side[v - b] != only && side[v - b] != 2) || (side[w - b] != only && side[w - b] != 2))) continue;
+    const glm::dvec3& p0 = c_.point[v];
+    const glm::dvec3 d = c_.point[w] - p0;
+    const double len2 = glm::dot(d, d);
+    const double t = len2 > 0 ? std::clamp(glm::dot(q - p0, d) / len2, 0.0, 1.0) : 0.0;
+    const double dist = glm::length(q - (p0 + t * d));
+    const double arc_w = w == b ? loop_perimeter_[l] : vertex_arc_[w];
+    if (dist < best.distance) best = {v, t, vertex_arc_[v] + t * (arc_w - vertex_arc_[v]), dist};
+  }
+  if (!std::isfinite(best.distance) && (side || count < n)) return nearest_on_loop(l, q);
+  return best;
+}
+
+void Builder::set_seam(std::uint32_t l, double arc) {
+  const double p = loop_perimeter_[l];
+  arc = std::fmod(arc, p);
+  if (arc < 0) arc += p;
+  loop_seam_[l] = arc;
+  const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1];
+  std::uint32_t v = b;
+  while (v + 1 < e && vertex_arc_[v + 1] <= arc) ++v;
+  const glm::dvec3 p0 = c_.point[v], p1 = c_.point[v + 1 < e ? v + 1 : b];
+  const double span = (v + 1 < e ? vertex_arc_[v + 1] : p) - vertex_arc_[v];
+  loop_seam_point_[l] = span > 0 ? p0 + (p1 - p0) * std::clamp((arc - vertex_arc_[v]) / span, 0.0, 1.0) : p0;
+}
+
+void Builder::continue_uvs(std::uint32_t prev, std::uint32_t l, const std::uint8_t* side, std::uint8_t only) {
+  const bool metres = p_.uv_metres > 0;
+  const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1], m = e - b;
+  const double pl = loop_perimeter_[l], pp = loop_perimeter_[prev];
+  const double turn = metres ? pl / p_.uv_metres : p_.uv_repeat_u;  // u once around
+  const double scale = turn / pl;
+  const double qp = loop_period_[prev];
+  const double v_scale =
+      metres ? 1.0 / p_.uv_metres
+             : p_.uv_repeat_u / (kTwoPi * std::max(0.5 * (c_.loop_radius[prev] + c_.loop_radius[l]), 1e-12));
+
+  // Each vertex takes u and v where its strand was on the loop below (v plus the distance to
+  // it, so v runs along the strands), or where the nearest point of the loop below has them.
+  UvScratch& scratch = uv_scratch_.local();
+  std::vector<UvScratch::Match>& match = scratch.match;
+  std::vector<double>& dist = scratch.dist;
+  match.resize(m);
+  dist.resize(m);
+  const std::uint32_t pb = c_.loop_begin[prev], pe = c_.loop_begin[prev + 1], n_prev = pe - pb;
+  // The vertex of prev on each strand (a per-thread table over all strands, emptied after).
+  std::vector<std::uint32_t>& slot = scratch.slot;
+  if (slot.size() < strand_count_) slot.assign(strand_count_, UINT32_MAX);
+  for (std::uint32_t v = pb; v < pe; ++v) {
+    const StrandId st = c_.strand[v];
+    if (st.valid() && (!side || side[v - pb] == only || side[v - pb] == 2)) slot[st.value] = v;
+  }
+  std::vector<std::uint32_t>& on = scratch.on;  // per vertex of l: its strand's vertex on prev
+  on.assign(m, UINT32_MAX);
+  std::uint32_t matched = 0;
+  for (std::uint32_t k = 0; k < m; ++k) {
+    const StrandId st = c_.strand[b + k];
+    if (st.valid()) on[k] = slot[st.value];
+    matched += on[k] != UINT32_MAX;
+  }
+  for (std::uint32_t v = pb; v < pe; ++v) {
+    if (c_.strand[v].valid()) slot[c_.strand[v].value] = UINT32_MAX;
+  }
+  for (std::uint32_t k = 0; k < m; ++k) {
+    const std::uint32_t v = b + k;
+    LoopPoint n{};
+    if (on[k] != UINT32_MAX) {
+      n = {on[k], 0.0, vertex_arc_[on[k]], glm::length(c_.point[v] - c_.point[on[k]])};
+    } else if (matched > 0) {
+      // Between where the strands of its matched neighbours are on prev (loops keep their order).
+      std::uint32_t k0 = (k + m - 1) % m, k1 = (k + 1) % m;
+      while (on[k0] == UINT32_MAX) k0 = (k0 + m - 1) % m;
+      while (on[k1] == UINT32_MAX) k1 = (k1 + 1) % m;
+      const std::uint32_t from = (on[k0] - pb + n_prev - 1) % n_prev;
+      const std::uint32_t count = (on[k1] - on[k0] + n_prev) % n_prev + 2;
+      n = nearest_on_loop(prev, c_.point[v], side, only, from, count);
+    } else {
+      n = nearest_on_loop(prev, c_.point[v], side, only);
+    }
+    double rel = vertex_arc_[v] - loop_seam_[l];
+    if (rel < 0) rel += pl;
+    double rel_prev = n.arc - loop_seam_[prev];
+    if (rel_prev < 0) rel_prev += pp;
+    if (rel_prev >= pp) rel_prev -= pp;
+    const std::uint32_t next = n.vertex + 1 < pe ? n.vertex + 1 : pb;
+    double u1 = vertex_u_[next];
+    u1 += qp * std::round((vertex_u_[n.vertex] - u1) / qp);  // across the seam: the same side
+    match[k] = {vertex_u_[n.vertex] + n.t * (u1 - vertex_u_[n.vertex]),
+                vertex_v_[n.vertex] + n.t * (vertex_v_[next] - vertex_v_[n.vertex]) + v_scale * n.distance,
+                rel,
+                n.distance,
+                1.0,
+                rel > 0.15 * pl && rel < 0.85 * pl && rel_prev > 0.15 * pp && rel_prev < 0.85 * pp};
+    dist[k] = n.distance;
+  }
+  // Vertices much farther from the loop below than most (a child's crotch side, facing its
+  // sibling) match nothing there: they weigh little.
+  std::nth_element(dist.begin(), dist.begin() + m / 2, dist.end());
+  const double h = 2.0 * std::max(dist[m / 2], 1e-300);
+  for (UvScratch::Match& x : match) x.weight = x.distance <= h ? 1.0 : (h / x.distance) * (h / x.distance);
+
+  // u: the loop's arc length from its seam, plus the offset that continues the u of the loop
+  // below. Each vertex proposes one (what makes its own u equal to what it took); proposals
+  // across either loop's seam are a turn off, so those near the weighted median are averaged,
+  // preferably of vertices away from the seams. (Carrying more of the loop below up the
+  // branch, its differences from the loop's own arc length fading over a few radii, spread a
+  // fork's shear wider but measured worse on the samples: docs/quality.md.)
+  const bool any_central =
+      std::count_if(match.begin(), match.end(), [](const UvScratch::Match& x) { return x.central; }) >= 3;
+  std::vector<std::pair<double, double>>& proposal = scratch.proposal;  // (offset, weight)
+  proposal.clear();
+  for (const UvScratch::Match& x : match) {
+    if (x.central || !any_central) proposal.emplace_back(x.u - scale * x.rel, x.weight);
+  }
+  std::sort(proposal.begin(), proposal.end());
+  double total = 0;
+  for (const auto& x : proposal) total += x.second;
+  double median = proposal.front().first, acc = 0;
+  for (const auto& x : proposal) {
+    acc += x.second;
+    if (acc >= 0.5 * total) {
+      median = x.first;
+      break;
     }
   }
-  // u: angle around the loop's own centre, from the frame's normal (parallel transported, so
-  // u = 0 runs along the branch without twisting).
+  double sum = 0, wsum = 0;
+  for (const auto& x : proposal) {
+    double d = x.first - median;
+    d -= qp * std::round(d / qp);
+    if (std::abs(d) <= 0.25 * qp) {
+      sum += (median + d) * x.second;
+      wsum += x.second;
+    }
+  }
+  // v: one value per loop (rings stay rings), the weighted mean of what its vertices took.
+  double vsum = 0, vw = 0;
+  for (const UvScratch::Match& x : match) {
+    vsum += x.v * x.weight;
+    vw += x.weight;
+  }
+  loop_u0_[l] = wsum > 0 ? sum / wsum : median;
+  loop_v_[l] = vsum / vw;
+  loop_period_[l] = turn;
+  for (std::uint32_t k = 0; k < m; ++k) {
+    vertex_u_[b + k] = loop_u0_[l] + scale * match[k].rel;
+    vertex_v_[b + k] = loop_v_[l];
+    vertex_period_[b + k] = turn;
+  }
+}
+
+void Builder::compute_uvs() {
+  const std::uint32_t nl = static_cast<std::uint32_t>(c_.loop_count());
+  const double repeat = p_.uv_repeat_u;
+  const bool metres = p_.uv_metres > 0;
+  // Arc length of every vertex along its loop, and the loop's perimeter: in metres u is the
+  // distance around the loop (over uv_metres); once around, the fraction of a turn.
+  vertex_arc_.assign(c_.point.size(), 0.0);
+  vertex_angle_.assign(c_.point.size(), 0.0);
   vertex_u_.assign(c_.point.size(), 0.0);
   vertex_v_.assign(c_.point.size(), 0.0);
-  vertex_angle_.assign(c_.point.size(), 0.0);
   vertex_period_.assign(c_.point.size(), repeat);
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, c_.loop_count(), 1024),
-                    [&](const tbb::blocked_range<std::uint32_t>& range) {
-                      for (std::uint32_t l = range.begin(); l != range.end(); ++l) {
-                        const glm::dvec3 centre = loop_centroid(l);
-                        const Frame& f = c_.loop_frame[l];
-                        // In metres: one turn is the loop's circumference (its mean radius).
-                        double period = repeat;
-                        if (p_.uv_metres > 0) {
-                          double r = 0;
-                          for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v)
-                            r += glm::length(c_.point[v] - centre);
-                          period = kTwoPi * r / double(c_.loop_begin[l + 1] - c_.loop_begin[l]) / p_.uv_metres;
-                        }
-                        for (std::uint32_t v = c_.loop_begin[l]; v < c_.loop_begin[l + 1]; ++v) {
-                          const dvec2 q = f.to_local(c_.point[v] - centre);
-                          vertex_angle_[v] = fast_atan2(q.y, q.x);  // (std::atan2: most of this pass)
-                          double a = vertex_angle_[v] / kTwoPi;
-                          if (a < 0) a += 1;
-                          vertex_u_[v] = a * period;
-                          vertex_v_[v] = loop_v_[l];
-                          vertex_period_[v] = period;
-                        }
-                      }
-                    });
+  loop_perimeter_.assign(nl, 0.0);
+  strand_count_ = 0;
+  for (const StrandId st : c_.strand) {
+    if (st.valid()) strand_count_ = std::max(strand_count_, st.value + 1);
+  }
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nl, 1024), [&](const tbb::blocked_range<std::uint32_t>& range) {
+    for (std::uint32_t l = range.begin(); l != range.end(); ++l) {
+      const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1];
+      double arc = 0;
+      for (std::uint32_t v = b; v < e; ++v) {
+        vertex_arc_[v] = arc;
+        arc += glm::length(c_.point[v + 1 < e ? v + 1 : b] - c_.point[v]);
+      }
+      loop_perimeter_[l] = std::max(arc, 1e-300);
+      // The angle around the loop's own centroid (the strips' guard, see strip()).
+      const glm::dvec3 centre = loop_centroid(l);
+      const Frame& f = c_.loop_frame[l];
+      for (std::uint32_t v = b; v < e; ++v) {
+        const dvec2 q = f.to_local(c_.point[v] - centre);
+        vertex_angle_[v] = fast_atan2(q.y, q.x);  // (std::atan2: most of this pass)
+      }
+      // Once around, u is the turn's fraction by angle rather than by arc length (a fused loop,
+      // wider on one side, is not stretched round), as far as the angles go round once.
+      if (!metres && e - b >= 3) {
+        double turned = 0, prev = vertex_angle_[b];
+        bool monotone = true;
+        for (std::uint32_t v = b + 1; v <= e; ++v) {
+          const double a = vertex_angle_[v < e ? v : b];
+          const double d = wrap_pi(a - prev);
+          monotone = monotone && d > 0;
+          turned += d;
+          prev = a;
+        }
+        if (monotone && std::abs(turned - kTwoPi) < 1e-6) {
+          double at = 0;
+          for (std::uint32_t v = b; v < e; ++v) {
+            vertex_arc_[v] = loop_perimeter_[l] * at / kTwoPi;
+            at += wrap_pi(vertex_angle_[v + 1 < e ? v + 1 : b] - vertex_angle_[v]);
+          }
+        }
+      }
+    }
+  });
+
+  // Seams: one line per branch. Each loop's seam lies where the seam of the loop below it was
+  // (the nearest point). At a junction the seam goes on into the child it is nearer to, and the
+  // other child's seam starts at its crotch, facing its sibling, where the crotch triangles
+  // join loops that share no strand anyway.
+  loop_seam_.assign(nl, 0.0);
+  loop_seam_point_.assign(nl, glm::dvec3(0));
+  loop_u0_.assign(nl, 0.0);
+  loop_v_.assign(nl, 0.0);
+  loop_period_.assign(nl, repeat);
+  // A tube needs the last loop of its parent's tube: tubes in waves by their depth in the tree
+  // (parents first), each wave's tubes in parallel.
+  const auto nt = static_cast<std::uint32_t>(c_.tubes.size());
+  std::vector<std::uint32_t> depth(nt, UINT32_MAX), chain;
+  std::uint32_t deepest = 0;
+  for (std::uint32_t ti = 0; ti < nt; ++ti) {
+    // Up to a tube of known depth (or the root), then down again.
+    for (std::uint32_t x = ti; depth[x] == UINT32_MAX;) {
+      chain.push_back(x);
+      const std::uint32_t j = c_.tubes[x].start_junction;
+      if (j == UINT32_MAX) break;
+      x = c_.junctions[j].lower_tube;
+    }
+    while (!chain.empty()) {
+      const std::uint32_t x = chain.back();
+      chain.pop_back();
+      const std::uint32_t j = c_.tubes[x].start_junction;
+      depth[x] = j == UINT32_MAX ? 0 : depth[c_.junctions[j].lower_tube] + 1;
+    }
+    deepest = std::max(deepest, depth[ti]);
+  }
+  std::vector<std::uint32_t> wave_begin(deepest + 2, 0), order(c_.tubes.size());
+  for (const std::uint32_t d : depth) ++wave_begin[d + 1];
+  for (std::uint32_t d = 0; d <= deepest; ++d) wave_begin[d + 1] += wave_begin[d];
+  {
+    std::vector<std::uint32_t> at(wave_begin.begin(), wave_begin.end() - 1);
+    for (std::uint32_t ti = 0; ti < c_.tubes.size(); ++ti) order[at[depth[ti]]++] = ti;
+  }
+  auto tube_uvs = [&](std::uint32_t ti) {
+    const Tube& t = c_.tubes[ti];
+    if (t.loops.empty()) return;
+    std::uint32_t prev = UINT32_MAX;
+    if (t.start_junction != UINT32_MAX) prev = c_.junctions[t.start_junction].lower;
+    for (const std::uint32_t l : t.loops) {
+      const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1];
+      if (prev == UINT32_MAX) {
+        // The root: at the vertex farthest along the frame's normal.
+        const glm::dvec3 centre = loop_centroid(l), n = c_.loop_frame[l].normal;
+        std::uint32_t far = b;
+        for (std::uint32_t v = b; v < e; ++v) {
+          if (glm::dot(c_.point[v] - centre, n) > glm::dot(c_.point[far] - centre, n)) far = v;
+        }
+        set_seam(l, vertex_arc_[far]);
+      } else if (l == t.loops.front()) {
+        const Junction& j = c_.junctions[t.start_junction];
+        const bool main = j.upper_tubes[0] == ti;
+        const std::uint32_t sibling = j.upper[main ? 1 : 0];
+        const glm::dvec3& seam = loop_seam_point_[prev];
+        const LoopPoint mine = nearest_on_loop(l, seam), theirs = nearest_on_loop(sibling, seam);
+        if (main ? mine.distance <= theirs.distance : mine.distance < theirs.distance) {
+          set_seam(l, mine.arc);
+        } else {
+          const glm::dvec3 other = loop_centroid(sibling);
+          std::uint32_t best = b;
+          for (std::uint32_t v = b; v < e; ++v) {
+            if (glm::length(c_.point[v] - other) < glm::length(c_.point[best] - other)) best = v;
+          }
+          set_seam(l, vertex_arc_[best]);
+        }
+      } else {
+        set_seam(l, nearest_on_loop(l, loop_seam_point_[prev]).arc);
+      }
+      prev = l;
+    }
+    // The UVs, loop by loop.
+    prev = t.start_junction != UINT32_MAX ? c_.junctions[t.start_junction].lower : UINT32_MAX;
+    for (const std::uint32_t l : t.loops) {
+      const std::uint32_t b = c_.loop_begin[l], e = c_.loop_begin[l + 1];
+      if (prev == UINT32_MAX) {
+        // The root: u = 0 opposite the seam, v = 0.
+        loop_period_[l] = metres ? loop_perimeter_[l] / p_.uv_metres : repeat;
+        loop_u0_[l] = -0.5 * loop_period_[l];
+        for (std::uint32_t v = b; v < e; ++v) {
+          double rel = vertex_arc_[v] - loop_seam_[l];
+          if (rel < 0) rel += loop_perimeter_[l];
+          vertex_u_[v] = loop_u0_[l] + loop_period_[l] * rel / loop_perimeter_[l];
+          vertex_period_[v] = loop_period_[l];
+        }
+      } else if (l == t.loops.front() && t.start_junction != UINT32_MAX) {
+        const Junction& j = c_.junctions[t.start_junction];
+        const bool labelled = j.lower_side.size() == c_.loop_size(j.lower);
+        continue_uvs(prev, l, labelled ? j.lower_side.data() : nullptr, j.upper_tubes[0] == ti ? 0 : 1);
+      } else {
+        continue_uvs(prev, l);
+      }
+      prev = l;
+    }
+  };
+  for (std::uint32_t d = 0; d <= deepest; ++d) {
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(wave_begin[d], wave_begin[d + 1], 16),
+                      [&](const tbb::blocked_range<std::uint32_t>& r) {
+                        for (std::uint32_t i = r.begin(); i != r.end(); ++i) tube_uvs(order[i]);
+                      });
+  }
 }
 
 StitchedMesh Builder::run(const ProgressFn& progress) {
@@ -743,6 +1051,7 @@ StitchedMesh Builder::run(const ProgressFn& progress) {
   vertex_u_.reserve(nv);
   vertex_v_.reserve(nv);
   vertex_period_.reserve(nv);
+  vertex_pole_.assign(nv, 0);
   compute_uvs();
   mesh_.positions.resize(nv);
   mesh_.vertex_strand.resize(nv);
@@ -825,8 +1134,8 @@ StitchedMesh Builder::run(const ProgressFn& progress) {
     }
   }
   stats_.timings.add("stitching", clock.lap());
-  return StitchedMesh{std::move(mesh_),   std::move(kind_),  std::move(vertex_u_), std::move(vertex_v_),
-                      std::move(vertex_period_), std::move(stats_), grid_};
+  return StitchedMesh{std::move(mesh_),          std::move(kind_),        std::move(vertex_u_), std::move(vertex_v_),
+                      std::move(vertex_period_), std::move(vertex_pole_), std::move(stats_),   grid_};
 }
 
 /// Drops the triangles a repair left as (u, u, u): each hole takes the last live triangle
@@ -874,6 +1183,7 @@ void drop_unused_vertices(StitchedMesh& s) {
         s.vertex_u[to] = s.vertex_u[from];
         s.vertex_v[to] = s.vertex_v[from];
         s.vertex_period[to] = s.vertex_period[from];
+        s.vertex_pole[to] = s.vertex_pole[from];
         moves.emplace_back(static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to));
       });
   if (kept == nv) return;
@@ -885,6 +1195,7 @@ void drop_unused_vertices(StitchedMesh& s) {
   s.vertex_u.resize(kept);
   s.vertex_v.resize(kept);
   s.vertex_period.resize(kept);
+  s.vertex_pole.resize(kept);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size(), 1 << 16),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t f = r.begin(); f != r.end(); ++f) {
@@ -936,20 +1247,24 @@ MeshResult finish_mesh(StitchedMesh s, const MeshParams& params) {
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         for (std::size_t f = range.begin(); f != range.end(); ++f) {
                           const auto& t = m.triangles[f];
-                          double u[3], v[3], turn[3], period[3];
+                          double u[3], v[3], period[3];
                           for (int k = 0; k < 3; ++k) {
                             u[k] = s.vertex_u[t[std::size_t(k)]];
                             v[k] = s.vertex_v[t[std::size_t(k)]];
                             period[k] = s.vertex_period[t[std::size_t(k)]];
-                            turn[k] = period[k] > 0 ? u[k] / period[k] : 0.0;
                           }
-                          // Seam: a triangle spanning the u wrap gets its small u values lifted by
-                          // one turn (its own vertex's: in metres, loops of different radii differ).
-                          const double lo = std::min({turn[0], turn[1], turn[2]}), hi = std::max({turn[0], turn[1], turn[2]});
-                          if (hi - lo > 0.5) {
-                            for (int k = 0; k < 3; ++k) {
-                              if (turn[k] < 0.5) u[k] += period[k];
-                            }
+                          // Seams: each u is known up to whole turns of its own loop; a triangle
+                          // takes the turns nearest to its largest u (across a seam that lifts
+                          // the small side by one turn; in metres loops of different sizes have
+                          // turns of different lengths). A cap's pole is never that u: it lies
+                          // half a turn from the seam.
+                          int top = -1;
+                          for (int k = 0; k < 3; ++k) {
+                            if (!s.vertex_pole[t[std::size_t(k)]] && (top < 0 || u[k] > u[top])) top = k;
+                          }
+                          if (top < 0) top = 0;
+                          for (int k = 0; k < 3; ++k) {
+                            if (k != top && period[k] > 0) u[k] += period[k] * std::round((u[top] - u[k]) / period[k]);
                           }
                           for (int k = 0; k < 3; ++k)
                             m.corner_uvs[f][std::size_t(k)] = glm::vec2(float(u[k]), float(v[k]));

@@ -14,9 +14,12 @@
 ///    (MeshParams::merge_stacked_junctions; fuse_many in meshing.cpp).
 ///  - Caps: a dome on the last loop of every tube that ends at a tip, a nearly flat base
 ///    (5% of the radius deep) on the root's loop.
-///  - Normals are computed on the finished mesh (angle-weighted), UVs follow the strands:
-///    u around the branch (from the parallel-transported frame, so it does not twist), v along
-///    it, scaled by the circumference so texels stay square. Seams are per-corner UVs only.
+///  - Normals are computed on the finished mesh (angle-weighted). UVs: u is the distance around
+///    the branch (its loop's arc length), v the distance along it, both over uv_metres, and
+///    each loop continues the UVs of the loop below it, through the forks too: a child's strands
+///    take u and v from where they were on the parent's last loop (see compute_uvs in
+///    meshing.cpp). One seam per branch, where u wraps; at a fork it goes on into the child it
+///    is nearer to, and the other child's starts at its crotch. Seams are per-corner UVs only.
 ///
 /// The result is a welded mesh: a closed 2-manifold of genus 0 for any tree (checked by
 /// `check_mesh`, meshcheck/checks.h).
@@ -36,12 +39,12 @@ namespace sm {
 struct MeshParams {
   /// Height of the dome on a tip relative to the tip loop's radius (0 = flat cap; at most 10).
   double tip_dome = 0.9;
-  /// Texture repeats around the branch (u runs over [0, uv_repeat_u) once around).
+  /// With uv_metres = 0: texture repeats once around every branch (u over uv_repeat_u per turn).
   double uv_repeat_u = 1.0;
-  /// Texture size in metres; 0 = u once around every branch (uv_repeat_u times). Otherwise u is
-  /// the distance around the branch and v the distance along it over this size, so texel
-  /// density does not depend on the radius (uv_repeat_u unused; one seam per loop still).
-  double uv_metres = 0.0;
+  /// Texture size in metres: u is the distance around the branch and v the distance along it
+  /// over this, so texels are square and of one size on thick and thin branches (docs/defaults.md:
+  /// why 0.2). 0 = u once around every branch (uv_repeat_u times), v over the circumference.
+  double uv_metres = 0.2;
   /// Compute per-corner UVs.
   bool uvs = true;
   /// Compute smooth vertex normals.
@@ -93,6 +96,8 @@ struct StitchedMesh {
   /// Per vertex: u (around the branch), v (along it) and the u of one turn, from which the
   /// corner UVs are made (a triangle across the seam lifts its small u by one turn).
   std::vector<double> vertex_u, vertex_v, vertex_period;
+  /// Per vertex: 1 for a cap's apex or base centre, where u meets (half a turn from the seam).
+  std::vector<std::uint8_t> vertex_pole;
   MeshStats stats;
   double grid = 0;  ///< as MeshResult::grid
 };

@@ -859,9 +859,31 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       for (std::size_t k = 0; k < active.size(); ++k) {
         for (const std::uint32_t f : active[k]) {
           for (const std::uint32_t v : mesh.triangles[f]) {
-            if (bad_vertex[v]) drop_curve[active_curve[k]] = 1;
+            if (!bad_vertex[v]) continue;
+            drop_curve[active_curve[k]] = 1;
+            any = true;
           }
         }
+      }
+    }
+    if (!any) {  // nor near them by a vertex: the curve of the nearest active triangle to each
+      for (std::size_t b = 0; b < bad.size() && b < 64; ++b) {
+        const auto& t = mesh.triangles[bad[b]];
+        const glm::dvec3 c = (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
+        double best = HUGE_VAL;
+        std::size_t at = 0;
+        for (std::size_t k = 0; k < active.size(); ++k) {
+          for (const std::uint32_t f : active[k]) {
+            const auto& u = mesh.triangles[f];
+            const double d =
+                glm::distance(c, (mesh.positions[u[0]] + mesh.positions[u[1]] + mesh.positions[u[2]]) / 3.0);
+            if (d < best) {
+              best = d;
+              at = k;
+            }
+          }
+        }
+        if (!active.empty()) drop_curve[active_curve[at]] = 1;
       }
     }
     std::size_t w = 0;
@@ -871,9 +893,7 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       active_curve[w] = active_curve[k];
       ++w;
     }
-    // Nothing matched (the bad triangles are not in any active pair): leave everything out
-    // rather than loop.
-    if (w == active.size()) w = 0;
+    if (w == active.size()) w = 0;  // (no bad triangles given: nothing to leave out but all)
     active.resize(w);
     active_curve.resize(w);
   };

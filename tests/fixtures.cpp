@@ -156,6 +156,20 @@ RawSkeleton star(int twigs) {
   return raw;
 }
 
+RawSkeleton crossing_laterals() {
+  RawSkeleton raw;
+  raw.source = "crossing_laterals";
+  raw.add(0, -1, dvec3(0, 0, 0), 0.08);
+  raw.add(1, 0, dvec3(0, 0, 1.0), 0.07);
+  raw.add(2, 1, dvec3(0, 0, 2.0), 0.06);
+  raw.add(3, 2, dvec3(0, 0, 3.0), 0.05);
+  raw.add(4, 1, dvec3(0.5, 0, 1.5), 0.035);     // rising lateral from z = 1
+  raw.add(5, 4, dvec3(1.0, 0.0, 2.0), 0.03);
+  raw.add(6, 2, dvec3(0.5, 0.05, 1.5), 0.035);  // falling lateral from z = 2, crossing it near x = 0.5
+  raw.add(7, 6, dvec3(1.0, 0.1, 1.0), 0.03);
+  return raw;
+}
+
 RawSkeleton long_chain(int nodes) {
   RawSkeleton raw;
   raw.source = "long_chain";

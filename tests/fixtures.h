@@ -34,6 +34,9 @@ RawSkeleton random_whorl_tree(std::uint64_t seed);
 /// its top, spread by the golden angle around it and 0 to 69 degrees above the horizontal;
 /// from a few hundred on they run through each other.
 RawSkeleton star(int twigs);
+/// Two laterals from forks 1 m apart on a trunk that cross each other 0.5 m out, away from
+/// their forks (the loop trunk - lateral - crossing - lateral - trunk: one handle).
+RawSkeleton crossing_laterals();
 /// A single chain of `nodes` nodes (deep tree: no recursion over depth allowed anywhere).
 RawSkeleton long_chain(int nodes = 100'000);
 /// A random binary tree grown by the default random grower with this seed.

@@ -16,6 +16,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
+#include "meshcheck/implied_genus.h"
 #include "meshio/export.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
@@ -543,6 +544,190 @@ TEST(Checks, TextAndJsonReports) {
 // ---------------------------------------------------------------- strandmesh check
 
 using test::CmdResult;
+// ---- the genus a skeleton implies (meshcheck/implied_genus.h)
+
+ImpliedGenus implied(const RawSkeleton& raw, const ImpliedGenusParams& params = {}) {
+  return implied_genus(input_skeleton(raw), params);
+}
+
+/// A chain of `nodes` nodes along a gentle helix, `step` apart, of radius `radius`.
+RawSkeleton chain(int nodes, double step, double radius) {
+  RawSkeleton raw;
+  for (int i = 0; i < nodes; ++i) {
+    const double t = 0.01 * i;
+    raw.add(i, i - 1, dvec3(0.2 * std::cos(t), 0.2 * std::sin(t), step * i), radius);
+  }
+  return raw;
+}
+
+TEST(ImpliedGenus, ChainsAndForksHaveNone) {
+  EXPECT_EQ(implied(test::straight_branch()).genus, 0);
+  EXPECT_EQ(implied(test::y_fork()).genus, 0);
+  EXPECT_EQ(implied(test::trifurcation()).genus, 0);
+  EXPECT_EQ(implied(test::zero_length_edges()).genus, 0);
+  // Steps of half a radius: every cone meets its neighbours up to five edges on (crossing
+  // pairs without a shared node), all of them filled in by the cones between.
+  const ImpliedGenus dense = implied(chain(5000, 0.01, 0.02));
+  EXPECT_EQ(dense.genus, 0);
+  EXPECT_EQ(dense.genus_min, 0);
+  EXPECT_GT(dense.crossing_pairs, 3u * 4990u);
+  // A lone node, one edge: nothing to cross.
+  RawSkeleton one;
+  one.add(0, -1, dvec3(0), 0.1);
+  EXPECT_EQ(implied(one).genus, 0);
+  one.add(1, 0, dvec3(0, 0, 1), 0.1);
+  EXPECT_EQ(implied(one).cones, 1u);
+  EXPECT_EQ(implied(one).genus, 0);
+}
+
+TEST(ImpliedGenus, LateralsCrossingAwayFromTheirForksMakeAHandle) {
+  const ImpliedGenus g = implied(test::crossing_laterals());
+  EXPECT_EQ(g.genus, 1);
+  EXPECT_TRUE(g.exact());
+  // Located at the crossing: a pair of the laterals' nodes 4-5 and 6-7.
+  ASSERT_EQ(g.handle_examples.size(), 1u);
+  EXPECT_TRUE(g.handle_examples[0][0] == 4 || g.handle_examples[0][0] == 5) << g.handle_examples[0][0];
+  EXPECT_TRUE(g.handle_examples[0][1] == 6 || g.handle_examples[0][1] == 7) << g.handle_examples[0][1];
+  EXPECT_GE(g.crossing_pairs, 2u);  // the laterals' edges at the crossing
+  EXPECT_EQ(g.robust_genus, 1);  // 0.05 m between axes, radii 0.035: deep
+  // Barely touching (axes 0.0699 m apart): a handle, but not a robust one (gone with radii
+  // 10 % smaller).
+  RawSkeleton touching = test::crossing_laterals();
+  touching.position[6].y = touching.position[7].y = 0.0699;
+  const ImpliedGenus t = implied(touching, {.robust_margin = 0.1});
+  EXPECT_EQ(t.genus, 1);
+  EXPECT_EQ(t.robust_genus, 0);
+  // Moved apart (0.1 m between the laterals' axes, radii 0.035): no crossing, no handle.
+  RawSkeleton apart = test::crossing_laterals();
+  apart.position[6].y = apart.position[7].y = 0.1;
+  const ImpliedGenus a = implied(apart);
+  EXPECT_EQ(a.crossing_pairs, 0u);
+  EXPECT_EQ(a.genus, 0);
+}
+
+TEST(ImpliedGenus, HubOfTwigsHasNone) {
+  // Every twig holds the hub node's centre: one filled simplex, however many (the cliques are
+  // never listed, so 5,000 twigs cost no more than a chain of 5,000).
+  EXPECT_EQ(implied(test::star(20)).genus, 0);
+  const ImpliedGenus big = implied(test::star(5000));
+  EXPECT_EQ(big.genus, 0);
+  EXPECT_EQ(big.crossing_pairs, 0u);
+  EXPECT_EQ(big.triangles_tested, 0u);
+}
+
+TEST(ImpliedGenus, BranchTouchingItsParentOnlyAtTheForkHasNone) {
+  // A 12-degree lateral fused with the trunk for a long way, and a second lateral inside that
+  // fused section: their cones overlap the trunk's away from the shared node, but the overlap
+  // reaches back to the fork.
+  const ImpliedGenus g = implied(test::lateral_inside_fused_section());
+  EXPECT_GT(g.crossing_pairs, 0u);
+  EXPECT_EQ(g.genus, 0);
+  EXPECT_TRUE(g.exact());
+}
+
+TEST(ImpliedGenus, BranchBendingBackOntoItsParentMakesAHandle) {
+  // A lateral from z = 1 that turns back and touches the trunk again at z = 2.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0, 0, 0), 0.08);
+  raw.add(1, 0, dvec3(0, 0, 1.0), 0.07);
+  raw.add(2, 1, dvec3(0, 0, 2.0), 0.06);
+  raw.add(3, 2, dvec3(0, 0, 3.0), 0.05);
+  raw.add(4, 1, dvec3(0.5, 0, 1.5), 0.035);
+  raw.add(5, 4, dvec3(0.07, 0, 2.0), 0.03);
+  EXPECT_EQ(implied(raw).genus, 1);
+  raw.position[5].x = 0.2;  // stops short of it
+  EXPECT_EQ(implied(raw).genus, 0);
+}
+
+TEST(ImpliedGenus, RingOfTwoCrossingsHasTwoHandles) {
+  // Lateral B from z = 2 crosses lateral A from z = 1 twice, swinging away in between: the
+  // loop through the trunk and the ring between the crossings.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0, 0, 0), 0.08);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.07);
+  raw.add(2, 1, dvec3(0, 0, 2), 0.06);
+  raw.add(3, 2, dvec3(0, 0, 3), 0.05);
+  raw.add(10, 1, dvec3(0.4, 0, 1.5), 0.03);
+  raw.add(11, 10, dvec3(0.8, 0, 1.5), 0.03);
+  raw.add(12, 11, dvec3(1.2, 0, 1.5), 0.03);
+  raw.add(13, 12, dvec3(1.6, 0, 1.5), 0.03);
+  raw.add(20, 2, dvec3(0.4, 0.04, 1.5), 0.03);
+  raw.add(21, 20, dvec3(0.8, 0.4, 1.5), 0.03);
+  raw.add(22, 21, dvec3(1.2, -0.04, 1.5), 0.03);
+  raw.add(23, 22, dvec3(1.6, -0.4, 1.5), 0.03);
+  const ImpliedGenus g = implied(raw);
+  EXPECT_EQ(g.genus, 2);
+  EXPECT_TRUE(g.exact());
+  EXPECT_EQ(g.robust_genus, 2);
+  EXPECT_EQ(g.handle_examples.size(), 2u);
+  // Without the second crossing, one.
+  raw.position[10].y = 0.5;  // nodes 22 and 23
+  raw.position[11].y = 0.2;
+  EXPECT_EQ(implied(raw).genus, 1);
+}
+
+TEST(ImpliedGenus, CoilOfTouchingTurnsIsOneHandle) {
+  // A helix whose turns (pitch 3 cm, radius 2 cm) fuse into one wall: a hollow cylinder,
+  // genus 1 however many turns, and 0 once the turns no longer touch.
+  auto coil = [](double pitch) {
+    RawSkeleton raw;
+    for (int i = 0; i <= 5 * 40; ++i) {
+      const double a = 2 * std::numbers::pi * i / 40.0;
+      raw.add(i, i - 1, dvec3(0.2 * std::cos(a), 0.2 * std::sin(a), pitch * i / 40.0), 0.02);
+    }
+    return raw;
+  };
+  const ImpliedGenus g = implied(coil(0.03));
+  EXPECT_EQ(g.genus, 1);
+  EXPECT_EQ(g.robust_genus, 1);
+  EXPECT_TRUE(g.exact());
+  EXPECT_EQ(implied(coil(0.05)).genus, 0);
+}
+
+TEST(ImpliedGenus, SearchCapGivesARange) {
+  // With no iterative searches allowed, triangles without a cheap witness stay undecided: the
+  // result is a range that holds the answer.
+  const ImpliedGenus g = implied(test::crossing_laterals(), {.max_searches = 0});
+  EXPECT_GT(g.undecided, 0u);
+  EXPECT_FALSE(g.exact());
+  EXPECT_LE(g.genus_min, 1);
+  EXPECT_GE(g.genus, 1);
+  // Fewer triangle candidates listed than there are: the range starts at 0.
+  const ImpliedGenus listed = implied(test::crossing_laterals(), {.max_listed = 0});
+  EXPECT_EQ(listed.genus_min, 0);
+  EXPECT_GE(listed.genus, 1);
+  // More candidate pairs than allowed: no figure, and `check` leaves it out.
+  const ImpliedGenus tangle = implied(test::crossing_laterals(), {.max_candidates = 1});
+  EXPECT_FALSE(tangle.complete);
+  EXPECT_EQ(tangle.genus, 0);
+}
+
+TEST(ImpliedGenus, ReportedBesideTheMeshGenus) {
+  // A torus checked against the crossing laterals: both of genus 1, they agree.
+  const Skeleton skel = input_skeleton(test::crossing_laterals());
+  const MeshCheckReport r =
+      check_mesh(test::torus(), {.self_intersections = false, .skeleton = &skel, .implied_genus = true});
+  ASSERT_TRUE(r.implied_genus_checked);
+  EXPECT_EQ(r.implied_genus, 1);
+  EXPECT_EQ(r.genus_agrees(), std::optional<bool>(true));
+  EXPECT_NE(to_text(r).find("implied genus         1 ("), std::string::npos) << to_text(r);
+  EXPECT_NE(to_text(r).find("handles e.g. at nodes "), std::string::npos) << to_text(r);
+  EXPECT_NE(to_text(r).find("mesh vs implied     agree"), std::string::npos) << to_text(r);
+  EXPECT_EQ(r.implied_genus_robust, 1);
+  const nlohmann::json j = to_json(r);
+  EXPECT_EQ(j["implied_genus"].get<int>(), 1);
+  EXPECT_EQ(j["implied_genus_robust"].get<int>(), 1);
+  EXPECT_TRUE(j["genus_agrees"].get<bool>());
+  // Informative: a mismatch is no failure.
+  const MeshCheckReport sphere =
+      check_mesh(test::icosphere(2), {.self_intersections = false, .skeleton = &skel, .implied_genus = true});
+  EXPECT_EQ(sphere.genus_agrees(), std::optional<bool>(false));
+  EXPECT_FALSE(mentions(sphere, "genus"));
+  EXPECT_NE(to_text(sphere).find("a crossing's handle is missing"), std::string::npos) << to_text(sphere);
+  // Not asked for: not computed.
+  EXPECT_FALSE(check_mesh(test::torus(), {.self_intersections = false, .skeleton = &skel}).implied_genus_checked);
+}
+
 CmdResult run(const std::string& args) { return test::run_cli(args); }
 
 TEST(CheckCli, ExitCodes) {
@@ -588,6 +773,8 @@ TEST(CheckCli, JsonAndSkeleton) {
   EXPECT_TRUE(j["fidelity_checked"].get<bool>());
   EXPECT_LT(j["fidelity"]["p95"].get<double>(), 1e-3);  // float32 storage, read back z-up
   EXPECT_EQ(j["thick_nodes_inside"].get<int>(), 2);
+  EXPECT_EQ(j["implied_genus"].get<int>(), 0);  // with --skeleton, beside the mesh's
+  EXPECT_TRUE(j["genus_agrees"].get<bool>());
 
   const CmdResult fat = run("check --skeleton " + (dir / "skel.json").string() + " " + (dir / "fat.glb").string());
   EXPECT_EQ(fat.code, 4);
@@ -754,6 +941,79 @@ TEST(CheckCli, QualityLimits) {
   const CmdResult held = run("check --quality-limits " + (dir / "needles.glb").string());
   EXPECT_EQ(held.code, 4) << held.out << held.err;
   EXPECT_NE(held.out.find("under 1 degree"), std::string::npos) << held.out;
+}
+
+}  // namespace
+}  // namespace sm
+
+namespace sm {
+namespace {
+
+// A tube with u = j / 16 once around (a seam where u wraps) and v the height, planar caps:
+// every figure of the UV quality is known.
+TEST(UvQuality, TubeSeamsAndStretch) {
+  const Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true);
+  // The side's map: u grows by 1/16 over a chord of 2 r sin(pi / 16), v by 1 per metre.
+  const double su = (1.0 / 16) / (2 * 0.1 * std::sin(std::numbers::pi / 16));
+
+  const UvQuality plain = measure_uv_quality(tube);
+  EXPECT_FALSE(plain.caps_known);
+  EXPECT_EQ(plain.seam_edges, 8u + 32u);
+  EXPECT_EQ(plain.around_seams, 8u);  // one per ring of quads
+  EXPECT_EQ(plain.other_seams, 32u);  // the rims, where the caps' planar UVs meet the side's
+  EXPECT_EQ(plain.triangles, 256u + 32u);
+  EXPECT_EQ(plain.flipped, 16u);  // one cap is mirrored against the side (planar UVs seen from inside)
+
+  const Skeleton line = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  const UvQuality q = measure_uv_quality(tube, &line);
+  EXPECT_TRUE(q.caps_known);
+  EXPECT_EQ(q.around_seams, 8u);  // a jump of one turn: 1 over the density is 1.26 circumferences
+  EXPECT_EQ(q.other_seams, 32u);
+  EXPECT_EQ(q.triangles, 256u);  // the caps left out
+  EXPECT_EQ(q.flipped, 0u);
+  EXPECT_EQ(q.collapsed, 0u);
+  EXPECT_NEAR(q.anisotropy_p95, su, 1e-5 * su);
+  EXPECT_NEAR(q.anisotropy_max, su, 1e-5 * su);
+  EXPECT_NEAR(q.density_median, std::sqrt(su), 1e-5);
+  EXPECT_NEAR(q.density_p95, 1.0, 1e-5);
+  EXPECT_EQ(q.junction_triangles, 0u);
+
+  // Once around a tube of circumference 1 m the texels are square (but for the chords).
+  const double r1 = 0.5 / std::numbers::pi;
+  const Skeleton line1 = two_node_skeleton({0, 0, 0}, {0, 0, 1}, r1);
+  const UvQuality round = measure_uv_quality(test::capped_tube({0, 0, 0}, {0, 0, 1}, r1, 64, 8, true), &line1);
+  EXPECT_NEAR(round.anisotropy_p95, 1.0, 1e-3);
+  EXPECT_EQ(round.around_seams, 8u);
+}
+
+TEST(UvQuality, JumpsInVAndMirroredTrianglesAreCounted) {
+  Mesh tube = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8, true);
+  const Skeleton line = two_node_skeleton({0, 0, 0}, {0, 0, 1}, 0.1);
+  // v shifted by half a unit on the upper four rows of quads: a ring seam of 16 edges.
+  for (std::size_t f = 0; f < 256; ++f) {
+    if (f / 32 >= 4) {
+      for (auto& uv : tube.corner_uvs[f]) uv.y += 0.5f;
+    }
+  }
+  const UvQuality ring = measure_uv_quality(tube, &line);
+  EXPECT_EQ(ring.around_seams, 8u);
+  EXPECT_EQ(ring.other_seams, 32u + 16u);
+  EXPECT_EQ(ring.flipped, 0u);
+  // One triangle mirrored in UV (two corners swapped): flipped, and its three edges seams.
+  std::swap(tube.corner_uvs[40][1], tube.corner_uvs[40][2]);
+  const UvQuality mirrored = measure_uv_quality(tube, &line);
+  EXPECT_EQ(mirrored.flipped, 1u);
+  EXPECT_GT(mirrored.other_seams, ring.other_seams);
+
+  // Reported by check_mesh, in text and JSON; a mesh without UVs gets no figures.
+  const MeshCheckReport report = check_mesh(tube, {.self_intersections = false, .skeleton = &line});
+  EXPECT_TRUE(report.uv_checked);
+  const std::string text = to_text(report);
+  EXPECT_NE(text.find("uv seams"), std::string::npos) << text;
+  EXPECT_NE(text.find("uv stretch"), std::string::npos) << text;
+  EXPECT_EQ(to_json(report)["uv"]["flipped"].get<std::size_t>(), 1u);
+  tube.corner_uvs.clear();
+  EXPECT_FALSE(check_mesh(tube, {.self_intersections = false}).uv_checked);
 }
 
 }  // namespace

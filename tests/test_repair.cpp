@@ -142,6 +142,12 @@ TEST(Repair, CrossingBranchesFuseWhereTheyAreWithAHandle) {
   EXPECT_EQ(r.repair.pairs_left, 0u);
   ASSERT_TRUE(rep.genus.has_value());
   EXPECT_EQ(*rep.genus, 1);
+  // `check --skeleton` finds the same genus implied by the input's crossing (implied_genus.h).
+  const Skeleton input = input_skeleton(raw);
+  const MeshCheckReport with_input =
+      check_mesh(r.mesh.mesh, {.self_intersections = false, .skeleton = &input, .implied_genus = true});
+  EXPECT_EQ(with_input.implied_genus, 1);
+  EXPECT_EQ(with_input.genus_agrees(), std::optional<bool>(true));
 }
 
 

@@ -38,7 +38,8 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
         sub.add_option("MESH", o->mesh, "Mesh file (.glb, .gltf, .obj or .ply)")->required();
         sub.add_option("--skeleton", o->skeleton,
                        "Skeleton file (.json, .swc; QSM .mat, .csv, .txt; .mtg): also measure fidelity to its "
-                       "radii; its up axis is used to read the mesh");
+                       "radii, the input nodes inside and the genus its crossing branches imply; its up axis is "
+                       "used to read the mesh");
         add_input_options(sub, o->input_options);
         sub.add_option("--lod", o->lod,
                        "Check level of detail K of a glTF file written with --lods (MSFT_lod; 0, the default, is the "
@@ -76,6 +77,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
             skeleton = input_skeleton(read_skeleton(o->skeleton, read_options(o->input_options)));
             read.up_axis = skeleton.up_axis;
             params.skeleton = &skeleton;
+            params.implied_genus = true;
             log::verbose(o->skeleton + ": " + std::to_string(skeleton.size()) + " input nodes");
           }
           const Mesh mesh = read_mesh(o->mesh, read);
