@@ -750,8 +750,11 @@ bool drop_hidden_tips(WorkTree& t, SkeletonReport& rep, const RawSkeleton& raw) 
 /// Tight bends (SkeletonParams::tight_bend_ratio): a node with one child where the branch turns
 /// so sharply, for its radius, that the slices of its two edges would cross on the inner side
 /// is removed, its child taking its place. Repeated until no node qualifies: a removal changes
-/// the turns at the neighbours.
-bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw) {
+/// the turns at the neighbours. Without `merge_follows` (after binarize, where merging would
+/// undo the binary forks), a node whose child comes back to within merge_edge_ratio x radius of
+/// the parent stays: its removal would leave an edge of (near) zero length.
+bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonReport& rep, const RawSkeleton& raw,
+                        bool merge_follows) {
   if (!(params.tight_bend_ratio > 0)) return false;
   const std::size_t before = rep.tight_bends;
   for (bool changed = true; changed;) {
@@ -766,6 +769,10 @@ bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonRepor
       // r tan(turn / 2) > ratio x shorter edge, with tan(turn / 2) = sqrt((1 - cos) / (1 + cos)).
       const double limit = params.tight_bend_ratio * std::min(la, lb);
       if (t.radius[v] * t.radius[v] * (1 - cos_turn) <= limit * limit * (1 + cos_turn)) continue;
+      if (!merge_follows &&
+          !(glm::length(t.pos[c] - t.pos[p]) > params.merge_edge_ratio * std::max(t.radius[c], t.radius[p]))) {
+        continue;
+      }
       *std::find(t.children[p].begin(), t.children[p].end(), v) = c;
       t.parent[c] = p;
       t.children[v].clear();
@@ -944,7 +951,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     }
     if (params.separate) folded = reattach_hairpins(t, params, rep, raw) || folded;
     folded = drop_hidden_tips(t, rep, raw) || folded;
-    folded = smooth_tight_bends(t, params, rep, raw) || folded;
+    folded = smooth_tight_bends(t, params, rep, raw, /*merge_follows=*/true) || folded;
     if (folded) merge_short_edges(t, params, rep, raw);  // folded nodes can land next to existing ones
   }
   resample_long_edges(t, params, rep);
@@ -955,7 +962,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     // Again once the upturned lateral bases are in: on a short twig one can itself be a tight
     // bend. Before the collars, which go on the final edges (so sanitizing the result again
     // adds none).
-    smooth_tight_bends(t, params, rep, raw);
+    smooth_tight_bends(t, params, rep, raw, /*merge_follows=*/false);
   }
   add_collars(t, params, rep);
   rep.timings.add("repair", clock.lap());

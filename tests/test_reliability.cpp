@@ -311,6 +311,23 @@ TEST(Reliability, MergeOfAnInsertedNodeNamesAnInputNode) {
   EXPECT_EQ(info.code, 0) << info.err;
 }
 
+TEST(Reliability, TightBendBackToTheParentLeavesNoZeroLengthEdge) {
+  // fuzz_skeleton_swc (2026-11-28, main 5714f64): the fork 3/4 merges into one thick node, from
+  // which 6 comes straight back to 2's place; the tight-bend pass after binarize removed the
+  // thick node, leaving 6 on top of 2 with no merge after it: exit 3, "internal error: edges
+  // must have positive length".
+  const std::string swc = "1 1 0 0 0 0.1 -1\n2 3 0 0 1 0.00 1\n3 3 0 0 1.6 0.05 2\n4 3 -0.2 0.1 1.7 5.04 2\n"
+                          "5 3 0 -0.3 1.5 0.03 6\n6 3 0 0 1 .0 3\n";
+  const SkeletonResult r = build_skeleton(parse_swc(swc, "bend.swc"), SkeletonParams{});
+  const Skeleton& s = r.skeleton;
+  ASSERT_GE(s.size(), 3u);
+  for (std::size_t i = 1; i < s.size(); ++i) EXPECT_GT(s.edge_length(NodeId(i)), 0.0) << "node " << i;
+  const fs::path dir = test::temp_dir("rel_bend");
+  write_file_atomically(dir / "bend.swc", swc);
+  const CmdResult info = run("info " + (dir / "bend.swc").string());
+  EXPECT_EQ(info.code, 0) << info.err;
+}
+
 TEST(Reliability, MagnitudesBeyondTheLimitsAreRejectedNamingTheNode) {
   struct Case {
     const char* name;
