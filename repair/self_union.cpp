@@ -841,6 +841,8 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   const std::vector<std::uint32_t> curve = crossing_curves(mesh, vc, pairs);
   std::vector<std::array<std::uint32_t, 2>> active = pairs;
   std::vector<std::uint32_t> active_curve = curve;
+  constexpr int kCurveAttempts = 6;  // attempts leaving out single curves; clusters after
+  int attempts_made = 0;
   auto leave_out = [&](const std::vector<std::uint32_t>& bad) {
     std::vector<std::uint8_t> bad_triangle(nf, 0);
     for (const std::uint32_t f : bad) bad_triangle[f] = 1;
@@ -886,6 +888,41 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
         if (!active.empty()) drop_curve[active_curve[at]] = 1;
       }
     }
+    // In the later attempts, the whole cluster (joined through shared vertices) of a curve
+    // left out goes with it, so the attempts converge where failures keep turning up next to
+    // the crossings left out before.
+    if (attempts_made >= kCurveAttempts) {
+      // A flood over the pairs: a curve left out marks the vertices of its pairs, and a pair
+      // touching a marked vertex takes its whole curve with it.
+      std::map<std::uint32_t, std::vector<std::uint32_t>> of_curve;  // curve -> active pairs
+      std::map<std::uint32_t, std::vector<std::uint32_t>> at_vertex;  // vertex -> active pairs
+      for (std::uint32_t k = 0; k < active.size(); ++k) {
+        of_curve[active_curve[k]].push_back(k);
+        for (const std::uint32_t f : active[k]) {
+          for (const std::uint32_t v : mesh.triangles[f]) at_vertex[v].push_back(k);
+        }
+      }
+      std::vector<std::uint32_t> queue;
+      for (std::uint32_t k = 0; k < active.size(); ++k) {
+        if (drop_curve[active_curve[k]]) queue.push_back(k);
+      }
+      std::vector<std::uint8_t> marked(mesh.positions.size(), 0);
+      while (!queue.empty()) {
+        const std::uint32_t k = queue.back();
+        queue.pop_back();
+        for (const std::uint32_t f : active[k]) {
+          for (const std::uint32_t v : mesh.triangles[f]) {
+            if (marked[v]) continue;
+            marked[v] = 1;
+            for (const std::uint32_t j : at_vertex[v]) {
+              if (drop_curve[active_curve[j]]) continue;
+              drop_curve[active_curve[j]] = 1;
+              for (const std::uint32_t m : of_curve[active_curve[j]]) queue.push_back(m);
+            }
+          }
+        }
+      }
+    }
     std::size_t w = 0;
     for (std::size_t k = 0; k < active.size(); ++k) {
       if (drop_curve[active_curve[k]]) continue;
@@ -908,7 +945,7 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   Mesh out;
   std::vector<std::uint32_t> origin_of;
   bool ready = false;
-  for (int k = 0; k < kAttempts && !active.empty(); ++k) {
+  for (int k = 0; k < kAttempts && !active.empty(); ++k, ++attempts_made) {
     if (!attempt.run(active)) {
       const std::vector<std::uint32_t> failing = failing_clusters(attempt, mesh, active);
       if (failing.empty()) {
