@@ -32,6 +32,8 @@
 #include <vector>
 
 #include <CGAL/box_intersection_d.h>
+
+#include "core/math.h"
 #include <glm/glm.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -95,28 +97,6 @@ Probe probe(const Cone& c, const dvec3& p) {
   return {y * s + x * co - c.ra, s * e + (x > 0 ? (co / x) * radial : dvec3(0))};
 }
 
-// Parameters (s, t) in [0, 1]² of the closest points of segments p1q1 and p2q2 (Ericson,
-// Real-Time Collision Detection, 5.1.9), zero-length segments included.
-std::array<double, 2> closest_parameters(const dvec3& p1, const dvec3& q1, const dvec3& p2, const dvec3& q2) {
-  const dvec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
-  if (a <= 0 && e <= 0) return {0, 0};
-  if (a <= 0) return {0, std::clamp(f / e, 0.0, 1.0)};
-  const double c = glm::dot(d1, r);
-  if (e <= 0) return {std::clamp(-c / a, 0.0, 1.0), 0};
-  const double b = glm::dot(d1, d2), denom = a * e - b * b;
-  double s = denom > 0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
-  double t = (b * s + f) / e;
-  if (t < 0) {
-    t = 0;
-    s = std::clamp(-c / a, 0.0, 1.0);
-  } else if (t > 1) {
-    t = 1;
-    s = std::clamp((b - c) / a, 0.0, 1.0);
-  }
-  return {s, t};
-}
-
 // The closest points of two cones' axes with the radii interpolated there: `gap` is their
 // distance minus both radii (<= 0: the two balls meet, `witness` lies in both), `bound` a lower
 // bound of the cones' distance.
@@ -126,7 +106,8 @@ struct AxisGap {
 };
 
 AxisGap axis_gap(const Cone& x, const Cone& y) {
-  const auto [s, t] = closest_parameters(x.a, x.b, y.a, y.b);
+  double s = 0, t = 0;
+  closest_segment_params(x.a, x.b, y.a, y.b, s, t);
   const dvec3 cx = x.a + s * (x.b - x.a), cy = y.a + t * (y.b - y.a);
   const double rx = x.ra + s * (x.rb - x.ra), ry = y.ra + t * (y.rb - y.ra);
   const double dist = glm::length(cy - cx);
