@@ -37,6 +37,12 @@ const ParamSpec<R> kFields[] = {
      .help = "rounds of fold repair on nearby pairs anywhere before the union (0 = none)", .slider = {0, 16}},
     {.key = "fold_max_move", .field = &R::fold_max_move, .range = {.min = 0, .max = 1}, .unit = "x local radius",
      .help = "largest vertex move of that fold repair"},
+    {.key = "volume_patch", .field = &R::volume_patch,
+     .help = "replace the surface around pairs the union left by a patch drawn from a voxel grid of the solid"},
+    {.key = "patch_voxels_per_radius", .field = &R::patch_voxels_per_radius, .range = {.min = 2.5, .max = 32},
+     .unit = "voxels", .help = "voxels per thinnest local radius of those patches", .slider = {3, 16}},
+    {.key = "patch_reach", .field = &R::patch_reach, .range = {.min = 0.5, .max = 20}, .unit = "x local radius",
+     .help = "a patch's region: the pairs' box grown by this many local radii", .slider = {1, 8}},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

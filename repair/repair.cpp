@@ -3,6 +3,8 @@
 #include "repair/repair.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <bit>
 #include <numeric>
 #include <set>
@@ -14,6 +16,7 @@
 #include "meshcheck/intersections.h"
 #include "repair/fold_repair.h"
 #include "repair/self_union.h"
+#include "repair/volume_patch.h"
 #include "repair/verdict.h"
 
 namespace sm {
@@ -319,6 +322,47 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     for (const auto& [a, b] : u.left_out_pairs) carry(a, b);
     left_out = std::move(still);
     pairs = std::move(after);
+  }
+  // Step 6: what the union left, patched from a voxel grid of the solid around it.
+  if (params.volume_patch && !pairs.empty() && mesh.vertex_node.size() == mesh.positions.size()) {
+    if (!params.self_union) {
+      now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
+             .thick_inside = thick_inside(mesh)};
+    }
+    MeshResult before = r;
+    VolumePatchOptions options;
+    options.voxels_per_radius = params.patch_voxels_per_radius;
+    options.reach = params.patch_reach;
+    options.grid = r.grid;
+    const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton.radius, skeleton.position, options, origin);
+    st.patch_clusters = vp.clusters;
+    st.patch_voxels = vp.voxels;
+    if (vp.patched > 0) {
+      std::vector<std::array<std::uint32_t, 2>> after;
+      MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
+      if (next.sound && next.parts <= now.parts) {
+        next.volume = signed_volume(mesh);
+        after = pairs_after_edit(before.mesh, pairs, mesh);
+        next.pairs = after.size();
+        next.thick_inside = thick_inside(mesh);
+      }
+      if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
+        st.problem = "volume patch: " + why;
+        if (std::getenv("SM_DEBUG_PATCH")) std::fprintf(stderr, "volume patch refused: %s\n", why.c_str());
+        r = std::move(before);
+      } else {
+        st.patched = vp.patched;
+        if (!r.triangle_kind.empty()) {
+          std::vector<TriangleKind> kind(origin.size());
+          for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
+          r.triangle_kind = std::move(kind);
+        }
+        pairs = std::move(after);
+      }
+    }
+    if (vp.patched < vp.clusters && !vp.first_failure.empty())
+      st.warnings.add("volume_patch_refused", "a volume patch was not made: " + vp.first_failure);
+    st.timings.add("volume_patch", clock.lap());
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();

@@ -1,0 +1,979 @@
+// Volume patch (see volume_patch.h). Kept in its own translation unit: OpenVDB's headers are
+// heavy to compile.
+#include "repair/volume_patch.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <unordered_map>
+#include <utility>
+
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include "core/math.h"
+#include "core/union_find.h"
+#include "meshcheck/intersections.h"
+
+namespace sm {
+namespace {
+
+using glm::dvec3;
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+struct Box {
+  dvec3 lo{std::numeric_limits<double>::max()}, hi{std::numeric_limits<double>::lowest()};
+  void add(const dvec3& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  void add(const Box& b) {
+    lo = glm::min(lo, b.lo);
+    hi = glm::max(hi, b.hi);
+  }
+  [[nodiscard]] Box grown(double d) const { return {lo - dvec3(d), hi + dvec3(d)}; }
+  [[nodiscard]] bool contains(const dvec3& p) const {
+    return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z;
+  }
+  [[nodiscard]] bool overlaps(const Box& b) const {
+    return lo.x <= b.hi.x && lo.y <= b.hi.y && lo.z <= b.hi.z && b.lo.x <= hi.x && b.lo.y <= hi.y && b.lo.z <= hi.z;
+  }
+};
+
+
+// Triangles binned by centroid on a uniform grid, for box queries.
+class TriangleBins {
+ public:
+  TriangleBins(const Mesh& mesh) : mesh_(mesh) {
+    Box all;
+    for (const dvec3& p : mesh.positions) all.add(p);
+    for (const auto& t : mesh.triangles) {
+      Box b;
+      for (const std::uint32_t v : t) b.add(mesh.positions[v]);
+      reach_ = std::max(reach_, glm::length(b.hi - b.lo));
+    }
+    const dvec3 size = all.hi - all.lo;
+    cell_ = std::max({reach_, std::cbrt(size.x * size.y * size.z / std::max<double>(1, mesh.triangles.size())) * 4,
+                      1e-9});
+    lo_ = all.lo;
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) bins_[key(cell_of(centroid(f)))].push_back(f);
+  }
+  // Every triangle that may reach into `box` (by its centroid and the largest triangle's size), in order.
+  [[nodiscard]] std::vector<std::uint32_t> near(const Box& box) const {
+    const Box b = box.grown(reach_);
+    const glm::ivec3 a = cell_of(b.lo), z = cell_of(b.hi);
+    std::vector<std::uint32_t> out;
+    for (int i = a.x; i <= z.x; ++i)
+      for (int j = a.y; j <= z.y; ++j)
+        for (int k = a.z; k <= z.z; ++k) {
+          const auto it = bins_.find(key({i, j, k}));
+          if (it == bins_.end()) continue;
+          for (const std::uint32_t f : it->second)
+            if (b.contains(centroid(f))) out.push_back(f);
+        }
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+
+ private:
+  [[nodiscard]] dvec3 centroid(std::uint32_t f) const {
+    const auto& t = mesh_.triangles[f];
+    return (mesh_.positions[t[0]] + mesh_.positions[t[1]] + mesh_.positions[t[2]]) / 3.0;
+  }
+  [[nodiscard]] glm::ivec3 cell_of(const dvec3& p) const { return glm::ivec3(glm::floor((p - lo_) / cell_)); }
+  static std::uint64_t key(const glm::ivec3& c) {
+    return (static_cast<std::uint64_t>(c.x + (1 << 20)) << 42) | (static_cast<std::uint64_t>(c.y + (1 << 20)) << 21) |
+           static_cast<std::uint64_t>(c.z + (1 << 20));
+  }
+  const Mesh& mesh_;
+  double reach_ = 0, cell_ = 1;
+  dvec3 lo_{0};
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins_;
+};
+
+// One cluster of pairs and, once built, its patch.
+struct Patch {
+  Box region;                           // triangles wholly inside are cut out
+  double radius_min = 0, radius_max = 0;
+  std::vector<std::uint32_t> cut;       // the triangles cut out, sorted
+  std::vector<glm::dvec3> positions;    // the patch's vertices (snapped)
+  std::vector<std::uint32_t> vertex_origin;    // per patch vertex: nearest mesh triangle
+  std::vector<glm::dvec3> vertex_closest;      // per patch vertex: nearest point on it
+  // Triangles over mesh vertices (index < nv) and patch vertices (nv + k).
+  std::vector<Mesh::Triangle> triangles;
+  std::size_t surface_triangles = 0;  // the first ones are the volume's surface, the rest strips
+  std::vector<std::uint32_t> replaced;  // kept triangles on split hole edges, replaced by fans
+  std::vector<std::pair<Mesh::Triangle, std::uint32_t>> fans;  // those fans' triangles, with their origin
+  std::size_t voxels = 0;
+  std::string failure;
+};
+
+// A closed loop of boundary half-edges: `next[a] = b` for each edge a -> b. Fails where a
+// vertex has two outgoing edges.
+bool boundary_loops(const std::vector<std::array<std::uint32_t, 2>>& edges, std::vector<std::vector<std::uint32_t>>& loops) {
+  std::map<std::uint32_t, std::uint32_t> next;
+  for (const auto& [a, b] : edges) {
+    if (!next.emplace(a, b).second) return false;
+  }
+  std::map<std::uint32_t, bool> used;
+  for (const auto& [start, ignored] : next) {
+    if (used[start]) continue;
+    std::vector<std::uint32_t> loop;
+    std::uint32_t v = start;
+    while (!used[v]) {
+      used[v] = true;
+      loop.push_back(v);
+      const auto it = next.find(v);
+      if (it == next.end()) return false;
+      v = it->second;
+    }
+    if (v != start || loop.size() < 3) return false;
+    loops.push_back(std::move(loop));
+  }
+  return true;
+}
+
+class Builder {
+ public:
+  Builder(const Mesh& mesh, const VertexCorners& vc, std::span<const double> node_radius,
+          const VolumePatchOptions& options)
+      : mesh_(mesh), vc_(vc), node_radius_(node_radius), options_(options) {}
+
+  // The triangles across each edge: opposite[3 f + k] is the triangle on edge (t[k], t[k+1]).
+  void link() {
+    opposite_.assign(3 * mesh_.triangles.size(), kNone);
+    for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
+      const auto& t = mesh_.triangles[f];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+        for (std::uint32_t c = vc_.begin[b]; c < vc_.begin[b + 1]; ++c) {
+          const std::uint32_t g = vc_.corner[c] / 3, kk = vc_.corner[c] % 3;
+          if (mesh_.triangles[g][(kk + 1) % 3] == a) opposite_[3 * f + k] = g;
+        }
+      }
+    }
+  }
+
+  // The triangle with edge b -> a (across the edge a -> b).
+  [[nodiscard]] std::uint32_t opposite_of(std::uint32_t a, std::uint32_t b) const {
+    for (std::uint32_t c = vc_.begin[b]; c < vc_.begin[b + 1]; ++c) {
+      const std::uint32_t g = vc_.corner[c] / 3, k = vc_.corner[c] % 3;
+      if (mesh_.triangles[g][(k + 1) % 3] == a) return g;
+    }
+    return kNone;
+  }
+
+  void build(Patch& patch, const TriangleBins& bins) {
+    const Box& region = patch.region;
+    // The cut: triangles wholly inside the region.
+    const std::vector<std::uint32_t> near = bins.near(region);
+    for (const std::uint32_t f : near) {
+      const auto& t = mesh_.triangles[f];
+      if (region.contains(mesh_.positions[t[0]]) && region.contains(mesh_.positions[t[1]]) &&
+          region.contains(mesh_.positions[t[2]]))
+        patch.cut.push_back(f);
+    }
+    std::unordered_map<std::uint32_t, bool> cut_set;
+    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
+    // The hole's loops, in the orientation of the cut triangles.
+    std::vector<std::array<std::uint32_t, 2>> hole_edges;
+    double rmin = std::numeric_limits<double>::max();
+    for (const std::uint32_t f : patch.cut) {
+      const auto& t = mesh_.triangles[f];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t g = opposite_[3 * f + k];
+        if (g == kNone) {
+          patch.failure = "an open edge in the region";
+          return;
+        }
+        if (!cut_set.contains(g)) hole_edges.push_back({t[k], t[(k + 1) % 3]});
+      }
+    }
+    std::vector<std::vector<std::uint32_t>> holes;
+    // Where the boundary passes a vertex twice, the cut gives up the triangles there.
+    for (int round = 0; round < 8; ++round) {
+      std::map<std::uint32_t, int> leaving;
+      for (const auto& e : hole_edges) ++leaving[e[0]];
+      std::vector<std::uint32_t> pinched;
+      for (const auto& [v, c] : leaving)
+        if (c > 1) pinched.push_back(v);
+      if (pinched.empty()) break;
+      std::erase_if(patch.cut, [&](std::uint32_t f) {
+        const auto& t = mesh_.triangles[f];
+        return std::any_of(pinched.begin(), pinched.end(),
+                           [&](std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; });
+      });
+      cut_set.clear();
+      for (const std::uint32_t f : patch.cut) cut_set[f] = true;
+      hole_edges.clear();
+      for (const std::uint32_t f : patch.cut) {
+        const auto& t = mesh_.triangles[f];
+        for (int k = 0; k < 3; ++k)
+          if (!cut_set.contains(opposite_[3 * f + k])) hole_edges.push_back({t[k], t[(k + 1) % 3]});
+      }
+    }
+    if (patch.cut.empty()) {
+      patch.failure = "the region holds no whole triangle";
+      return;
+    }
+    if (!boundary_loops(hole_edges, holes)) {
+      patch.failure = "the region's boundary touches itself";
+      return;
+    }
+    // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
+    // the grid leave a hole without a rim, and the patch is not made).
+    rmin = std::max(patch.radius_min, 1e-5);
+
+    // The grid: the region and a margin of three voxels.
+    double h = rmin / options_.voxels_per_radius;
+    const dvec3 size = region.hi - region.lo;
+    auto count = [&](double s) {
+      return (std::floor(size.x / s) + 8) * (std::floor(size.y / s) + 8) * (std::floor(size.z / s) + 8);
+    };
+    while (count(h) > static_cast<double>(options_.max_voxels)) h *= 1.1;
+    if (rmin / h < options_.min_voxels_per_radius) {
+      patch.failure = "the region is too large for its thinnest branch";
+      return;
+    }
+    const double band = 3 * h;
+    const dvec3 origin = region.lo - dvec3(4 * h);
+    const glm::ivec3 n = glm::ivec3(glm::floor(size / h)) + glm::ivec3(9);
+    const std::size_t nvox = static_cast<std::size_t>(n.x) * n.y * n.z;
+    patch.voxels = nvox;
+    auto at = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * n.y + j) * n.x + i; };
+    auto centre = [&](int i, int j, int k) { return origin + h * dvec3(i, j, k); };
+    std::vector<float> dist(nvox, static_cast<float>(band)), dist_kept(nvox, static_cast<float>(band));
+    std::vector<std::uint32_t> nearest(nvox, kNone);
+    Box grid_box{origin, origin + h * dvec3(n - glm::ivec3(1))};
+    for (const std::uint32_t f : bins.near(grid_box)) {
+      const auto& t = mesh_.triangles[f];
+      const dvec3 &a = mesh_.positions[t[0]], &b = mesh_.positions[t[1]], &c = mesh_.positions[t[2]];
+      Box tb;
+      tb.add(a);
+      tb.add(b);
+      tb.add(c);
+      tb = tb.grown(band);
+      if (!tb.overlaps(grid_box)) continue;
+      const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
+      const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
+      const bool kept = !cut_set.contains(f);
+      for (int k = lo.z; k <= hi.z; ++k)
+        for (int j = lo.y; j <= hi.y; ++j)
+          for (int i = lo.x; i <= hi.x; ++i) {
+            const dvec3 p = centre(i, j, k);
+            const auto d = static_cast<float>(glm::distance(p, closest_on_triangle(p, a, b, c)));
+            const std::size_t v = at(i, j, k);
+            if (d < dist[v]) {
+              dist[v] = d;
+              nearest[v] = f;
+            }
+            if (kept && d < dist_kept[v]) dist_kept[v] = d;
+          }
+    }
+    // Components of the voxels off the wall (within half a voxel of the surface).
+    const auto wall = static_cast<float>(0.55 * h);
+    std::vector<std::int32_t> comp(nvox, -1);
+    std::vector<std::uint8_t> touches;
+    std::vector<glm::dvec3> probe;
+    std::vector<std::size_t> queue;
+    for (std::size_t s = 0; s < nvox; ++s) {
+      if (comp[s] >= 0 || dist[s] <= wall) continue;
+      const auto id = static_cast<std::int32_t>(touches.size());
+      touches.push_back(0);
+      probe.emplace_back(0.0);
+      queue.assign(1, s);
+      comp[s] = id;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const std::size_t v = queue[q];
+        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
+                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
+        if (!touches[id] && (i == 0 || j == 0 || k == 0 || i == n.x - 1 || j == n.y - 1 || k == n.z - 1)) {
+          touches[id] = 1;
+          probe[id] = centre(i, j, k);
+        }
+        const int di[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        for (const auto& d : di) {
+          const int a = i + d[0], b = j + d[1], c = k + d[2];
+          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
+          const std::size_t w = at(a, b, c);
+          if (comp[w] >= 0 || dist[w] <= wall) continue;
+          comp[w] = id;
+          queue.push_back(w);
+        }
+      }
+    }
+    // Solid: components the box's outside does not reach (voids of the union are filled), and
+    // those it does whose probe the whole surface winds around.
+    std::vector<glm::dvec3> probes;
+    std::vector<std::size_t> probe_of;
+    for (std::size_t c = 0; c < touches.size(); ++c) {
+      if (!touches[c]) continue;
+      probes.push_back(probe[c]);
+      probe_of.push_back(c);
+    }
+    std::vector<std::uint8_t> solid(touches.size(), 1);
+    const std::vector<int> w = winding_numbers(mesh_, probes);
+    for (std::size_t q = 0; q < probes.size(); ++q) solid[probe_of[q]] = w[q] != 0;
+
+    // The level set: distance outside, minus distance inside. A voxel on the wall is outside
+    // where it lies in front of its nearest triangle and next to the outside (an inner sheet's
+    // wall, all of it inside the solid, stays inside whichever way its triangles face).
+    std::vector<float> field(nvox);
+    for (int k = 0; k < n.z; ++k)
+      for (int j = 0; j < n.y; ++j)
+        for (int i = 0; i < n.x; ++i) {
+          const std::size_t v = at(i, j, k);
+          bool inside = comp[v] < 0 || solid[comp[v]];
+          if (comp[v] < 0 && nearest[v] != kNone) {
+            bool next_to_outside = false;
+            const int di[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+            for (const auto& d : di) {
+              const int a = i + d[0], b = j + d[1], c = k + d[2];
+              if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
+              const std::int32_t w = comp[at(a, b, c)];
+              next_to_outside = next_to_outside || (w >= 0 && !solid[w]);
+            }
+            if (next_to_outside) {
+              const auto& t = mesh_.triangles[nearest[v]];
+              const dvec3 p = centre(i, j, k);
+              const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+              inside = glm::dot(p - q, mesh_.face_normal(t)) <= 0;
+            }
+          }
+          field[v] = inside ? -dist[v] : dist[v];
+        }
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(static_cast<float>(band));
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    {
+      auto acc = grid->getAccessor();
+      for (int k = 0; k < n.z; ++k)
+        for (int j = 0; j < n.y; ++j)
+          for (int i = 0; i < n.x; ++i) {
+            const float value = field[at(i, j, k)];
+            if (value < static_cast<float>(band)) acc.setValue(openvdb::Coord(i, j, k), value);
+          }
+    }
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0, true);
+
+    // Sample helpers on the grid (nearest voxel).
+    auto voxel_of = [&](const dvec3& p) {
+      const glm::ivec3 c = glm::clamp(glm::ivec3(glm::round((p - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
+      return at(c.x, c.y, c.z);
+    };
+    std::vector<dvec3> pos(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) pos[i] = origin + dvec3(points[i].x(), points[i].y(), points[i].z());
+    std::vector<Mesh::Triangle> iso;
+    for (const auto& t : tris) iso.push_back({t.x(), t.y(), t.z()});
+    for (const auto& q : quads) {
+      if (glm::distance(pos[q.x()], pos[q.z()]) <= glm::distance(pos[q.y()], pos[q.w()])) {
+        iso.push_back({q.x(), q.y(), q.z()});
+        iso.push_back({q.x(), q.z(), q.w()});
+      } else {
+        iso.push_back({q.x(), q.y(), q.w()});
+        iso.push_back({q.y(), q.z(), q.w()});
+      }
+    }
+    // Orientation: most triangles must face down the level set's slope (outward).
+    double facing = 0;
+    for (const auto& t : iso) {
+      const dvec3 c = (pos[t[0]] + pos[t[1]] + pos[t[2]]) / 3.0;
+      const glm::ivec3 g = glm::clamp(glm::ivec3(glm::round((c - origin) / h)), glm::ivec3(1), n - glm::ivec3(2));
+      auto value = [&](int i, int j, int k) {
+        return static_cast<double>(field[at(i, j, k)]);
+      };
+      const dvec3 grad(value(g.x + 1, g.y, g.z) - value(g.x - 1, g.y, g.z),
+                       value(g.x, g.y + 1, g.z) - value(g.x, g.y - 1, g.z),
+                       value(g.x, g.y, g.z + 1) - value(g.x, g.y, g.z - 1));
+      facing += glm::dot(glm::cross(pos[t[1]] - pos[t[0]], pos[t[2]] - pos[t[0]]), grad) > 0 ? 1 : -1;
+    }
+    if (facing < 0)
+      for (auto& t : iso) std::swap(t[1], t[2]);
+
+    // Cut back to the cut: keep the triangles whose vertices lie nearest a cut triangle, a
+    // little away from the kept surface, so that the rim runs along the hole.
+    const double gap = 0.75 * h;
+    std::vector<std::uint8_t> keep_vertex(pos.size(), 0);
+    for (std::size_t i = 0; i < pos.size(); ++i) {
+      const std::size_t v = voxel_of(pos[i]);
+      keep_vertex[i] = region.contains(pos[i]) && nearest[v] != kNone && cut_set.contains(nearest[v]) &&
+                       dist_kept[v] > gap;
+    }
+    std::vector<std::uint8_t> keep(iso.size(), 0);
+    for (std::size_t f = 0; f < iso.size(); ++f)
+      keep[f] = keep_vertex[iso[f][0]] && keep_vertex[iso[f][1]] && keep_vertex[iso[f][2]];
+    // The rim smoothed on the grid's scale: notches filled, ears dropped.
+    {
+      std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> by_edge;
+      for (std::uint32_t f = 0; f < iso.size(); ++f)
+        for (int k = 0; k < 3; ++k) by_edge[{iso[f][k], iso[f][(k + 1) % 3]}] = f;
+      std::vector<std::array<std::uint32_t, 3>> nb(iso.size());
+      for (std::uint32_t f = 0; f < iso.size(); ++f)
+        for (int k = 0; k < 3; ++k) {
+          const auto it = by_edge.find({iso[f][(k + 1) % 3], iso[f][k]});
+          nb[f][k] = it == by_edge.end() ? kNone : it->second;
+        }
+      for (int round = 0; round < 3; ++round) {
+        std::vector<std::uint8_t> next = keep;
+        for (std::uint32_t f = 0; f < iso.size(); ++f) {
+          int kept_nb = 0;
+          for (const std::uint32_t g : nb[f]) kept_nb += g != kNone && keep[g];
+          const bool inside_region = region.contains(pos[iso[f][0]]) && region.contains(pos[iso[f][1]]) &&
+                                     region.contains(pos[iso[f][2]]);
+          if (!keep[f] && kept_nb >= 2 && inside_region) next[f] = 1;
+          if (keep[f] && kept_nb <= 1) next[f] = 0;
+        }
+        keep = std::move(next);
+      }
+    }
+    std::vector<Mesh::Triangle> kept;
+    for (std::size_t f = 0; f < iso.size(); ++f)
+      if (keep[f]) kept.push_back(iso[f]);
+    // The kept triangles' boundary; where it passes a vertex twice (a neck of the cut), the
+    // triangles at that vertex go too.
+    std::vector<std::array<std::uint32_t, 2>> iso_edges;
+    for (int round = 0;; ++round) {
+      std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_count;
+      for (const auto& t : kept)
+        for (int k = 0; k < 3; ++k) ++edge_count[{t[k], t[(k + 1) % 3]}];
+      iso_edges.clear();
+      std::map<std::uint32_t, int> leaving;
+      for (const auto& [e, c] : edge_count) {
+        if (c > 1) {
+          patch.failure = "the volume's surface is not a manifold";
+          return;
+        }
+        if (!edge_count.contains({e.second, e.first})) {
+          iso_edges.push_back({e.first, e.second});
+          ++leaving[e.first];
+        }
+      }
+      std::vector<std::uint8_t> pinched(pos.size(), 0);
+      bool any = false;
+      for (const auto& [v, c] : leaving) {
+        if (c > 1) pinched[v] = 1, any = true;
+      }
+      if (!any || round == 8) break;
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return pinched[t[0]] || pinched[t[1]] || pinched[t[2]]; });
+    }
+    UnionFind parts(pos.size());
+    for (const auto& t : kept) {
+      parts.unite(t[0], t[1]);
+      parts.unite(t[1], t[2]);
+    }
+    std::vector<std::uint8_t> open_part(pos.size(), 0);
+    for (const auto& e : iso_edges) open_part[parts.find(e[0])] = 1;
+    std::erase_if(kept, [&](const Mesh::Triangle& t) { return !open_part[parts.find(t[0])]; });
+    std::vector<std::vector<std::uint32_t>> rims;
+    if (!boundary_loops(iso_edges, rims)) {
+      patch.failure = "the volume's surface touches itself at its rim";
+      return;
+    }
+    // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
+    // whose rims meet no hole (bits of branches passing the region's edge) are dropped.
+    std::vector<std::size_t> rim_of(holes.size(), kNone);
+    std::vector<std::uint8_t> rim_used(rims.size(), 0);
+    auto drop_unmatched = [&] {
+      std::vector<std::uint8_t> matched_part(pos.size(), 0);
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) return false;
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+      return true;
+    };
+    for (std::size_t a = 0; a < holes.size(); ++a) {
+      double best = std::numeric_limits<double>::max();
+      for (std::size_t b = 0; b < rims.size(); ++b) {
+        double sum = 0;
+        for (const std::uint32_t v : holes[a]) {
+          double d = std::numeric_limits<double>::max();
+          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(mesh_.positions[v], pos[u]));
+          sum += d;
+        }
+        if (sum / holes[a].size() < best) {
+          best = sum / holes[a].size();
+          rim_of[a] = b;
+        }
+      }
+      if (rim_used[rim_of[a]] || best > 4 * h) {
+        patch.failure = "a hole has no rim of its own near it";
+        return;
+      }
+      rim_used[rim_of[a]] = 1;
+    }
+    if (!drop_unmatched()) {
+      patch.failure = "a part of the volume's surface has a rim that meets no hole";
+      return;
+    }
+
+    // The patch's vertices: those of the kept triangles, renumbered after the mesh's.
+    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
+    std::vector<std::uint32_t> index(pos.size(), kNone);
+    auto add = [&](std::uint32_t u) {
+      if (index[u] != kNone) return index[u];
+      index[u] = nv + static_cast<std::uint32_t>(patch.positions.size());
+      const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
+      patch.positions.push_back(p);
+      std::uint32_t f = nearest[voxel_of(pos[u])];
+      if (f == kNone) f = patch.cut.front();
+      const auto& t = mesh_.triangles[f];
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
+                                                         mesh_.positions[t[2]]));
+      return index[u];
+    };
+    for (const auto& t : kept) patch.triangles.push_back({add(t[0]), add(t[1]), add(t[2])});
+    patch.surface_triangles = patch.triangles.size();
+    if (std::getenv("SM_DEBUG_PATCH")) {
+      int agree = 0, disagree = 0;
+      for (const auto& t : patch.triangles) {
+        const dvec3 a = patch.positions[t[0] - nv], b = patch.positions[t[1] - nv], c = patch.positions[t[2] - nv];
+        const auto& o = mesh_.triangles[patch.vertex_origin[t[0] - nv]];
+        const double d = glm::dot(glm::cross(b - a, c - a), mesh_.face_normal(o));
+        (d > 0 ? agree : disagree)++;
+      }
+      std::fprintf(stderr, "  iso facing: %d agree, %d disagree, %zu holes, facing vote %.0f\n", agree, disagree,
+                   holes.size(), facing);
+    }
+    // The holes' long edges get points every `spacing`, so that hole and rim are sampled alike;
+    // the kept triangle on such an edge is replaced by a fan over them (the same plane).
+    const double spacing = 1.5 * h;
+    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> inserted;  // by cut edge a -> b
+    std::vector<std::vector<std::uint32_t>> dense(holes.size());
+    for (std::size_t a = 0; a < holes.size(); ++a) {
+      const std::vector<std::uint32_t>& p = holes[a];
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        const std::uint32_t u = p[i], w = p[(i + 1) % p.size()];
+        dense[a].push_back(u);
+        const dvec3 pu = mesh_.positions[u], pw = mesh_.positions[w];
+        const int m = static_cast<int>(std::ceil(glm::distance(pu, pw) / spacing)) - 1;
+        if (m <= 0) continue;
+        std::vector<std::uint32_t>& list = inserted[{u, w}];
+        for (int k = 1; k <= m; ++k) {
+          dvec3 q = pu + (pw - pu) * (static_cast<double>(k) / (m + 1));
+          if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+          const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+          patch.positions.push_back(q);
+          const std::uint32_t f = opposite_of(u, w);
+          patch.vertex_origin.push_back(f);
+          patch.vertex_closest.push_back(q);
+          list.push_back(id);
+          dense[a].push_back(id);
+        }
+      }
+    }
+    // The fans: each kept triangle on a split edge, its corners and points in its own order.
+    std::map<std::uint32_t, bool> fanned;
+    for (const auto& [edge, list] : inserted) {
+      const std::uint32_t f = opposite_of(edge.first, edge.second);
+      if (fanned[f]) continue;
+      fanned[f] = true;
+      const auto& t = mesh_.triangles[f];
+      std::vector<std::uint32_t> ring;
+      int split_edges = 0, last_split = 0;
+      for (int k = 0; k < 3; ++k) {
+        ring.push_back(t[k]);
+        // The kept triangle runs b -> a where the cut one runs a -> b: its points in reverse.
+        const auto it = inserted.find({t[(k + 1) % 3], t[k]});
+        if (it == inserted.end()) continue;
+        ++split_edges;
+        last_split = k;
+        ring.insert(ring.end(), it->second.rbegin(), it->second.rend());
+      }
+      patch.replaced.push_back(f);
+      if (split_edges == 1) {
+        const std::uint32_t apex = t[(last_split + 2) % 3];
+        const auto at = static_cast<std::size_t>(std::find(ring.begin(), ring.end(), apex) - ring.begin());
+        for (std::size_t k = 1; k + 1 < ring.size(); ++k)
+          patch.fans.push_back({{apex, ring[(at + k) % ring.size()], ring[(at + k + 1) % ring.size()]}, f});
+      } else {
+        dvec3 c(0.0);
+        for (const std::uint32_t v : t) c += mesh_.positions[v];
+        c /= 3.0;
+        if (options_.grid > 0) c = snap_to_grid(c, options_.grid);
+        const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+        patch.positions.push_back(c);
+        patch.vertex_origin.push_back(f);
+        patch.vertex_closest.push_back(c);
+        for (std::size_t k = 0; k < ring.size(); ++k) patch.fans.push_back({{id, ring[k], ring[(k + 1) % ring.size()]}, f});
+      }
+    }
+    // Strips between each hole (walked in the cut triangles' direction) and its rim (in its
+    // own), advancing on whichever is behind by length along the loop.
+    for (std::size_t a = 0; a < holes.size(); ++a) {
+      const std::vector<std::uint32_t>& p = dense[a];
+      const std::vector<std::uint32_t>& rim = rims[rim_of[a]];
+      std::size_t start = 0;
+      for (std::size_t b = 1; b < rim.size(); ++b) {
+        if (glm::distance(pos[rim[b]], at_pos(p[0])) < glm::distance(pos[rim[start]], at_pos(p[0]))) start = b;
+      }
+      auto P = [&](std::size_t i) { return at_pos(p[i % p.size()]); };
+      auto Q = [&](std::size_t j) { return pos[rim[(start + j) % rim.size()]]; };
+      auto q_index = [&](std::size_t j) { return add(rim[(start + j) % rim.size()]); };
+      std::vector<double> lp(p.size() + 1, 0.0), lq(rim.size() + 1, 0.0);
+      for (std::size_t i = 0; i < p.size(); ++i) lp[i + 1] = lp[i] + glm::distance(P(i), P(i + 1));
+      for (std::size_t j = 0; j < rim.size(); ++j) lq[j + 1] = lq[j] + glm::distance(Q(j), Q(j + 1));
+      if (std::getenv("SM_DEBUG_PATCH")) {
+        // mean distance between points at equal arc fractions, forward and reversed rim
+        double fwd = 0, rev = 0;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+          const double t = lp[i] / lp.back();
+          std::size_t j = 0;
+          while (j + 1 < rim.size() && lq[j + 1] / lq.back() < t) ++j;
+          fwd += glm::distance(P(i), Q(j));
+          std::size_t jr = 0;
+          while (jr + 1 < rim.size() && lq[jr + 1] / lq.back() < 1 - t) ++jr;
+          rev += glm::distance(P(i), Q(jr));
+        }
+        std::fprintf(stderr, "  loop %zu: fwd %.2f h rev %.2f h, length hole %.1f h rim %.1f h\n", a, fwd / p.size() / h,
+                     rev / p.size() / h, lp.back() / h, lq.back() / h);
+      }
+      std::size_t i = 0, j = 0;
+      while (i < p.size() || j < rim.size()) {
+        const bool advance_p = j == rim.size() || (i < p.size() && lp[i + 1] / lp.back() <= lq[j + 1] / lq.back());
+        if (advance_p) {
+          patch.triangles.push_back({p[i % p.size()], p[(i + 1) % p.size()], q_index(j)});
+          ++i;
+        } else {
+          patch.triangles.push_back({q_index(j), p[i % p.size()], q_index(j + 1)});
+          ++j;
+        }
+      }
+    }
+    if (std::getenv("SM_DEBUG_PATCH")) {
+      int agree = 0, disagree = 0;
+      double longest = 0;
+      for (std::size_t k = patch.surface_triangles; k < patch.triangles.size(); ++k) {
+        const auto& t = patch.triangles[k];
+        const dvec3 a = at_pos(t[0]), b = at_pos(t[1]), c = at_pos(t[2]);
+        longest = std::max({longest, glm::distance(a, b), glm::distance(b, c), glm::distance(c, a)});
+        // the hole vertex's own triangle normal (a cut triangle at it)
+        std::uint32_t o_f = kNone;
+        for (const std::uint32_t v : t) {
+          if (v < nv && o_f == kNone) o_f = vc_.corner[vc_.begin[v]] / 3;
+          if (v >= nv && o_f == kNone && patch.vertex_closest[v - nv] == patch.positions[v - nv]) o_f = patch.vertex_origin[v - nv];
+        }
+        if (o_f == kNone) continue;
+        const auto& o = mesh_.triangles[o_f];
+        (glm::dot(glm::cross(b - a, c - a), mesh_.face_normal(o)) > 0 ? agree : disagree)++;
+      }
+      std::fprintf(stderr, "  strips: %d agree, %d disagree, longest edge %.2f h, h %.5f, holes", agree, disagree,
+                   longest / h, h);
+      for (std::size_t a = 0; a < holes.size(); ++a) std::fprintf(stderr, " %zu/%zu", holes[a].size(), rims[rim_of[a]].size());
+      std::fprintf(stderr, "\n");
+    }
+    std::erase_if(patch.triangles, [&](const Mesh::Triangle& t) {
+      return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || at_pos(t[0]) == at_pos(t[1]) ||
+             at_pos(t[1]) == at_pos(t[2]) || at_pos(t[2]) == at_pos(t[0]);
+    });
+  }
+
+ private:
+  const Mesh& mesh_;
+  const VertexCorners& vc_;
+  std::span<const double> node_radius_;
+  const VolumePatchOptions& options_;
+  std::vector<std::uint32_t> opposite_;
+};
+
+glm::dvec3 barycentric_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
+  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
+  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1), den = d00 * d11 - d01 * d01;
+  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
+  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
+  return {1.0 - v - w, v, w};
+}
+
+// The mesh with the patches in `use` in place of their cut triangles; `first_new[p]` receives
+// the index of patch p's first triangle in the result (its triangles follow in order).
+Mesh assemble(const Mesh& mesh, const std::vector<Patch>& patches, const std::vector<std::uint8_t>& use,
+              std::vector<std::uint32_t>& origin, std::vector<std::uint32_t>& first_new) {
+  const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
+  const std::size_t nf = mesh.triangles.size();
+  std::vector<std::uint8_t> gone(nf, 0);
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    if (!use[p]) continue;
+    for (const std::uint32_t f : patches[p].cut) gone[f] = 1;
+    for (const std::uint32_t f : patches[p].replaced) gone[f] = 1;
+  }
+  Mesh out;
+  out.positions = mesh.positions;
+  const bool uvs = mesh.corner_uvs.size() == nf, branches = mesh.triangle_branch.size() == nf;
+  const bool nodes = mesh.vertex_node.size() == nv, strands = mesh.vertex_strand.size() == nv;
+  if (nodes) out.vertex_node = mesh.vertex_node;
+  if (strands) out.vertex_strand = mesh.vertex_strand;
+  origin.clear();
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (gone[f]) continue;
+    out.triangles.push_back(mesh.triangles[f]);
+    origin.push_back(f);
+    if (uvs) out.corner_uvs.push_back(mesh.corner_uvs[f]);
+  }
+  first_new.assign(patches.size(), kNone);
+  // A new triangle: `u` in the result's numbering, `t` in the patch's, `o` its origin.
+  auto add_triangle = [&](const Mesh::Triangle& u, const Mesh::Triangle& t, std::uint32_t o, const Patch& patch) {
+    out.triangles.push_back(u);
+    origin.push_back(o);
+    if (uvs) {
+      const auto& ot = mesh.triangles[o];
+      const auto& ouv = mesh.corner_uvs[o];
+      std::array<glm::vec2, 3> uv{};
+      for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 q = t[k] >= nv ? patch.vertex_closest[t[k] - nv] : mesh.positions[t[k]];
+        const glm::dvec3 w = barycentric_of(mesh.positions[ot[0]], mesh.positions[ot[1]], mesh.positions[ot[2]], q);
+        uv[k] = glm::vec2(w.x * glm::dvec2(ouv[0]) + w.y * glm::dvec2(ouv[1]) + w.z * glm::dvec2(ouv[2]));
+      }
+      out.corner_uvs.push_back(uv);
+    }
+  };
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    if (!use[p]) continue;
+    const Patch& patch = patches[p];
+    const auto base = static_cast<std::uint32_t>(out.positions.size());
+    out.positions.insert(out.positions.end(), patch.positions.begin(), patch.positions.end());
+    for (std::size_t k = 0; k < patch.positions.size(); ++k) {
+      const auto& t = mesh.triangles[patch.vertex_origin[k]];
+      int best = 0;
+      for (int c = 1; c < 3; ++c) {
+        if (glm::distance(mesh.positions[t[c]], patch.vertex_closest[k]) <
+            glm::distance(mesh.positions[t[best]], patch.vertex_closest[k]))
+          best = c;
+      }
+      if (nodes) out.vertex_node.push_back(mesh.vertex_node[t[best]]);
+      if (strands) out.vertex_strand.push_back(StrandId{});
+    }
+    first_new[p] = static_cast<std::uint32_t>(out.triangles.size());
+    for (const Mesh::Triangle& t : patch.triangles) {
+      Mesh::Triangle u = t;
+      for (std::uint32_t& v : u)
+        if (v >= nv) v = v - nv + base;
+      // The origin: the nearest mesh triangle of its first patch vertex (or of the cut).
+      std::uint32_t o = patch.cut.front();
+      for (const std::uint32_t v : t)
+        if (v >= nv) {
+          o = patch.vertex_origin[v - nv];
+          break;
+        }
+      add_triangle(u, t, o, patch);
+    }
+    for (const auto& [t, o] : patch.fans) {
+      Mesh::Triangle u = t;
+      for (std::uint32_t& v : u)
+        if (v >= nv) v = v - nv + base;
+      add_triangle(u, t, o, patch);
+    }
+  }
+  if (branches) {
+    out.triangle_branch.reserve(origin.size());
+    for (const std::uint32_t o : origin) out.triangle_branch.push_back(mesh.triangle_branch[o]);
+  }
+  if (!mesh.normals.empty()) out.normals = angle_weighted_normals(out);
+  return out;
+}
+
+}  // namespace
+
+VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs,
+                              std::span<const double> node_radius, std::span<const glm::dvec3> anchors,
+                              const VolumePatchOptions& options, std::vector<std::uint32_t>& origin) {
+  VolumePatchStats st;
+  origin.resize(mesh.triangles.size());
+  std::iota(origin.begin(), origin.end(), 0u);
+  if (pairs.empty()) return st;
+  const VertexCorners vc = vertex_corners(mesh);
+  const bool nodes = mesh.vertex_node.size() == mesh.positions.size();
+
+  // Clusters: the pairs' triangles joined by the pairs and by shared vertices.
+  std::vector<std::uint32_t> tris;
+  for (const auto& [f, g] : pairs) {
+    tris.push_back(f);
+    tris.push_back(g);
+  }
+  std::sort(tris.begin(), tris.end());
+  tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
+  auto slot = [&](std::uint32_t f) {
+    return static_cast<std::uint32_t>(std::lower_bound(tris.begin(), tris.end(), f) - tris.begin());
+  };
+  UnionFind dsu(tris.size());
+  for (const auto& [f, g] : pairs) dsu.unite(slot(f), slot(g));
+  {
+    std::unordered_map<std::uint32_t, std::uint32_t> by_vertex;
+    for (std::uint32_t s = 0; s < tris.size(); ++s) {
+      for (const std::uint32_t v : mesh.triangles[tris[s]]) {
+        const auto [it, fresh] = by_vertex.try_emplace(v, s);
+        if (!fresh) dsu.unite(s, it->second);
+      }
+    }
+  }
+  // Each cluster's region: its box grown by `reach` local radii; overlapping regions merge.
+  std::map<std::uint32_t, Patch> by_root;
+  for (std::uint32_t s = 0; s < tris.size(); ++s) {
+    Patch& p = by_root[dsu.find(s)];
+    for (const std::uint32_t v : mesh.triangles[tris[s]]) {
+      p.region.add(mesh.positions[v]);
+      const double r = nodes && mesh.vertex_node[v].valid() ? node_radius[mesh.vertex_node[v].idx()] : 0.0;
+      p.radius_max = std::max(p.radius_max, r);
+      if (r > 0) p.radius_min = p.radius_min > 0 ? std::min(p.radius_min, r) : r;
+    }
+  }
+  std::vector<Patch> patches;
+  for (auto& [root, p] : by_root) {
+    p.region = p.region.grown(options.reach * std::max(p.radius_max, 1e-4));
+    patches.push_back(std::move(p));
+  }
+  st.clusters = patches.size();
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t a = 0; a < patches.size() && !merged; ++a) {
+      for (std::size_t b = a + 1; b < patches.size(); ++b) {
+        if (!patches[a].region.overlaps(patches[b].region)) continue;
+        patches[a].region.add(patches[b].region);
+        patches[a].radius_max = std::max(patches[a].radius_max, patches[b].radius_max);
+        patches[a].radius_min = std::min(patches[a].radius_min, patches[b].radius_min);
+        patches.erase(patches.begin() + static_cast<std::ptrdiff_t>(b));
+        merged = true;
+        break;
+      }
+    }
+  }
+
+  const TriangleBins bins(mesh);
+  Builder builder(mesh, vc, node_radius, options);
+  builder.link();
+  std::vector<std::uint8_t> use(patches.size(), 0);
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    builder.build(patches[p], bins);
+    st.voxels += patches[p].voxels;
+    use[p] = patches[p].failure.empty();
+    if (!use[p] && st.first_failure.empty()) st.first_failure = patches[p].failure;
+    if (std::getenv("SM_DEBUG_PATCH"))
+      std::fprintf(stderr, "patch %zu: box %.3f %.3f %.3f .. %.3f %.3f %.3f rmax %.4f cut %zu voxels %zu: %s\n", p,
+                   patches[p].region.lo.x, patches[p].region.lo.y, patches[p].region.lo.z, patches[p].region.hi.x,
+                   patches[p].region.hi.y, patches[p].region.hi.z, patches[p].radius_max, patches[p].cut.size(),
+                   patches[p].voxels, patches[p].failure.empty() ? "built" : patches[p].failure.c_str());
+  }
+
+  // Keep the patches that make no crossing, close up, and keep every anchor inside that was.
+  std::vector<std::uint8_t> was_inside = inside_closed_mesh(mesh, anchors);
+  Mesh out;
+  std::vector<std::uint32_t> first_new;
+  for (int round = 0; round < 3; ++round) {
+    if (std::none_of(use.begin(), use.end(), [](std::uint8_t u) { return u != 0; })) break;
+    out = assemble(mesh, patches, use, origin, first_new);
+    std::vector<std::uint32_t> fresh;
+    std::vector<std::uint32_t> patch_of(out.triangles.size(), kNone);
+    for (std::size_t p = 0; p < patches.size(); ++p) {
+      if (!use[p]) continue;
+      for (std::uint32_t f = first_new[p]; f < first_new[p] + patches[p].triangles.size() + patches[p].fans.size(); ++f) {
+        fresh.push_back(f);
+        patch_of[f] = static_cast<std::uint32_t>(p);
+      }
+    }
+    if (const char* dump = std::getenv("SM_DUMP_PATCH"); dump && round == 0) {
+      const std::uint32_t want = static_cast<std::uint32_t>(std::atoi(dump));
+      if (want < patches.size() && use[want]) {
+        FILE* fo = std::fopen("/tmp/patch.obj", "w");
+        const Box show = patches[want].region.grown(patches[want].radius_max);
+        for (const auto& q : out.positions) std::fprintf(fo, "v %.6f %.6f %.6f\n", q.x, q.y, q.z);
+        const char* names[] = {"kept", "surface", "strip", "fan"};
+        for (int g = 0; g < 4; ++g) {
+          std::fprintf(fo, "o %s\n", names[g]);
+          for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+            int kind = 0;
+            if (patch_of[f] == want) {
+              const std::size_t k = f - first_new[want];
+              kind = k < patches[want].surface_triangles ? 1 : (k < patches[want].triangles.size() ? 2 : 3);
+            } else if (patch_of[f] != kNone) {
+              continue;
+            }
+            if (kind != g) continue;
+            const auto& t = out.triangles[f];
+            if (g == 0 && !(show.contains(out.positions[t[0]]) || show.contains(out.positions[t[1]]))) continue;
+            std::fprintf(fo, "f %u %u %u\n", t[0] + 1, t[1] + 1, t[2] + 1);
+          }
+        }
+        std::fclose(fo);
+      }
+    }
+    bool changed = false;
+    auto reject = [&](std::uint32_t p, const char* why) {
+      if (p == kNone || !use[p]) return;
+      use[p] = 0;
+      changed = true;
+      if (std::getenv("SM_DEBUG_PATCH")) std::fprintf(stderr, "patch %u rejected: %s\n", p, why);
+      if (st.first_failure.empty()) st.first_failure = why;
+    };
+    // Every half-edge of a patch triangle has exactly one twin.
+    const VertexCorners ovc = vertex_corners(out);
+    for (const std::uint32_t f : fresh) {
+      const auto& t = out.triangles[f];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+        int twins = 0, same = 0;
+        for (std::uint32_t c = ovc.begin[a]; c < ovc.begin[a + 1]; ++c) {
+          const auto& u = out.triangles[ovc.corner[c] / 3];
+          const std::uint32_t kk = ovc.corner[c] % 3;
+          same += u[(kk + 1) % 3] == b;
+          twins += u[(kk + 2) % 3] == b;
+        }
+        if (twins != 1 || same != 1) {
+          if (std::getenv("SM_DEBUG_PATCH"))
+            std::fprintf(stderr, "  patch %u open: tri %u (%s) edge %u-%u twins %d same %d\n", patch_of[f], f,
+                         f - first_new[patch_of[f]] < patches[patch_of[f]].surface_triangles ? "surface" : "strip", a, b,
+                         twins, same);
+          reject(patch_of[f], "the patch does not close up");
+        }
+      }
+    }
+    for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {
+      if (std::getenv("SM_DEBUG_PATCH")) {
+        auto kind = [&](std::uint32_t x) {
+          if (patch_of[x] == kNone) return std::string("old");
+          const std::size_t k = x - first_new[patch_of[x]];
+          return std::to_string(patch_of[x]) + (k < patches[patch_of[x]].surface_triangles ? ":surface" : ":strip");
+        };
+        const glm::dvec3 c = out.positions[out.triangles[f][0]];
+        std::fprintf(stderr, "  pair %s x %s at %.3f %.3f %.3f\n", kind(f).c_str(), kind(g).c_str(), c.x, c.y, c.z);
+      }
+      reject(patch_of[f], "the patch would make a crossing");
+      reject(patch_of[g], "the patch would make a crossing");
+    }
+    if (!changed) {
+      const std::vector<std::uint8_t> inside = inside_closed_mesh(out, anchors);
+      for (std::size_t a = 0; a < anchors.size(); ++a) {
+        if (!was_inside[a] || inside[a]) continue;
+        // The patch whose region holds the anchor lost it.
+        for (std::size_t p = 0; p < patches.size(); ++p)
+          if (use[p] && patches[p].region.grown(patches[p].radius_max).contains(anchors[a]))
+            reject(static_cast<std::uint32_t>(p), "the patch leaves a skeleton node outside");
+      }
+    }
+    if (!changed) {
+      for (std::size_t p = 0; p < patches.size(); ++p) {
+        if (!use[p]) continue;
+        ++st.patched;
+        st.removed_triangles += patches[p].cut.size();
+        st.new_triangles += patches[p].triangles.size() + patches[p].fans.size();
+      }
+      mesh = std::move(out);
+      return st;
+    }
+  }
+  origin.resize(mesh.triangles.size());
+  std::iota(origin.begin(), origin.end(), 0u);
+  return st;
+}
+
+}  // namespace sm
