@@ -170,64 +170,67 @@ class Builder {
 
   void build(Patch& patch, const TriangleBins& bins) {
     const Box& region = patch.region;
-    // The cut: triangles wholly inside the region.
-    const std::vector<std::uint32_t> near = bins.near(region);
-    for (const std::uint32_t f : near) {
-      const auto& t = mesh_.triangles[f];
-      if (region.contains(mesh_.positions[t[0]]) && region.contains(mesh_.positions[t[1]]) &&
-          region.contains(mesh_.positions[t[2]]))
-        patch.cut.push_back(f);
-    }
-    std::unordered_map<std::uint32_t, bool> cut_set;
-    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
-    // The hole's loops, in the orientation of the cut triangles.
+    // The cut: the surface inside the region's box is replaced. phi < 0 inside the box; the
+    // triangles across its faces are split where phi, interpolated along their edges, is 0,
+    // and the patch is split there too, so that both end on the same curves.
+    const dvec3 mid = 0.5 * (region.lo + region.hi), half = 0.5 * (region.hi - region.lo);
+    auto phi = [&](const dvec3& p) {
+      const dvec3 d = glm::abs(p - mid) - half;
+      return std::max({d.x, d.y, d.z});
+    };
+    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
+    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mesh_cut_point;
+    auto cut_point = [&](std::uint32_t u, std::uint32_t w, std::uint32_t f) {
+      const auto key = std::make_pair(std::min(u, w), std::max(u, w));
+      if (const auto it = mesh_cut_point.find(key); it != mesh_cut_point.end()) return it->second;
+      const dvec3 pu = mesh_.positions[key.first], pw = mesh_.positions[key.second];
+      const double fu = phi(pu), fw = phi(pw);
+      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
+      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+      patch.positions.push_back(q);
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(q);
+      mesh_cut_point.emplace(key, id);
+      return id;
+    };
+    // Hole edges in the direction the patch must run along them (against the kept part's).
     std::vector<std::array<std::uint32_t, 2>> hole_edges;
-    double rmin = std::numeric_limits<double>::max();
-    for (const std::uint32_t f : patch.cut) {
+    for (const std::uint32_t f : bins.near(region.grown(1e-9))) {
       const auto& t = mesh_.triangles[f];
-      for (int k = 0; k < 3; ++k) {
-        const std::uint32_t g = opposite_[3 * f + k];
-        if (g == kNone) {
-          patch.failure = "an open edge in the region";
-          return;
-        }
-        if (!cut_set.contains(g)) hole_edges.push_back({t[k], t[(k + 1) % 3]});
+      const bool in[3] = {phi(mesh_.positions[t[0]]) < 0, phi(mesh_.positions[t[1]]) < 0, phi(mesh_.positions[t[2]]) < 0};
+      const int count = in[0] + in[1] + in[2];
+      if (count == 0) continue;
+      if (count == 3) {
+        patch.cut.push_back(f);
+        continue;
+      }
+      patch.replaced.push_back(f);
+      // Rotate so that corner 0 is the odd one out.
+      int o = 0;
+      for (int k = 0; k < 3; ++k)
+        if ((count == 1) == in[k]) o = k;
+      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
+      const std::uint32_t ab = cut_point(a, b, f), ca = cut_point(c, a, f);
+      if (count == 2) {  // a outside: the kept part is the triangle at a
+        patch.fans.push_back({{a, ab, ca}, f});
+        hole_edges.push_back({ca, ab});
+      } else {  // a inside: the kept part is the quad b, c, ca, ab
+        patch.fans.push_back({{ab, b, c}, f});
+        patch.fans.push_back({{ab, c, ca}, f});
+        hole_edges.push_back({ab, ca});
       }
     }
+    std::sort(patch.cut.begin(), patch.cut.end());
     std::vector<std::vector<std::uint32_t>> holes;
-    // Where the boundary passes a vertex twice, the cut gives up the triangles there.
-    for (int round = 0; round < 8; ++round) {
-      std::map<std::uint32_t, int> leaving;
-      for (const auto& e : hole_edges) ++leaving[e[0]];
-      std::vector<std::uint32_t> pinched;
-      for (const auto& [v, c] : leaving)
-        if (c > 1) pinched.push_back(v);
-      if (pinched.empty()) break;
-      std::erase_if(patch.cut, [&](std::uint32_t f) {
-        const auto& t = mesh_.triangles[f];
-        return std::any_of(pinched.begin(), pinched.end(),
-                           [&](std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; });
-      });
-      cut_set.clear();
-      for (const std::uint32_t f : patch.cut) cut_set[f] = true;
-      hole_edges.clear();
-      for (const std::uint32_t f : patch.cut) {
-        const auto& t = mesh_.triangles[f];
-        for (int k = 0; k < 3; ++k)
-          if (!cut_set.contains(opposite_[3 * f + k])) hole_edges.push_back({t[k], t[(k + 1) % 3]});
-      }
-    }
-    if (patch.cut.empty()) {
-      patch.failure = "the region holds no whole triangle";
-      return;
-    }
     if (!boundary_loops(hole_edges, holes)) {
-      patch.failure = "the region's boundary touches itself";
+      patch.failure = "the region's boundary crosses the surface in touching loops";
       return;
     }
     // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
     // the grid leave a hole without a rim, and the patch is not made).
-    rmin = std::max(patch.radius_min, 1e-5);
+    const double rmin = std::max(patch.radius_min, 1e-5);
 
     // The grid: the region and a margin of three voxels.
     double h = rmin / options_.voxels_per_radius;
@@ -261,7 +264,7 @@ class Builder {
       if (!tb.overlaps(grid_box)) continue;
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
-      const bool kept = !cut_set.contains(f);
+      const bool kept = true;
       for (int k = lo.z; k <= hi.z; ++k)
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) {
@@ -335,8 +338,8 @@ class Builder {
             for (const auto& d : di) {
               const int a = i + d[0], b = j + d[1], c = k + d[2];
               if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
-              const std::int32_t w = comp[at(a, b, c)];
-              next_to_outside = next_to_outside || (w >= 0 && !solid[w]);
+              const std::int32_t other = comp[at(a, b, c)];
+              next_to_outside = next_to_outside || (other >= 0 && !solid[other]);
             }
             if (next_to_outside) {
               const auto& t = mesh_.triangles[nearest[v]];
@@ -399,125 +402,7 @@ class Builder {
     if (facing < 0)
       for (auto& t : iso) std::swap(t[1], t[2]);
 
-    // Cut back to the cut: keep the triangles whose vertices lie nearest a cut triangle, a
-    // little away from the kept surface, so that the rim runs along the hole.
-    const double gap = 0.75 * h;
-    std::vector<std::uint8_t> keep_vertex(pos.size(), 0);
-    for (std::size_t i = 0; i < pos.size(); ++i) {
-      const std::size_t v = voxel_of(pos[i]);
-      keep_vertex[i] = region.contains(pos[i]) && nearest[v] != kNone && cut_set.contains(nearest[v]) &&
-                       dist_kept[v] > gap;
-    }
-    std::vector<std::uint8_t> keep(iso.size(), 0);
-    for (std::size_t f = 0; f < iso.size(); ++f)
-      keep[f] = keep_vertex[iso[f][0]] && keep_vertex[iso[f][1]] && keep_vertex[iso[f][2]];
-    // The rim smoothed on the grid's scale: notches filled, ears dropped.
-    {
-      std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> by_edge;
-      for (std::uint32_t f = 0; f < iso.size(); ++f)
-        for (int k = 0; k < 3; ++k) by_edge[{iso[f][k], iso[f][(k + 1) % 3]}] = f;
-      std::vector<std::array<std::uint32_t, 3>> nb(iso.size());
-      for (std::uint32_t f = 0; f < iso.size(); ++f)
-        for (int k = 0; k < 3; ++k) {
-          const auto it = by_edge.find({iso[f][(k + 1) % 3], iso[f][k]});
-          nb[f][k] = it == by_edge.end() ? kNone : it->second;
-        }
-      for (int round = 0; round < 3; ++round) {
-        std::vector<std::uint8_t> next = keep;
-        for (std::uint32_t f = 0; f < iso.size(); ++f) {
-          int kept_nb = 0;
-          for (const std::uint32_t g : nb[f]) kept_nb += g != kNone && keep[g];
-          const bool inside_region = region.contains(pos[iso[f][0]]) && region.contains(pos[iso[f][1]]) &&
-                                     region.contains(pos[iso[f][2]]);
-          if (!keep[f] && kept_nb >= 2 && inside_region) next[f] = 1;
-          if (keep[f] && kept_nb <= 1) next[f] = 0;
-        }
-        keep = std::move(next);
-      }
-    }
-    std::vector<Mesh::Triangle> kept;
-    for (std::size_t f = 0; f < iso.size(); ++f)
-      if (keep[f]) kept.push_back(iso[f]);
-    // The kept triangles' boundary; where it passes a vertex twice (a neck of the cut), the
-    // triangles at that vertex go too.
-    std::vector<std::array<std::uint32_t, 2>> iso_edges;
-    for (int round = 0;; ++round) {
-      std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_count;
-      for (const auto& t : kept)
-        for (int k = 0; k < 3; ++k) ++edge_count[{t[k], t[(k + 1) % 3]}];
-      iso_edges.clear();
-      std::map<std::uint32_t, int> leaving;
-      for (const auto& [e, c] : edge_count) {
-        if (c > 1) {
-          patch.failure = "the volume's surface is not a manifold";
-          return;
-        }
-        if (!edge_count.contains({e.second, e.first})) {
-          iso_edges.push_back({e.first, e.second});
-          ++leaving[e.first];
-        }
-      }
-      std::vector<std::uint8_t> pinched(pos.size(), 0);
-      bool any = false;
-      for (const auto& [v, c] : leaving) {
-        if (c > 1) pinched[v] = 1, any = true;
-      }
-      if (!any || round == 8) break;
-      std::erase_if(kept, [&](const Mesh::Triangle& t) { return pinched[t[0]] || pinched[t[1]] || pinched[t[2]]; });
-    }
-    UnionFind parts(pos.size());
-    for (const auto& t : kept) {
-      parts.unite(t[0], t[1]);
-      parts.unite(t[1], t[2]);
-    }
-    std::vector<std::uint8_t> open_part(pos.size(), 0);
-    for (const auto& e : iso_edges) open_part[parts.find(e[0])] = 1;
-    std::erase_if(kept, [&](const Mesh::Triangle& t) { return !open_part[parts.find(t[0])]; });
-    std::vector<std::vector<std::uint32_t>> rims;
-    if (!boundary_loops(iso_edges, rims)) {
-      patch.failure = "the volume's surface touches itself at its rim";
-      return;
-    }
-    // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
-    // whose rims meet no hole (bits of branches passing the region's edge) are dropped.
-    std::vector<std::size_t> rim_of(holes.size(), kNone);
-    std::vector<std::uint8_t> rim_used(rims.size(), 0);
-    auto drop_unmatched = [&] {
-      std::vector<std::uint8_t> matched_part(pos.size(), 0);
-      for (std::size_t b = 0; b < rims.size(); ++b)
-        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
-      for (std::size_t b = 0; b < rims.size(); ++b)
-        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) return false;
-      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
-      return true;
-    };
-    for (std::size_t a = 0; a < holes.size(); ++a) {
-      double best = std::numeric_limits<double>::max();
-      for (std::size_t b = 0; b < rims.size(); ++b) {
-        double sum = 0;
-        for (const std::uint32_t v : holes[a]) {
-          double d = std::numeric_limits<double>::max();
-          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(mesh_.positions[v], pos[u]));
-          sum += d;
-        }
-        if (sum / holes[a].size() < best) {
-          best = sum / holes[a].size();
-          rim_of[a] = b;
-        }
-      }
-      if (rim_used[rim_of[a]] || best > 4 * h) {
-        patch.failure = "a hole has no rim of its own near it";
-        return;
-      }
-      rim_used[rim_of[a]] = 1;
-    }
-    if (!drop_unmatched()) {
-      patch.failure = "a part of the volume's surface has a rim that meets no hole";
-      return;
-    }
-
-    // The patch's vertices: those of the kept triangles, renumbered after the mesh's.
-    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
+    // The patch: the volume's surface inside the box, split along phi = 0 like the mesh.
     std::vector<std::uint32_t> index(pos.size(), kNone);
     auto add = [&](std::uint32_t u) {
       if (index[u] != kNone) return index[u];
@@ -525,102 +410,123 @@ class Builder {
       const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
       patch.positions.push_back(p);
       std::uint32_t f = nearest[voxel_of(pos[u])];
-      if (f == kNone) f = patch.cut.front();
+      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
       const auto& t = mesh_.triangles[f];
       patch.vertex_origin.push_back(f);
       patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
                                                          mesh_.positions[t[2]]));
       return index[u];
     };
-    for (const auto& t : kept) patch.triangles.push_back({add(t[0]), add(t[1]), add(t[2])});
-    patch.surface_triangles = patch.triangles.size();
-    if (std::getenv("SM_DEBUG_PATCH")) {
-      int agree = 0, disagree = 0;
-      for (const auto& t : patch.triangles) {
-        const dvec3 a = patch.positions[t[0] - nv], b = patch.positions[t[1] - nv], c = patch.positions[t[2] - nv];
-        const auto& o = mesh_.triangles[patch.vertex_origin[t[0] - nv]];
-        const double d = glm::dot(glm::cross(b - a, c - a), mesh_.face_normal(o));
-        (d > 0 ? agree : disagree)++;
+    // The patch ends inside the box by `inset`, so that its rim and the hole lie apart (two
+    // curves on one face would cross each other) and the strip between them is a short tube.
+    const double inset = 1.5 * h;
+    auto phi_in = [&](const dvec3& p) { return phi(p) + inset; };
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
+    auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
+      const auto key = std::make_pair(std::min(u, x), std::max(u, x));
+      if (const auto it = iso_cut_point.find(key); it != iso_cut_point.end()) return it->second;
+      const dvec3 pu = pos[key.first], pw = pos[key.second];
+      const double fu = phi_in(pu), fw = phi_in(pw);
+      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
+      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+      patch.positions.push_back(q);
+      std::uint32_t f = nearest[voxel_of(q)];
+      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
+      const auto& t = mesh_.triangles[f];
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(
+          closest_on_triangle(q, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
+      iso_cut_point.emplace(key, id);
+      return id;
+    };
+    std::vector<std::uint8_t> inside(pos.size());
+    for (std::size_t i = 0; i < pos.size(); ++i) inside[i] = phi_in(pos[i]) < 0;
+    std::vector<Mesh::Triangle> kept;  // in patch numbering
+    std::vector<std::array<std::uint32_t, 2>> rim_edges;
+    for (const auto& t : iso) {
+      const int corners_in = inside[t[0]] + inside[t[1]] + inside[t[2]];
+      if (corners_in == 0) continue;
+      if (corners_in == 3) {
+        kept.push_back({add(t[0]), add(t[1]), add(t[2])});
+        continue;
       }
-      std::fprintf(stderr, "  iso facing: %d agree, %d disagree, %zu holes, facing vote %.0f\n", agree, disagree,
-                   holes.size(), facing);
+      int o = 0;
+      for (int k = 0; k < 3; ++k)
+        if ((corners_in == 1) == static_cast<bool>(inside[t[k]])) o = k;
+      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
+      const std::uint32_t ab = iso_cut(a, b), ca = iso_cut(c, a);
+      if (corners_in == 1) {  // a inside
+        kept.push_back({add(a), ab, ca});
+        rim_edges.push_back({ab, ca});
+      } else {  // a outside: the quad b, c, ca, ab
+        kept.push_back({ab, add(b), add(c)});
+        kept.push_back({ab, add(c), ca});
+        rim_edges.push_back({ca, ab});
+      }
     }
-    // The holes' long edges get points every `spacing`, so that hole and rim are sampled alike;
-    // the kept triangle on such an edge is replaced by a fan over them (the same plane).
-    const double spacing = 1.5 * h;
-    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
-    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> inserted;  // by cut edge a -> b
-    std::vector<std::vector<std::uint32_t>> dense(holes.size());
+    // Parts of the patch without a rim (lumps inside the box) are dropped.
+    const std::size_t np = nv + patch.positions.size();
+    UnionFind parts(np);
+    for (const auto& t : kept) {
+      parts.unite(t[0], t[1]);
+      parts.unite(t[1], t[2]);
+    }
+    std::vector<std::vector<std::uint32_t>> rims;
+    if (!boundary_loops(rim_edges, rims)) {
+      patch.failure = "the volume's surface crosses the box in touching loops";
+      return;
+    }
+    // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
+    // whose rims meet no hole (bits of branches passing the box's edge) are dropped.
+    std::vector<std::size_t> rim_of(holes.size(), kNone);
+    std::vector<std::uint8_t> rim_used(rims.size(), 0);
     for (std::size_t a = 0; a < holes.size(); ++a) {
-      const std::vector<std::uint32_t>& p = holes[a];
-      for (std::size_t i = 0; i < p.size(); ++i) {
-        const std::uint32_t u = p[i], w = p[(i + 1) % p.size()];
-        dense[a].push_back(u);
-        const dvec3 pu = mesh_.positions[u], pw = mesh_.positions[w];
-        const int m = static_cast<int>(std::ceil(glm::distance(pu, pw) / spacing)) - 1;
-        if (m <= 0) continue;
-        std::vector<std::uint32_t>& list = inserted[{u, w}];
-        for (int k = 1; k <= m; ++k) {
-          dvec3 q = pu + (pw - pu) * (static_cast<double>(k) / (m + 1));
-          if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
-          const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
-          patch.positions.push_back(q);
-          const std::uint32_t f = opposite_of(u, w);
-          patch.vertex_origin.push_back(f);
-          patch.vertex_closest.push_back(q);
-          list.push_back(id);
-          dense[a].push_back(id);
+      double best = std::numeric_limits<double>::max();
+      for (std::size_t b = 0; b < rims.size(); ++b) {
+        double sum = 0;
+        for (const std::uint32_t v : holes[a]) {
+          double d = std::numeric_limits<double>::max();
+          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(at_pos(v), at_pos(u)));
+          sum += d;
+        }
+        if (sum / holes[a].size() < best) {
+          best = sum / holes[a].size();
+          rim_of[a] = b;
         }
       }
-    }
-    // The fans: each kept triangle on a split edge, its corners and points in its own order.
-    std::map<std::uint32_t, bool> fanned;
-    for (const auto& [edge, list] : inserted) {
-      const std::uint32_t f = opposite_of(edge.first, edge.second);
-      if (fanned[f]) continue;
-      fanned[f] = true;
-      const auto& t = mesh_.triangles[f];
-      std::vector<std::uint32_t> ring;
-      int split_edges = 0, last_split = 0;
-      for (int k = 0; k < 3; ++k) {
-        ring.push_back(t[k]);
-        // The kept triangle runs b -> a where the cut one runs a -> b: its points in reverse.
-        const auto it = inserted.find({t[(k + 1) % 3], t[k]});
-        if (it == inserted.end()) continue;
-        ++split_edges;
-        last_split = k;
-        ring.insert(ring.end(), it->second.rbegin(), it->second.rend());
+      if (rim_of[a] == kNone || rim_used[rim_of[a]] || best > 2 * inset + h) {
+        patch.failure = "a hole has no rim of its own near it";
+        return;
       }
-      patch.replaced.push_back(f);
-      if (split_edges == 1) {
-        const std::uint32_t apex = t[(last_split + 2) % 3];
-        const auto at = static_cast<std::size_t>(std::find(ring.begin(), ring.end(), apex) - ring.begin());
-        for (std::size_t k = 1; k + 1 < ring.size(); ++k)
-          patch.fans.push_back({{apex, ring[(at + k) % ring.size()], ring[(at + k + 1) % ring.size()]}, f});
-      } else {
-        dvec3 c(0.0);
-        for (const std::uint32_t v : t) c += mesh_.positions[v];
-        c /= 3.0;
-        if (options_.grid > 0) c = snap_to_grid(c, options_.grid);
-        const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
-        patch.positions.push_back(c);
-        patch.vertex_origin.push_back(f);
-        patch.vertex_closest.push_back(c);
-        for (std::size_t k = 0; k < ring.size(); ++k) patch.fans.push_back({{id, ring[k], ring[(k + 1) % ring.size()]}, f});
-      }
+      rim_used[rim_of[a]] = 1;
     }
+    {
+      std::vector<std::uint8_t> matched_part(np, 0);
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
+      for (std::size_t b = 0; b < rims.size(); ++b) {
+        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) {
+          patch.failure = "a part of the volume's surface has a rim that meets no hole";
+          return;
+        }
+      }
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+    }
+    patch.triangles = kept;
+    patch.surface_triangles = patch.triangles.size();
     // Strips between each hole (walked in the cut triangles' direction) and its rim (in its
     // own), advancing on whichever is behind by length along the loop.
     for (std::size_t a = 0; a < holes.size(); ++a) {
-      const std::vector<std::uint32_t>& p = dense[a];
+      const std::vector<std::uint32_t>& p = holes[a];
       const std::vector<std::uint32_t>& rim = rims[rim_of[a]];
       std::size_t start = 0;
       for (std::size_t b = 1; b < rim.size(); ++b) {
-        if (glm::distance(pos[rim[b]], at_pos(p[0])) < glm::distance(pos[rim[start]], at_pos(p[0]))) start = b;
+        if (glm::distance(at_pos(rim[b]), at_pos(p[0])) < glm::distance(at_pos(rim[start]), at_pos(p[0]))) start = b;
       }
       auto P = [&](std::size_t i) { return at_pos(p[i % p.size()]); };
-      auto Q = [&](std::size_t j) { return pos[rim[(start + j) % rim.size()]]; };
-      auto q_index = [&](std::size_t j) { return add(rim[(start + j) % rim.size()]); };
+      auto Q = [&](std::size_t j) { return at_pos(rim[(start + j) % rim.size()]); };
+      auto q_index = [&](std::size_t j) { return rim[(start + j) % rim.size()]; };
       std::vector<double> lp(p.size() + 1, 0.0), lq(rim.size() + 1, 0.0);
       for (std::size_t i = 0; i < p.size(); ++i) lp[i + 1] = lp[i] + glm::distance(P(i), P(i + 1));
       for (std::size_t j = 0; j < rim.size(); ++j) lq[j + 1] = lq[j] + glm::distance(Q(j), Q(j + 1));
@@ -760,7 +666,7 @@ Mesh assemble(const Mesh& mesh, const std::vector<Patch>& patches, const std::ve
       for (std::uint32_t& v : u)
         if (v >= nv) v = v - nv + base;
       // The origin: the nearest mesh triangle of its first patch vertex (or of the cut).
-      std::uint32_t o = patch.cut.front();
+      std::uint32_t o = patch.vertex_origin.front();
       for (const std::uint32_t v : t)
         if (v >= nv) {
           o = patch.vertex_origin[v - nv];
