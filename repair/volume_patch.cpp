@@ -419,7 +419,7 @@ class Builder {
     };
     // The patch ends inside the box by `inset`, so that its rim and the hole lie apart (two
     // curves on one face would cross each other) and the strip between them is a short tube.
-    const double inset = 1.5 * h;
+    const double inset = 3.0 * h;
     auto phi_in = [&](const dvec3& p) { return phi(p) + inset; };
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
     auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
