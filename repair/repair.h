@@ -71,7 +71,7 @@ struct RepairParams {
   double fold_max_move = 0.25;
   /// Step 6: replace the surface around pairs the union left by a patch drawn from a voxel
   /// grid of the solid there (repair/volume_patch.h).
-  bool volume_patch = false;
+  bool volume_patch = true;
   /// Voxels per thinnest local radius of those patches.
   double patch_voxels_per_radius = 6;
   /// A patch's region: the pairs' box grown by this many local radii.

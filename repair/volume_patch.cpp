@@ -170,67 +170,65 @@ class Builder {
 
   void build(Patch& patch, const TriangleBins& bins) {
     const Box& region = patch.region;
-    // The cut: the surface inside the region's box is replaced. phi < 0 inside the box; the
-    // triangles across its faces are split where phi, interpolated along their edges, is 0,
-    // and the patch is split there too, so that both end on the same curves.
-    const dvec3 mid = 0.5 * (region.lo + region.hi), half = 0.5 * (region.hi - region.lo);
-    auto phi = [&](const dvec3& p) {
-      const dvec3 d = glm::abs(p - mid) - half;
-      return std::max({d.x, d.y, d.z});
-    };
-    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
-    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
-    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mesh_cut_point;
-    auto cut_point = [&](std::uint32_t u, std::uint32_t w, std::uint32_t f) {
-      const auto key = std::make_pair(std::min(u, w), std::max(u, w));
-      if (const auto it = mesh_cut_point.find(key); it != mesh_cut_point.end()) return it->second;
-      const dvec3 pu = mesh_.positions[key.first], pw = mesh_.positions[key.second];
-      const double fu = phi(pu), fw = phi(pw);
-      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
-      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
-      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
-      patch.positions.push_back(q);
-      patch.vertex_origin.push_back(f);
-      patch.vertex_closest.push_back(q);
-      mesh_cut_point.emplace(key, id);
-      return id;
-    };
-    // Hole edges in the direction the patch must run along them (against the kept part's).
-    std::vector<std::array<std::uint32_t, 2>> hole_edges;
-    for (const std::uint32_t f : bins.near(region.grown(1e-9))) {
+    // The cut: triangles wholly inside the region.
+    const std::vector<std::uint32_t> near = bins.near(region);
+    for (const std::uint32_t f : near) {
       const auto& t = mesh_.triangles[f];
-      const bool in[3] = {phi(mesh_.positions[t[0]]) < 0, phi(mesh_.positions[t[1]]) < 0, phi(mesh_.positions[t[2]]) < 0};
-      const int count = in[0] + in[1] + in[2];
-      if (count == 0) continue;
-      if (count == 3) {
+      if (region.contains(mesh_.positions[t[0]]) && region.contains(mesh_.positions[t[1]]) &&
+          region.contains(mesh_.positions[t[2]]))
         patch.cut.push_back(f);
-        continue;
-      }
-      patch.replaced.push_back(f);
-      // Rotate so that corner 0 is the odd one out.
-      int o = 0;
-      for (int k = 0; k < 3; ++k)
-        if ((count == 1) == in[k]) o = k;
-      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
-      const std::uint32_t ab = cut_point(a, b, f), ca = cut_point(c, a, f);
-      if (count == 2) {  // a outside: the kept part is the triangle at a
-        patch.fans.push_back({{a, ab, ca}, f});
-        hole_edges.push_back({ca, ab});
-      } else {  // a inside: the kept part is the quad b, c, ca, ab
-        patch.fans.push_back({{ab, b, c}, f});
-        patch.fans.push_back({{ab, c, ca}, f});
-        hole_edges.push_back({ab, ca});
+    }
+    std::unordered_map<std::uint32_t, bool> cut_set;
+    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
+    // The hole's loops, in the orientation of the cut triangles.
+    std::vector<std::array<std::uint32_t, 2>> hole_edges;
+    for (const std::uint32_t f : patch.cut) {
+      const auto& t = mesh_.triangles[f];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t g = opposite_[3 * f + k];
+        if (g == kNone) {
+          patch.failure = "an open edge in the region";
+          return;
+        }
+        if (!cut_set.contains(g)) hole_edges.push_back({t[k], t[(k + 1) % 3]});
       }
     }
-    std::sort(patch.cut.begin(), patch.cut.end());
     std::vector<std::vector<std::uint32_t>> holes;
+    // Where the boundary passes a vertex twice, the cut gives up the triangles there.
+    for (int round = 0; round < 8; ++round) {
+      std::map<std::uint32_t, int> leaving;
+      for (const auto& e : hole_edges) ++leaving[e[0]];
+      std::vector<std::uint32_t> pinched;
+      for (const auto& [v, c] : leaving)
+        if (c > 1) pinched.push_back(v);
+      if (pinched.empty()) break;
+      std::erase_if(patch.cut, [&](std::uint32_t f) {
+        const auto& t = mesh_.triangles[f];
+        return std::any_of(pinched.begin(), pinched.end(),
+                           [&](std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; });
+      });
+      cut_set.clear();
+      for (const std::uint32_t f : patch.cut) cut_set[f] = true;
+      hole_edges.clear();
+      for (const std::uint32_t f : patch.cut) {
+        const auto& t = mesh_.triangles[f];
+        for (int k = 0; k < 3; ++k)
+          if (!cut_set.contains(opposite_[3 * f + k])) hole_edges.push_back({t[k], t[(k + 1) % 3]});
+      }
+    }
+    if (patch.cut.empty()) {
+      patch.failure = "the region holds no whole triangle";
+      return;
+    }
     if (!boundary_loops(hole_edges, holes)) {
-      patch.failure = "the region's boundary crosses the surface in touching loops";
+      patch.failure = "the region's boundary touches itself";
       return;
     }
     // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
     // the grid leave a hole without a rim, and the patch is not made).
     const double rmin = std::max(patch.radius_min, 1e-5);
+    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
+    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
 
     // The grid: the region and a margin of three voxels.
     double h = rmin / options_.voxels_per_radius;
@@ -253,6 +251,7 @@ class Builder {
     std::vector<float> dist(nvox, static_cast<float>(band)), dist_kept(nvox, static_cast<float>(band));
     std::vector<std::uint32_t> nearest(nvox, kNone);
     Box grid_box{origin, origin + h * dvec3(n - glm::ivec3(1))};
+    std::vector<std::uint32_t> local;  // triangles reaching into the grid
     for (const std::uint32_t f : bins.near(grid_box)) {
       const auto& t = mesh_.triangles[f];
       const dvec3 &a = mesh_.positions[t[0]], &b = mesh_.positions[t[1]], &c = mesh_.positions[t[2]];
@@ -262,9 +261,10 @@ class Builder {
       tb.add(c);
       tb = tb.grown(band);
       if (!tb.overlaps(grid_box)) continue;
+      local.push_back(f);
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
-      const bool kept = true;
+      const bool kept = !cut_set.contains(f);
       for (int k = lo.z; k <= hi.z; ++k)
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) {
@@ -288,17 +288,15 @@ class Builder {
       if (comp[s] >= 0 || dist[s] <= wall) continue;
       const auto id = static_cast<std::int32_t>(touches.size());
       touches.push_back(0);
-      probe.emplace_back(0.0);
+      probe.push_back(centre(static_cast<int>(s % n.x), static_cast<int>((s / n.x) % n.y),
+                             static_cast<int>(s / (static_cast<std::size_t>(n.x) * n.y))));
       queue.assign(1, s);
       comp[s] = id;
       for (std::size_t q = 0; q < queue.size(); ++q) {
         const std::size_t v = queue[q];
         const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
                   k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
-        if (!touches[id] && (i == 0 || j == 0 || k == 0 || i == n.x - 1 || j == n.y - 1 || k == n.z - 1)) {
-          touches[id] = 1;
-          probe[id] = centre(i, j, k);
-        }
+        if (i == 0 || j == 0 || k == 0 || i == n.x - 1 || j == n.y - 1 || k == n.z - 1) touches[id] = 1;
         const int di[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
         for (const auto& d : di) {
           const int a = i + d[0], b = j + d[1], c = k + d[2];
@@ -310,46 +308,103 @@ class Builder {
         }
       }
     }
-    // Solid: components the box's outside does not reach (voids of the union are filled), and
-    // those it does whose probe the whole surface winds around.
-    std::vector<glm::dvec3> probes;
-    std::vector<std::size_t> probe_of;
-    for (std::size_t c = 0; c < touches.size(); ++c) {
-      if (!touches[c]) continue;
-      probes.push_back(probe[c]);
-      probe_of.push_back(c);
+    // Winding numbers: one probe per component against the whole surface; a voxel on the wall
+    // takes its neighbours' numbers plus the surface's signed crossings of the step between
+    // them (found among the triangles binned on the grid), by majority, layer by layer from
+    // the components inwards. Solid is a winding number other than 0 (a part turned inside
+    // out is the tree's too).
+    if (touches.size() > 4096) {
+      patch.failure = "the region's voxels fall into too many pieces";
+      return;
     }
-    std::vector<std::uint8_t> solid(touches.size(), 1);
-    const std::vector<int> w = winding_numbers(mesh_, probes);
-    for (std::size_t q = 0; q < probes.size(); ++q) solid[probe_of[q]] = w[q] != 0;
-
-    // The level set: distance outside, minus distance inside. A voxel on the wall is outside
-    // where it lies in front of its nearest triangle and next to the outside (an inner sheet's
-    // wall, all of it inside the solid, stays inside whichever way its triangles face).
-    std::vector<float> field(nvox);
-    for (int k = 0; k < n.z; ++k)
-      for (int j = 0; j < n.y; ++j)
-        for (int i = 0; i < n.x; ++i) {
-          const std::size_t v = at(i, j, k);
-          bool inside = comp[v] < 0 || solid[comp[v]];
-          if (comp[v] < 0 && nearest[v] != kNone) {
-            bool next_to_outside = false;
-            const int di[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-            for (const auto& d : di) {
-              const int a = i + d[0], b = j + d[1], c = k + d[2];
-              if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
-              const std::int32_t other = comp[at(a, b, c)];
-              next_to_outside = next_to_outside || (other >= 0 && !solid[other]);
+    std::vector<int> winding = winding_numbers(mesh_, probe);
+    const int bin = 2;  // voxels per bin side
+    const glm::ivec3 nb = (n + glm::ivec3(bin - 1)) / bin;
+    std::vector<std::vector<std::uint32_t>> bins_of(static_cast<std::size_t>(nb.x) * nb.y * nb.z);
+    for (const std::uint32_t f : local) {
+      const auto& t = mesh_.triangles[f];
+      Box tb;
+      for (const std::uint32_t v : t) tb.add(mesh_.positions[v]);
+      const glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((tb.lo - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
+      const glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((tb.hi - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
+      for (int k = lo.z; k <= hi.z; ++k)
+        for (int j = lo.y; j <= hi.y; ++j)
+          for (int i = lo.x; i <= hi.x; ++i) bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i].push_back(f);
+    }
+    // Signed crossings of the step from voxel centre p to q: +1 per triangle entered (from its front).
+    auto crossings = [&](const dvec3& p, const dvec3& q) {
+      const glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((glm::min(p, q) - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
+      const glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((glm::max(p, q) - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
+      int sum = 0;
+      std::vector<std::uint32_t> seen;
+      for (int k = lo.z; k <= hi.z; ++k)
+        for (int j = lo.y; j <= hi.y; ++j)
+          for (int i = lo.x; i <= hi.x; ++i)
+            for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i]) {
+              if (std::find(seen.begin(), seen.end(), f) != seen.end()) continue;
+              seen.push_back(f);
+              const auto& t = mesh_.triangles[f];
+              const dvec3 a = mesh_.positions[t[0]], e1 = mesh_.positions[t[1]] - a, e2 = mesh_.positions[t[2]] - a;
+              const dvec3 d = q - p, pv = glm::cross(d, e2);
+              const double det = glm::dot(e1, pv);
+              if (std::abs(det) < 1e-30) continue;
+              const double inv = 1.0 / det;
+              const dvec3 sv = p - a;
+              const double u = glm::dot(sv, pv) * inv;
+              if (u < 0 || u > 1) continue;
+              const dvec3 qv = glm::cross(sv, e1);
+              const double v = glm::dot(d, qv) * inv;
+              if (v < 0 || u + v > 1) continue;
+              const double tt = glm::dot(e2, qv) * inv;
+              if (tt < 0 || tt >= 1) continue;
+              sum += det > 0 ? 1 : -1;
             }
-            if (next_to_outside) {
-              const auto& t = mesh_.triangles[nearest[v]];
-              const dvec3 p = centre(i, j, k);
-              const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
-              inside = glm::dot(p - q, mesh_.face_normal(t)) <= 0;
-            }
+      return sum;
+    };
+    constexpr int kUnknown = std::numeric_limits<int>::min();
+    std::vector<int> wn(nvox, kUnknown);
+    std::vector<std::size_t> layer;
+    for (std::size_t v = 0; v < nvox; ++v) {
+      if (comp[v] >= 0) wn[v] = winding[static_cast<std::size_t>(comp[v])];
+    }
+    const int steps[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int round = 0; round < 64; ++round) {
+      layer.clear();
+      for (std::size_t v = 0; v < nvox; ++v) {
+        if (wn[v] != kUnknown) continue;
+        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
+                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
+        for (const auto& d : steps) {
+          const int a = i + d[0], b = j + d[1], c = k + d[2];
+          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
+          if (wn[at(a, b, c)] != kUnknown) {
+            layer.push_back(v);
+            break;
           }
-          field[v] = inside ? -dist[v] : dist[v];
         }
+      }
+      if (layer.empty()) break;
+      std::vector<int> value(layer.size());
+      for (std::size_t l = 0; l < layer.size(); ++l) {
+        const std::size_t v = layer[l];
+        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
+                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
+        std::map<int, int> votes;
+        for (const auto& d : steps) {
+          const int a = i + d[0], b = j + d[1], c = k + d[2];
+          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
+          const int from = wn[at(a, b, c)];
+          if (from == kUnknown) continue;
+          ++votes[from + crossings(centre(a, b, c), centre(i, j, k))];
+        }
+        value[l] = std::max_element(votes.begin(), votes.end(), [](const auto& x, const auto& y) {
+                     return x.second < y.second || (x.second == y.second && x.first > y.first);
+                   })->first;
+      }
+      for (std::size_t l = 0; l < layer.size(); ++l) wn[layer[l]] = value[l];
+    }
+    std::vector<float> field(nvox);
+    for (std::size_t v = 0; v < nvox; ++v) field[v] = wn[v] != 0 ? -dist[v] : dist[v];
     openvdb::initialize();
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(static_cast<float>(band));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
@@ -402,92 +457,105 @@ class Builder {
     if (facing < 0)
       for (auto& t : iso) std::swap(t[1], t[2]);
 
-    // The patch: the volume's surface inside the box, split along phi = 0 like the mesh.
-    std::vector<std::uint32_t> index(pos.size(), kNone);
-    auto add = [&](std::uint32_t u) {
-      if (index[u] != kNone) return index[u];
-      index[u] = nv + static_cast<std::uint32_t>(patch.positions.size());
-      const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
-      patch.positions.push_back(p);
-      std::uint32_t f = nearest[voxel_of(pos[u])];
-      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
-      const auto& t = mesh_.triangles[f];
-      patch.vertex_origin.push_back(f);
-      patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
-                                                         mesh_.positions[t[2]]));
-      return index[u];
-    };
-    // The patch ends inside the box by `inset`, so that its rim and the hole lie apart (two
-    // curves on one face would cross each other) and the strip between them is a short tube.
-    const double inset = 3.0 * h;
-    auto phi_in = [&](const dvec3& p) { return phi(p) + inset; };
-    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
-    auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
-      const auto key = std::make_pair(std::min(u, x), std::max(u, x));
-      if (const auto it = iso_cut_point.find(key); it != iso_cut_point.end()) return it->second;
-      const dvec3 pu = pos[key.first], pw = pos[key.second];
-      const double fu = phi_in(pu), fw = phi_in(pw);
-      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
-      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
-      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
-      patch.positions.push_back(q);
-      std::uint32_t f = nearest[voxel_of(q)];
-      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
-      const auto& t = mesh_.triangles[f];
-      patch.vertex_origin.push_back(f);
-      patch.vertex_closest.push_back(
-          closest_on_triangle(q, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
-      iso_cut_point.emplace(key, id);
-      return id;
-    };
-    std::vector<std::uint8_t> inside(pos.size());
-    for (std::size_t i = 0; i < pos.size(); ++i) inside[i] = phi_in(pos[i]) < 0;
-    std::vector<Mesh::Triangle> kept;  // in patch numbering
-    std::vector<std::array<std::uint32_t, 2>> rim_edges;
-    for (const auto& t : iso) {
-      const int corners_in = inside[t[0]] + inside[t[1]] + inside[t[2]];
-      if (corners_in == 0) continue;
-      if (corners_in == 3) {
-        kept.push_back({add(t[0]), add(t[1]), add(t[2])});
-        continue;
-      }
-      int o = 0;
-      for (int k = 0; k < 3; ++k)
-        if ((corners_in == 1) == static_cast<bool>(inside[t[k]])) o = k;
-      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
-      const std::uint32_t ab = iso_cut(a, b), ca = iso_cut(c, a);
-      if (corners_in == 1) {  // a inside
-        kept.push_back({add(a), ab, ca});
-        rim_edges.push_back({ab, ca});
-      } else {  // a outside: the quad b, c, ca, ab
-        kept.push_back({ab, add(b), add(c)});
-        kept.push_back({ab, add(c), ca});
-        rim_edges.push_back({ca, ab});
+    // Cut back to the cut: keep the triangles whose vertices lie nearest a cut triangle, a
+    // little away from the kept surface, so that the rim runs along the hole.
+    const double gap = 0.75 * h;
+    std::vector<std::uint8_t> keep_vertex(pos.size(), 0);
+    for (std::size_t i = 0; i < pos.size(); ++i) {
+      const std::size_t v = voxel_of(pos[i]);
+      keep_vertex[i] = region.contains(pos[i]) && nearest[v] != kNone && cut_set.contains(nearest[v]) &&
+                       dist_kept[v] > gap;
+    }
+    std::vector<std::uint8_t> keep(iso.size(), 0);
+    for (std::size_t f = 0; f < iso.size(); ++f)
+      keep[f] = keep_vertex[iso[f][0]] && keep_vertex[iso[f][1]] && keep_vertex[iso[f][2]];
+    // The rim smoothed on the grid's scale: notches filled, ears dropped.
+    {
+      std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> by_edge;
+      for (std::uint32_t f = 0; f < iso.size(); ++f)
+        for (int k = 0; k < 3; ++k) by_edge[{iso[f][k], iso[f][(k + 1) % 3]}] = f;
+      std::vector<std::array<std::uint32_t, 3>> nb(iso.size());
+      for (std::uint32_t f = 0; f < iso.size(); ++f)
+        for (int k = 0; k < 3; ++k) {
+          const auto it = by_edge.find({iso[f][(k + 1) % 3], iso[f][k]});
+          nb[f][k] = it == by_edge.end() ? kNone : it->second;
+        }
+      for (int round = 0; round < 3; ++round) {
+        std::vector<std::uint8_t> next = keep;
+        for (std::uint32_t f = 0; f < iso.size(); ++f) {
+          int kept_nb = 0;
+          for (const std::uint32_t g : nb[f]) kept_nb += g != kNone && keep[g];
+          const bool inside_region = region.contains(pos[iso[f][0]]) && region.contains(pos[iso[f][1]]) &&
+                                     region.contains(pos[iso[f][2]]);
+          if (!keep[f] && kept_nb >= 2 && inside_region) next[f] = 1;
+          if (keep[f] && kept_nb <= 1) next[f] = 0;
+        }
+        keep = std::move(next);
       }
     }
-    // Parts of the patch without a rim (lumps inside the box) are dropped.
-    const std::size_t np = nv + patch.positions.size();
-    UnionFind parts(np);
+    std::vector<Mesh::Triangle> kept;
+    for (std::size_t f = 0; f < iso.size(); ++f)
+      if (keep[f]) kept.push_back(iso[f]);
+    // The kept triangles' boundary; where it passes a vertex twice (a neck of the cut), the
+    // triangles at that vertex go too.
+    std::vector<std::array<std::uint32_t, 2>> iso_edges;
+    for (int round = 0;; ++round) {
+      std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_count;
+      for (const auto& t : kept)
+        for (int k = 0; k < 3; ++k) ++edge_count[{t[k], t[(k + 1) % 3]}];
+      iso_edges.clear();
+      std::map<std::uint32_t, int> leaving;
+      for (const auto& [e, c] : edge_count) {
+        if (c > 1) {
+          patch.failure = "the volume's surface is not a manifold";
+          return;
+        }
+        if (!edge_count.contains({e.second, e.first})) {
+          iso_edges.push_back({e.first, e.second});
+          ++leaving[e.first];
+        }
+      }
+      std::vector<std::uint8_t> pinched(pos.size(), 0);
+      bool any = false;
+      for (const auto& [v, c] : leaving) {
+        if (c > 1) pinched[v] = 1, any = true;
+      }
+      if (!any || round == 8) break;
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return pinched[t[0]] || pinched[t[1]] || pinched[t[2]]; });
+    }
+    UnionFind parts(pos.size());
     for (const auto& t : kept) {
       parts.unite(t[0], t[1]);
       parts.unite(t[1], t[2]);
     }
+    std::vector<std::uint8_t> open_part(pos.size(), 0);
+    for (const auto& e : iso_edges) open_part[parts.find(e[0])] = 1;
+    std::erase_if(kept, [&](const Mesh::Triangle& t) { return !open_part[parts.find(t[0])]; });
     std::vector<std::vector<std::uint32_t>> rims;
-    if (!boundary_loops(rim_edges, rims)) {
-      patch.failure = "the volume's surface crosses the box in touching loops";
+    if (!boundary_loops(iso_edges, rims)) {
+      patch.failure = "the volume's surface touches itself at its rim";
       return;
     }
     // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
-    // whose rims meet no hole (bits of branches passing the box's edge) are dropped.
+    // whose rims meet no hole (bits of branches passing the region's edge) are dropped.
     std::vector<std::size_t> rim_of(holes.size(), kNone);
     std::vector<std::uint8_t> rim_used(rims.size(), 0);
+    auto drop_unmatched = [&] {
+      std::vector<std::uint8_t> matched_part(pos.size(), 0);
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) return false;
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+      return true;
+    };
     for (std::size_t a = 0; a < holes.size(); ++a) {
       double best = std::numeric_limits<double>::max();
       for (std::size_t b = 0; b < rims.size(); ++b) {
         double sum = 0;
         for (const std::uint32_t v : holes[a]) {
           double d = std::numeric_limits<double>::max();
-          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(at_pos(v), at_pos(u)));
+          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(mesh_.positions[v], pos[u]));
           sum += d;
         }
         if (sum / holes[a].size() < best) {
@@ -495,89 +563,280 @@ class Builder {
           rim_of[a] = b;
         }
       }
-      if (rim_of[a] == kNone || rim_used[rim_of[a]] || best > 2 * inset + h) {
+      if (rim_used[rim_of[a]] || best > 4 * h) {
         patch.failure = "a hole has no rim of its own near it";
         return;
       }
       rim_used[rim_of[a]] = 1;
     }
-    {
-      std::vector<std::uint8_t> matched_part(np, 0);
-      for (std::size_t b = 0; b < rims.size(); ++b)
-        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
-      for (std::size_t b = 0; b < rims.size(); ++b) {
-        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) {
-          patch.failure = "a part of the volume's surface has a rim that meets no hole";
-          return;
-        }
-      }
-      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+    if (!drop_unmatched()) {
+      patch.failure = "a part of the volume's surface has a rim that meets no hole";
+      return;
     }
-    patch.triangles = kept;
+
+    // The patch's vertices: those of the kept triangles, renumbered after the mesh's.
+    std::vector<std::uint32_t> index(pos.size(), kNone);
+    auto add = [&](std::uint32_t u) {
+      if (index[u] != kNone) return index[u];
+      index[u] = nv + static_cast<std::uint32_t>(patch.positions.size());
+      const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
+      patch.positions.push_back(p);
+      std::uint32_t f = nearest[voxel_of(pos[u])];
+      if (f == kNone) f = patch.cut.front();
+      const auto& t = mesh_.triangles[f];
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
+                                                         mesh_.positions[t[2]]));
+      return index[u];
+    };
+    for (const auto& t : kept) patch.triangles.push_back({add(t[0]), add(t[1]), add(t[2])});
     patch.surface_triangles = patch.triangles.size();
-    // Strips between each hole (walked in the cut triangles' direction) and its rim (in its
-    // own), advancing on whichever is behind by length along the loop.
+    // The rims in the patch's numbering.
+    for (auto& rim : rims)
+      for (std::uint32_t& u : rim) u = add(u);
+    // The kept surface's triangles on the holes, to take the rim's vertices (fans).
+    for (const auto& hole : holes) {
+      for (std::size_t i = 0; i < hole.size(); ++i) {
+        const std::uint32_t f = opposite_of(hole[i], hole[(i + 1) % hole.size()]);
+        if (std::find(patch.replaced.begin(), patch.replaced.end(), f) != patch.replaced.end()) continue;
+        patch.replaced.push_back(f);
+        patch.fans.push_back({mesh_.triangles[f], f});
+      }
+    }
+    // Near the holes the cut surface is clean and is the solid's boundary: the patch's vertices
+    // there go onto it (the nearest point of a cut triangle), so that patch and kept surface
+    // meet as one sheet instead of two a voxel apart.
+    {
+      const double reach_band = 3 * h;
+      const int cells = static_cast<int>(std::ceil(reach_band / (h * bin)));
+      for (std::size_t k = 0; k < patch.positions.size(); ++k) {
+        const dvec3 p = patch.positions[k];
+        if (dist_kept[voxel_of(p)] >= reach_band) continue;
+        const glm::ivec3 c = glm::ivec3(glm::floor((p - origin) / (h * bin)));
+        double best = reach_band;
+        dvec3 onto = p;
+        for (int z = c.z - cells; z <= c.z + cells; ++z)
+          for (int y = c.y - cells; y <= c.y + cells; ++y)
+            for (int x = c.x - cells; x <= c.x + cells; ++x) {
+              if (x < 0 || y < 0 || z < 0 || x >= nb.x || y >= nb.y || z >= nb.z) continue;
+              for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(z) * nb.y + y) * nb.x + x]) {
+                if (!cut_set.contains(f)) continue;
+                const auto& t = mesh_.triangles[f];
+                const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+                const double d = glm::distance(p, q);
+                if (d < best) {
+                  best = d;
+                  onto = q;
+                }
+              }
+            }
+        patch.positions[k] = options_.grid > 0 ? snap_to_grid(onto, options_.grid) : onto;
+      }
+    }
+    // The zipper: each rim is laid onto its hole. Rim vertices move to their nearest points on
+    // the hole (kept in order along it, one onto a hole vertex where that is within a tenth
+    // of a voxel), and each side's edges take the other side's vertices that fall on them
+    // (the triangle on such an edge becomes a fan from its third corner). Patch and kept
+    // surface then share their boundary, vertex for vertex.
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> on_edge;  // by directed edge
+    std::map<std::uint32_t, std::uint32_t> rename;  // rim vertex -> hole vertex it became
     for (std::size_t a = 0; a < holes.size(); ++a) {
-      const std::vector<std::uint32_t>& p = holes[a];
+      const std::vector<std::uint32_t>& hole = holes[a];
       const std::vector<std::uint32_t>& rim = rims[rim_of[a]];
-      std::size_t start = 0;
-      for (std::size_t b = 1; b < rim.size(); ++b) {
-        if (glm::distance(at_pos(rim[b]), at_pos(p[0])) < glm::distance(at_pos(rim[start]), at_pos(p[0]))) start = b;
-      }
-      auto P = [&](std::size_t i) { return at_pos(p[i % p.size()]); };
-      auto Q = [&](std::size_t j) { return at_pos(rim[(start + j) % rim.size()]); };
-      auto q_index = [&](std::size_t j) { return rim[(start + j) % rim.size()]; };
-      std::vector<double> lp(p.size() + 1, 0.0), lq(rim.size() + 1, 0.0);
-      for (std::size_t i = 0; i < p.size(); ++i) lp[i + 1] = lp[i] + glm::distance(P(i), P(i + 1));
-      for (std::size_t j = 0; j < rim.size(); ++j) lq[j + 1] = lq[j] + glm::distance(Q(j), Q(j + 1));
-      if (std::getenv("SM_DEBUG_PATCH")) {
-        // mean distance between points at equal arc fractions, forward and reversed rim
-        double fwd = 0, rev = 0;
-        for (std::size_t i = 0; i < p.size(); ++i) {
-          const double t = lp[i] / lp.back();
-          std::size_t j = 0;
-          while (j + 1 < rim.size() && lq[j + 1] / lq.back() < t) ++j;
-          fwd += glm::distance(P(i), Q(j));
-          std::size_t jr = 0;
-          while (jr + 1 < rim.size() && lq[jr + 1] / lq.back() < 1 - t) ++jr;
-          rev += glm::distance(P(i), Q(jr));
+      const std::size_t nh = hole.size(), nr = rim.size();
+      std::vector<double> at_s(nh + 1, 0.0);
+      for (std::size_t i = 0; i < nh; ++i) at_s[i + 1] = at_s[i] + glm::distance(at_pos(hole[i]), at_pos(hole[(i + 1) % nh]));
+      const double length = at_s[nh];
+      auto project = [&](const dvec3& q) {
+        double best = std::numeric_limits<double>::max(), param = 0;
+        for (std::size_t i = 0; i < nh; ++i) {
+          const dvec3 u = at_pos(hole[i]), w = at_pos(hole[(i + 1) % nh]);
+          const double len2 = glm::dot(w - u, w - u);
+          const double t = len2 > 0 ? std::clamp(glm::dot(q - u, w - u) / len2, 0.0, 1.0) : 0.0;
+          const double d = glm::distance(q, u + t * (w - u));
+          if (d < best) {
+            best = d;
+            param = at_s[i] + t * (at_s[i + 1] - at_s[i]);
+          }
         }
-        std::fprintf(stderr, "  loop %zu: fwd %.2f h rev %.2f h, length hole %.1f h rim %.1f h\n", a, fwd / p.size() / h,
-                     rev / p.size() / h, lp.back() / h, lq.back() / h);
+        return param;
+      };
+      auto point_at = [&](double param) {
+        param = std::fmod(param, length);
+        if (param < 0) param += length;
+        const std::size_t i = std::min<std::size_t>(
+            static_cast<std::size_t>(std::upper_bound(at_s.begin(), at_s.end(), param) - at_s.begin()) - 1, nh - 1);
+        const double seg = at_s[i + 1] - at_s[i];
+        const double t = seg > 0 ? (param - at_s[i]) / seg : 0.0;
+        return std::make_pair(i, t);
+      };
+      // Parameters along the hole, unwrapped to increase once around from the rim vertex nearest its start.
+      std::vector<double> param(nr);
+      for (std::size_t j = 0; j < nr; ++j) param[j] = project(at_pos(rim[j]));
+      std::size_t first = 0;
+      for (std::size_t j = 1; j < nr; ++j) {
+        if (std::min(param[j], length - param[j]) < std::min(param[first], length - param[first])) first = j;
       }
-      std::size_t i = 0, j = 0;
-      while (i < p.size() || j < rim.size()) {
-        const bool advance_p = j == rim.size() || (i < p.size() && lp[i + 1] / lp.back() <= lq[j + 1] / lq.back());
-        if (advance_p) {
-          patch.triangles.push_back({p[i % p.size()], p[(i + 1) % p.size()], q_index(j)});
-          ++i;
-        } else {
-          patch.triangles.push_back({q_index(j), p[i % p.size()], q_index(j + 1)});
-          ++j;
+      std::vector<double> unwrapped(nr);
+      double prev = param[first] > length / 2 ? param[first] - length : param[first];
+      const double min_step = 1e-3 * h;
+      for (std::size_t k = 0; k < nr; ++k) {
+        double x = param[(first + k) % nr];
+        while (x < prev - length / 2) x += length;
+        while (x > prev + length / 2) x -= length;
+        if (k > 0) x = std::max(x, prev + min_step);
+        unwrapped[k] = x;
+        prev = x;
+      }
+      const double start = unwrapped[0];
+      if (unwrapped[nr - 1] > start + length - min_step || unwrapped[nr - 1] < start + 0.5 * length) {
+        patch.failure = "a rim does not run once around its hole";
+        return;
+      }
+      // Rim vertices onto the hole: moved, or renamed to a hole vertex nearby (at most one each).
+      const double snap = 0.1 * h;
+      struct Mark {
+        double s;
+        std::uint32_t v;
+        bool hole, rim;
+      };
+      std::vector<Mark> merged;  // along the hole
+      for (std::size_t i = 0; i < nh; ++i) {
+        double x = at_s[i];
+        while (x < start) x += length;
+        while (x >= start + length) x -= length;
+        merged.push_back({x, hole[i], true, false});
+      }
+      std::stable_sort(merged.begin(), merged.end(), [](const Mark& x, const Mark& y) { return x.s < y.s; });
+      std::map<std::uint32_t, std::size_t> mark_of;
+      for (std::size_t k = 0; k < merged.size(); ++k) mark_of[merged[k].v] = k;
+      std::vector<Mark> moved;
+      for (std::size_t k = 0; k < nr; ++k) {
+        const std::uint32_t r = rim[(first + k) % nr];
+        const auto [i, t] = point_at(unwrapped[k]);
+        const double d0 = t * (at_s[i + 1] - at_s[i]), d1 = (1 - t) * (at_s[i + 1] - at_s[i]);
+        const std::uint32_t near_hole = d0 <= d1 ? hole[i] : hole[(i + 1) % nh];
+        Mark& m = merged[mark_of[near_hole]];
+        // Renamed only where that keeps the rim's order along the hole.
+        const bool in_order = (k == 0 || unwrapped[k - 1] < m.s) && (k + 1 == nr || m.s < unwrapped[k + 1]) &&
+                              m.s >= start && m.s < start + length;
+        if (std::min(d0, d1) <= snap && !m.rim && in_order && std::abs(m.s - unwrapped[k]) <= snap) {
+          rename[r] = near_hole;
+          m.rim = true;
+          continue;
+        }
+        const dvec3 u = at_pos(hole[i]), w = at_pos(hole[(i + 1) % nh]);
+        dvec3 q = u + t * (w - u);
+        if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+        patch.positions[r - nv] = q;
+        moved.push_back({unwrapped[k], r, false, true});
+      }
+      merged.insert(merged.end(), moved.begin(), moved.end());
+      std::stable_sort(merged.begin(), merged.end(), [](const Mark& x, const Mark& y) { return x.s < y.s; });
+      // Each side's edges and the other side's vertices between their ends.
+      const std::size_t nm = merged.size();
+      for (int side = 0; side < 2; ++side) {
+        // side 0: hole edges take rim vertices; side 1: rim edges take hole vertices.
+        auto mine = [&](const Mark& m) { return side == 0 ? m.hole : m.rim; };
+        std::size_t k0 = kNone;
+        for (std::size_t k = 0; k < nm && k0 == kNone; ++k)
+          if (mine(merged[k])) k0 = k;
+        if (k0 == kNone) continue;
+        std::uint32_t from = merged[k0].v;
+        std::vector<std::uint32_t> between;
+        for (std::size_t step = 1; step <= nm; ++step) {
+          const Mark& m = merged[(k0 + step) % nm];
+          if (mine(m)) {
+            if (!between.empty()) on_edge[{from, m.v}] = between;
+            between.clear();
+            from = m.v;
+          } else {
+            between.push_back(m.v);
+          }
         }
       }
     }
-    if (std::getenv("SM_DEBUG_PATCH")) {
-      int agree = 0, disagree = 0;
-      double longest = 0;
-      for (std::size_t k = patch.surface_triangles; k < patch.triangles.size(); ++k) {
-        const auto& t = patch.triangles[k];
-        const dvec3 a = at_pos(t[0]), b = at_pos(t[1]), c = at_pos(t[2]);
-        longest = std::max({longest, glm::distance(a, b), glm::distance(b, c), glm::distance(c, a)});
-        // the hole vertex's own triangle normal (a cut triangle at it)
-        std::uint32_t o_f = kNone;
-        for (const std::uint32_t v : t) {
-          if (v < nv && o_f == kNone) o_f = vc_.corner[vc_.begin[v]] / 3;
-          if (v >= nv && o_f == kNone && patch.vertex_closest[v - nv] == patch.positions[v - nv]) o_f = patch.vertex_origin[v - nv];
-        }
-        if (o_f == kNone) continue;
-        const auto& o = mesh_.triangles[o_f];
-        (glm::dot(glm::cross(b - a, c - a), mesh_.face_normal(o)) > 0 ? agree : disagree)++;
+    // Renamed rim vertices in the patch's triangles.
+    for (auto& t : patch.triangles)
+      for (std::uint32_t& v : t)
+        if (const auto it = rename.find(v); it != rename.end()) v = it->second;
+    // Rim edges are walked with renamed ends too.
+    {
+      std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> renamed;
+      for (auto& [e, list] : on_edge) {
+        auto r = [&](std::uint32_t v) {
+          const auto it = rename.find(v);
+          return it == rename.end() ? v : it->second;
+        };
+        renamed[{r(e.first), r(e.second)}] = list;
       }
-      std::fprintf(stderr, "  strips: %d agree, %d disagree, longest edge %.2f h, h %.5f, holes", agree, disagree,
-                   longest / h, h);
-      for (std::size_t a = 0; a < holes.size(); ++a) std::fprintf(stderr, " %zu/%zu", holes[a].size(), rims[rim_of[a]].size());
-      std::fprintf(stderr, "\n");
+      on_edge = std::move(renamed);
+    }
+    // Fans: the patch's triangles on an edge (a, b) in the free direction, and the kept
+    // surface's on (b, a), take the points listed for it.
+    auto refan = [&](std::vector<Mesh::Triangle>& tris, std::vector<std::uint32_t>* origins, bool kept_side) {
+      std::vector<Mesh::Triangle> out;
+      std::vector<std::uint32_t> out_origin;
+      for (std::size_t f = 0; f < tris.size(); ++f) {
+        const auto& t = tris[f];
+        std::vector<std::uint32_t> ring;
+        int split = 0, where = 0;
+        for (int k = 0; k < 3; ++k) {
+          ring.push_back(t[k]);
+          const std::uint32_t u = t[k], w = t[(k + 1) % 3];
+          const auto it = kept_side ? on_edge.find({w, u}) : on_edge.find({u, w});
+          if (it == on_edge.end()) continue;
+          ++split;
+          where = k;
+          if (kept_side) {
+            ring.insert(ring.end(), it->second.rbegin(), it->second.rend());
+          } else {
+            ring.insert(ring.end(), it->second.begin(), it->second.end());
+          }
+        }
+        const std::uint32_t o = origins ? (*origins)[f] : kNone;
+        if (split == 0) {
+          out.push_back(t);
+          out_origin.push_back(o);
+          continue;
+        }
+        if (split > 1) {  // two of its edges on the rim: fan from a point inside
+          dvec3 c(0.0);
+          for (const std::uint32_t v : t) c += at_pos(v);
+          c /= 3.0;
+          if (options_.grid > 0) c = snap_to_grid(c, options_.grid);
+          const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+          patch.positions.push_back(c);
+          patch.vertex_origin.push_back(patch.vertex_origin[(t[0] >= nv ? t[0] : t[1] >= nv ? t[1] : t[2]) - nv]);
+          patch.vertex_closest.push_back(c);
+          for (std::size_t k = 0; k < ring.size(); ++k) {
+            out.push_back({id, ring[k], ring[(k + 1) % ring.size()]});
+            out_origin.push_back(o);
+          }
+          continue;
+        }
+        const std::uint32_t apex = t[(where + 2) % 3];
+        const auto at = static_cast<std::size_t>(std::find(ring.begin(), ring.end(), apex) - ring.begin());
+        for (std::size_t k = 1; k + 1 < ring.size(); ++k) {
+          out.push_back({apex, ring[(at + k) % ring.size()], ring[(at + k + 1) % ring.size()]});
+          out_origin.push_back(o);
+        }
+      }
+      tris = std::move(out);
+      if (origins) *origins = std::move(out_origin);
+    };
+    refan(patch.triangles, nullptr, false);
+    patch.surface_triangles = patch.triangles.size();
+    {
+      std::vector<Mesh::Triangle> kt;
+      std::vector<std::uint32_t> ko;
+      for (const auto& [t, o] : patch.fans) {
+        kt.push_back(t);
+        ko.push_back(o);
+      }
+      refan(kt, &ko, true);
+      patch.fans.clear();
+      for (std::size_t f = 0; f < kt.size(); ++f) patch.fans.push_back({kt[f], ko[f]});
     }
     std::erase_if(patch.triangles, [&](const Mesh::Triangle& t) {
       return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || at_pos(t[0]) == at_pos(t[1]) ||
@@ -736,7 +995,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   }
   std::vector<Patch> patches;
   for (auto& [root, p] : by_root) {
-    p.region = p.region.grown(options.reach * std::max(p.radius_max, 1e-4));
+    if (std::getenv("SM_DEBUG_PATCH"))
+      std::fprintf(stderr, "cluster: size %.3f %.3f %.3f rmin %.4f rmax %.4f\n", p.region.hi.x - p.region.lo.x,
+                   p.region.hi.y - p.region.lo.y, p.region.hi.z - p.region.lo.z, p.radius_min, p.radius_max);
+    p.region = p.region.grown(options.reach * std::max(p.radius_min, 1e-4));
     patches.push_back(std::move(p));
   }
   st.clusters = patches.size();
@@ -760,8 +1022,22 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   builder.link();
   std::vector<std::uint8_t> use(patches.size(), 0);
   for (std::size_t p = 0; p < patches.size(); ++p) {
-    builder.build(patches[p], bins);
-    st.voxels += patches[p].voxels;
+    // Where the box's faces cut the surface where it is not yet clean (branches still
+    // overlapping there), the box grows, up to twice, as long as it stays clear of the others.
+    for (int attempt = 0;; ++attempt) {
+      builder.build(patches[p], bins);
+      st.voxels += patches[p].voxels;
+      if (patches[p].failure.empty() || attempt == 2 || patches[p].voxels == 0) break;
+      const Box grown = patches[p].region.grown(options.reach * std::max(patches[p].radius_min, 1e-4));
+      bool clear = true;
+      for (std::size_t q = 0; q < patches.size(); ++q) clear = clear && (q == p || !grown.overlaps(patches[q].region));
+      if (!clear) break;
+      Patch fresh;
+      fresh.region = grown;
+      fresh.radius_min = patches[p].radius_min;
+      fresh.radius_max = patches[p].radius_max;
+      patches[p] = std::move(fresh);
+    }
     use[p] = patches[p].failure.empty();
     if (!use[p] && st.first_failure.empty()) st.first_failure = patches[p].failure;
     if (std::getenv("SM_DEBUG_PATCH"))
@@ -794,6 +1070,17 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         const Box show = patches[want].region.grown(patches[want].radius_max);
         for (const auto& q : out.positions) std::fprintf(fo, "v %.6f %.6f %.6f\n", q.x, q.y, q.z);
         const char* names[] = {"kept", "surface", "strip", "fan"};
+        {
+          std::vector<std::uint32_t> fresh_want;
+          for (std::uint32_t f = 0; f < out.triangles.size(); ++f)
+            if (patch_of[f] == want) fresh_want.push_back(f);
+          std::fprintf(fo, "o bad\n");
+          for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh_want))
+            for (const std::uint32_t x : {f, g}) {
+              const auto& t = out.triangles[x];
+              std::fprintf(fo, "f %u %u %u\n", t[0] + 1, t[1] + 1, t[2] + 1);
+            }
+        }
         for (int g = 0; g < 4; ++g) {
           std::fprintf(fo, "o %s\n", names[g]);
           for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
@@ -836,6 +1123,12 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         }
         if (twins != 1 || same != 1) {
           if (std::getenv("SM_DEBUG_PATCH"))
+            for (std::uint32_t c = ovc.begin[a]; c < ovc.begin[a + 1]; ++c) {
+              const std::uint32_t g = ovc.corner[c] / 3;
+              const auto& u = out.triangles[g];
+              std::fprintf(stderr, "    at %u: tri %u (%u %u %u) origin %u patch %u nv %zu\n", a, g, u[0], u[1], u[2],
+                           origin[g], patch_of[g], mesh.positions.size());
+            }
             std::fprintf(stderr, "  patch %u open: tri %u (%s) edge %u-%u twins %d same %d\n", patch_of[f], f,
                          f - first_new[patch_of[f]] < patches[patch_of[f]].surface_triangles ? "surface" : "strip", a, b,
                          twins, same);
