@@ -21,6 +21,8 @@
 #include <CGAL/Surface_mesh.h>
 
 #include "core/union_find.h"
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace sm {
 namespace {
@@ -66,7 +68,47 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
   const VertexCorners vc = vertex_corners(mesh);
   std::size_t split = 0;
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
+  // Most vertices are plain: their triangles form one cycle around them, each neighbour
+  // reached by one edge leaving and one arriving. Those are found first, in parallel, and
+  // skipped. (A split elsewhere keeps them plain: the two triangles of an edge to a split
+  // vertex share that edge, so they go to the same copy.)
+  std::vector<std::uint8_t> plain(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nv, 1 << 12), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    std::vector<std::uint32_t> leaving, arriving;
+    for (std::uint32_t v = r.begin(); v != r.end(); ++v) {
+      const std::uint32_t b = vc.begin[v], n = vc.begin[v + 1] - b;
+      if (n < 2) continue;
+      leaving.resize(n);
+      arriving.resize(n);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        leaving[i] = mesh.triangles[c / 3][(c % 3 + 1) % 3];
+        arriving[i] = mesh.triangles[c / 3][(c % 3 + 2) % 3];
+      }
+      // Walk the cycle: from corner i, the corner arriving from where i leaves to.
+      std::uint32_t i = 0, steps = 0;
+      bool one_cycle = true;
+      do {
+        std::uint32_t next = n, count = 0, out_count = 0;
+        for (std::uint32_t j = 0; j < n; ++j) {
+          if (arriving[j] == leaving[i]) {
+            next = j;
+            ++count;
+          }
+          out_count += leaving[j] == leaving[i];
+        }
+        if (count != 1 || out_count != 1) {
+          one_cycle = false;
+          break;
+        }
+        i = next;
+        ++steps;
+      } while (i != 0 && steps <= n);
+      plain[v] = one_cycle && steps == n;
+    }
+  });
   for (std::uint32_t v = 0; v < nv; ++v) {
+    if (plain[v]) continue;
     const std::uint32_t b = vc.begin[v], e = vc.begin[v + 1], n = e - b;
     if (n < 2) continue;
     UnionFind fans(n);
@@ -602,20 +644,26 @@ namespace {
 /// The triangles with a half-edge a -> b that has no single twin b -> a, nor is unique.
 std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
   const VertexCorners vc = vertex_corners(m);
-  std::vector<std::uint32_t> out;
-  for (std::uint32_t a = 0; a + 1 < vc.begin.size(); ++a) {
-    for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
-      const std::uint32_t c = vc.corner[k], f = c / 3;
-      const std::uint32_t b = m.triangles[f][(c % 3 + 1) % 3];
-      int same = 0, twin = 0;
-      for (std::uint32_t j = vc.begin[a]; j < vc.begin[a + 1]; ++j) {
-        const std::uint32_t cj = vc.corner[j];
-        same += m.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
-        twin += m.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
+  const auto nv = static_cast<std::uint32_t>(vc.begin.size() - 1);
+  constexpr std::uint32_t kChunk = 1 << 14;
+  std::vector<std::vector<std::uint32_t>> part((nv + kChunk - 1) / kChunk);  // (vertices in parallel)
+  tbb::parallel_for(std::size_t{0}, part.size(), [&](std::size_t p) {
+    for (std::uint32_t a = std::uint32_t(p) * kChunk; a < std::min(nv, std::uint32_t(p + 1) * kChunk); ++a) {
+      for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
+        const std::uint32_t c = vc.corner[k], f = c / 3;
+        const std::uint32_t b = m.triangles[f][(c % 3 + 1) % 3];
+        int same = 0, twin = 0;
+        for (std::uint32_t j = vc.begin[a]; j < vc.begin[a + 1]; ++j) {
+          const std::uint32_t cj = vc.corner[j];
+          same += m.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
+          twin += m.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
+        }
+        if (same != 1 || twin != 1) part[p].push_back(f);
       }
-      if (same != 1 || twin != 1) out.push_back(f);
     }
-  }
+  });
+  std::vector<std::uint32_t> out;
+  for (const auto& q : part) out.insert(out.end(), q.begin(), q.end());
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
