@@ -328,7 +328,7 @@ class Walker {
     const Frame& fp = s_.frame[p.idx()];
     const Frame& fn = s_.frame[n.idx()];
     g.center = glm::mix(s_.position[p.idx()], s_.position[n.idx()], t);
-    g.radius = glm::mix(s_.radius[p.idx()], s_.radius[n.idx()], t);
+    g.radius = glm::mix(s_.start_radius(n), s_.radius[n.idx()], t);
     const dvec3 tangent = normalize_or(glm::mix(fp.tangent, fn.tangent, t), fn.tangent);
     g.frame = transport_frame(fp, tangent);
     return g;
@@ -421,7 +421,9 @@ class Walker {
       const double x = ramp > 0 ? std::clamp(t * l / ramp, 0.0, 1.0) : 1.0;
       w = x * x * (3.0 - 2.0 * x);
     }
-    const double scale_p = g.radius / s_.radius[parent.idx()];
+    // (The parent's end is scaled along the cone from the parent's own radius: a lateral
+    // starting thinner than its fork, Skeleton::base_radius, still begins in the fork's section.)
+    const double scale_p = glm::mix(s_.radius[parent.idx()], s_.radius[n.idx()], t) / s_.radius[parent.idx()];
     const double scale_n = g.radius / s_.radius[n.idx()];
     out.offset.insert(out.offset.end(), count,
                       glm::mix(surface_offset(parent) * scale_p, surface_offset(n) * scale_n, w));
@@ -952,7 +954,7 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
     stack.pop_back();
     const NodeId py = s_.parent[y.idx()];
     const dvec3 a = s_.position[py.idx()], b = s_.position[y.idx()];
-    const double ra = s_.radius[py.idx()], rb = s_.radius[y.idx()];
+    const double ra = s_.start_radius(y), rb = s_.radius[y.idx()];
     const dvec3 ab = b - a;
     const double l2 = glm::dot(ab, ab);
     for (std::size_t k = 0; k < pts.point.size(); ++k) {
