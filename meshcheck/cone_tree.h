@@ -165,15 +165,15 @@ class ConeTree {
 };
 
 
-/// The round cone of every edge of `skel` (id: the node at its upper end), or for a lone node
-/// its sphere.
+/// The round cone of every edge of `skel` (id: the node at its upper end; its radii
+/// Skeleton::start_radius and the node's), or for a lone node its sphere.
 inline std::vector<Cone> skeleton_cones(const Skeleton& skel) {
   std::vector<Cone> cones;
   for (std::size_t i = 0; i < skel.size(); ++i) {
     const auto id = static_cast<std::uint32_t>(i);
     const NodeId parent = skel.parent[i];
     if (parent.valid()) {
-      cones.push_back({skel.position[parent.idx()], skel.position[i], skel.radius[parent.idx()], skel.radius[i], id});
+      cones.push_back({skel.position[parent.idx()], skel.position[i], skel.start_radius(NodeId(id)), skel.radius[i], id});
     } else if (skel.size() == 1) {
       cones.push_back({skel.position[i], skel.position[i], skel.radius[i], skel.radius[i], id});
     }

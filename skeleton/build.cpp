@@ -922,6 +922,7 @@ Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
   s.children.resize(n);
   s.frame.resize(n);
   s.source_id = raw.id;
+  if (raw.base_radius.size() == n) s.base_radius = raw.base_radius;  // (a sanitized export's)
   for (std::size_t i = 0; i < n; ++i) {
     s.radius[i] = std::max(raw.radius[i], floor);
     if (t.parent[i] != kNone) s.parent[i] = NodeId(t.parent[i]);
