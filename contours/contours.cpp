@@ -312,6 +312,19 @@ class Walker {
     return p_.fork_transition * local(fork).fork_transition;
   }
   [[nodiscard]] double slice_step(NodeId n) const { return p_.slice_step * local(n).slice_step; }
+  /// How far along child n's edge its bundle takes its own round section (metres; n's parent
+  /// a fork): fork_transition x the fork's radius, but for a child that starts thinner than
+  /// the fork (Skeleton::base_radius: a lateral leaving from inside the trunk) no farther than
+  /// where its axis leaves the fork's radius, so it is round where it comes out of the parent.
+  [[nodiscard]] double transition_length(NodeId n) const {
+    const NodeId fork = s_.parent[n.idx()];
+    const double rf = s_.radius[fork.idx()];
+    const double ramp = fork_transition(fork) * rf;
+    if (!(s_.start_radius(n) < rf)) return ramp;
+    const dvec3 d = normalize_or(s_.position[n.idx()] - s_.position[fork.idx()], dvec3(0));
+    const double sine = glm::length(glm::cross(d, s_.frame[fork.idx()].tangent));
+    return sine * ramp > rf ? rf / sine : ramp;
+  }
 
   /// Distance of node y above the anchor, given the distance of its parent.
   [[nodiscard]] SliceGeometry edge_geometry(NodeId n, double t) const {
@@ -328,7 +341,7 @@ class Walker {
     const Frame& fp = s_.frame[p.idx()];
     const Frame& fn = s_.frame[n.idx()];
     g.center = glm::mix(s_.position[p.idx()], s_.position[n.idx()], t);
-    g.radius = glm::mix(s_.radius[p.idx()], s_.radius[n.idx()], t);
+    g.radius = glm::mix(s_.start_radius(n), s_.radius[n.idx()], t);
     const dvec3 tangent = normalize_or(glm::mix(fp.tangent, fn.tangent, t), fn.tangent);
     g.frame = transport_frame(fp, tangent);
     return g;
@@ -363,7 +376,7 @@ class Walker {
     const NodeId parent = s_.parent[g.node.idx()];
     if (parent.valid() && p_.max_slices_per_edge > 0) {
       const double l = len(g.node);
-      const bool in_transition = s_.is_fork(parent) && g.t * l < fork_transition(parent) * s_.radius[parent.idx()];
+      const bool in_transition = s_.is_fork(parent) && g.t * l < transition_length(g.node);
       if (!in_transition) step = std::max(step, l / double(p_.max_slices_per_edge));
     }
     return step;
@@ -417,11 +430,13 @@ class Walker {
     double w = t;
     if (s_.is_fork(parent)) {
       const double l = len(n);
-      const double ramp = std::min(l, fork_transition(parent) * s_.radius[parent.idx()]);
+      const double ramp = std::min(l, transition_length(n));
       const double x = ramp > 0 ? std::clamp(t * l / ramp, 0.0, 1.0) : 1.0;
       w = x * x * (3.0 - 2.0 * x);
     }
-    const double scale_p = g.radius / s_.radius[parent.idx()];
+    // (The parent's end is scaled along the cone from the parent's own radius: a lateral
+    // starting thinner than its fork, Skeleton::base_radius, still begins in the fork's section.)
+    const double scale_p = glm::mix(s_.radius[parent.idx()], s_.radius[n.idx()], t) / s_.radius[parent.idx()];
     const double scale_n = g.radius / s_.radius[n.idx()];
     out.offset.insert(out.offset.end(), count,
                       glm::mix(surface_offset(parent) * scale_p, surface_offset(n) * scale_n, w));
@@ -436,7 +451,7 @@ class Walker {
     // Only where the child leaves upwards, within its transition, by at most half the fork's
     // radius (a drooping branch is meant to go below the fork's plane).
     const bool above_fork =
-        s_.is_fork(parent) && along < fork_transition(parent) * rf && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
+        s_.is_fork(parent) && along < transition_length(n) && glm::dot(s_.position[n.idx()] - fork_pos, fork_up) > 0;
     const double min_height = along / 3.0;
     // Above a fork, as the bundle gets its own round section: weight w^4 of the transition's
     // smoothstep (slices near the fork lie in its plane, far from perpendicular to the child,
@@ -952,7 +967,7 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
     stack.pop_back();
     const NodeId py = s_.parent[y.idx()];
     const dvec3 a = s_.position[py.idx()], b = s_.position[y.idx()];
-    const double ra = s_.radius[py.idx()], rb = s_.radius[y.idx()];
+    const double ra = s_.start_radius(y), rb = s_.radius[y.idx()];
     const dvec3 ab = b - a;
     const double l2 = glm::dot(ab, ab);
     for (std::size_t k = 0; k < pts.point.size(); ++k) {

@@ -53,7 +53,7 @@ void add_example(std::vector<T>& list, const T& value, std::size_t max) {
 }
 
 void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, const Skeleton& skel,
-                      std::size_t max_examples, MeshCheckReport& r) {
+                      std::size_t max_examples, std::size_t worst, MeshCheckReport& r) {
   std::vector<Cone> cones = detail::skeleton_cones(skel);
   if (cones.empty()) return;
   const ConeTree tree(std::move(cones));
@@ -62,13 +62,25 @@ void measure_fidelity(const Mesh& mesh, const std::vector<std::uint8_t>& used, c
     if (used[v]) verts.push_back(static_cast<std::uint32_t>(v));
   }
   std::vector<double> dev(verts.size());
+  std::vector<FidelityVertex> where(worst > 0 ? verts.size() : 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, verts.size(), 1024),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
                         const ConeDistance d = tree.nearest(mesh.positions[verts[i]]);
-                        dev[i] = std::abs(d.distance) / std::max(d.radius, 1e-300);
+                        const double rel = d.distance / std::max(d.radius, 1e-300);
+                        dev[i] = std::abs(rel);
+                        if (!where.empty()) where[i] = {verts[i], rel, d.id, d.t};
                       }
                     });
+  if (!where.empty()) {
+    const std::size_t k = std::min(worst, where.size());
+    const auto farther = [](const FidelityVertex& a, const FidelityVertex& b) {
+      return std::abs(a.deviation) > std::abs(b.deviation) || (std::abs(a.deviation) == std::abs(b.deviation) && a.vertex < b.vertex);
+    };
+    std::partial_sort(where.begin(), where.begin() + static_cast<std::ptrdiff_t>(k), where.end(), farther);
+    where.resize(k);
+    r.fidelity_worst = std::move(where);
+  }
   r.fidelity_checked = true;
   for (std::size_t i = 0; i < verts.size(); ++i) {
     if (!(dev[i] > r.fidelity_tolerance)) continue;
@@ -283,7 +295,7 @@ MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   std::vector<std::uint32_t> thick_ids;
   if (params.skeleton && !params.skeleton->empty() && r.nonfinite_vertices == 0) {
     const Skeleton& skel = *params.skeleton;
-    measure_fidelity(mesh, used, skel, params.max_examples, r);
+    measure_fidelity(mesh, used, skel, params.max_examples, params.fidelity_worst, r);
     thick_ids = thick_node_ids(skel);
     for (const std::uint32_t i : thick_ids) thick.push_back(skel.position[i]);
     r.thick_nodes = thick.size();
@@ -459,6 +471,10 @@ std::string to_text(const MeshCheckReport& r) {
     std::string far;
     for (const auto v : r.fidelity_outlier_examples) far += (far.empty() ? " e.g. vertex " : ", ") + std::to_string(v);
     line("beyond tolerance", n(r.fidelity_outliers) + " vertices" + far);
+    for (const FidelityVertex& f : r.fidelity_worst) {
+      line("far vertex", std::to_string(f.vertex) + ": " + fmt(f.deviation, 3) + " of the radius, nearest edge to node " +
+                             std::to_string(f.node) + " at t " + fmt(f.t, 2));
+    }
     std::string ex;
     for (const auto v : r.outside_node_examples) ex += (ex.empty() ? " (outside: node " : ", ") + std::to_string(v);
     if (!ex.empty()) ex += ")";
@@ -632,6 +648,13 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                    {"outside_nodes", r.outside_node_examples},
                    {"fidelity_outliers", r.fidelity_outlier_examples},
                    {"handles", pairs(r.handle_examples)}};
+  if (!r.fidelity_worst.empty()) {
+    nlohmann::json w = nlohmann::json::array();
+    for (const FidelityVertex& f : r.fidelity_worst) {
+      w.push_back({{"vertex", f.vertex}, {"deviation", f.deviation}, {"node", f.node}, {"t", f.t}});
+    }
+    j["fidelity_worst"] = std::move(w);
+  }
   nlohmann::json t = nlohmann::json::object();
   for (const auto& e : r.timings.entries) t[e.name] = e.seconds;
   j["timings"] = t;

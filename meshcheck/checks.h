@@ -80,6 +80,15 @@ struct MeshCheckParams {
   double junction_radii = QualityParams{}.junction_radii;  ///< junction edges: within this many fork radii of a fork
   bool uvs = true;  ///< measure UV seams and stretch where the mesh has UVs (meshcheck/uv_quality.h; default true)
   bool implied_genus = false;  ///< with a skeleton: also the genus its crossing branches imply (implied_genus.h; default false)
+  std::size_t fidelity_worst = 0;  ///< with a skeleton: list this many vertices farthest from the round cones (count; default 0)
+};
+
+/// A vertex far from the skeleton's round cones, and where on the skeleton it is nearest.
+struct FidelityVertex {
+  std::uint32_t vertex = 0;  ///< mesh vertex index
+  double deviation = 0;      ///< signed distance to the round cones / local radius (negative inside)
+  std::uint32_t node = 0;    ///< skeleton node at the upper end of the nearest edge (its child end)
+  double t = 0;              ///< along that edge, 0 at the parent's sphere, 1 at the node's
 };
 
 /// What check_mesh found. Counts are exact; `*_examples` list the first few offenders
@@ -135,6 +144,7 @@ struct MeshCheckReport {
   std::vector<std::array<std::uint32_t, 2>> self_intersection_examples;  ///< triangle pairs
   std::vector<std::uint32_t> outside_node_examples;                      ///< skeleton node indices (thick, outside)
   std::vector<std::uint32_t> fidelity_outlier_examples;                  ///< vertex indices (beyond the tolerance)
+  std::vector<FidelityVertex> fidelity_worst;  ///< the fidelity_worst vertices farthest from the cones, worst first
   std::vector<std::array<std::uint32_t, 2>> handle_examples;  ///< skeleton node pairs: the child nodes of two crossing edges, one per implied handle
   bool quality_checked = false;   ///< triangle quality was measured
   TriangleQuality quality;        ///< angles, aspect ratios, dihedral angles, backward normals

@@ -13,6 +13,7 @@
 #include "meshcheck/checks_cgal.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <tuple>
 #include <utility>
@@ -64,6 +65,36 @@ int certain_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
   return det > bound ? 1 : det < -bound ? -1 : 0;
 }
 
+// certain_side for several points q against one plane through a, b, c: its normal and the
+// sizes of its edges worked out once (the same operations, the same answers).
+class CertainPlane {
+ public:
+  CertainPlane(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+      : a_(a), n_(glm::cross(b - a, c - a)) {
+    const glm::dvec3 u = b - a, v = c - a;
+    m_ = glm::dvec3(std::max(std::abs(u.x), std::abs(v.x)), std::max(std::abs(u.y), std::abs(v.y)),
+                    std::max(std::abs(u.z), std::abs(v.z)));
+  }
+  [[nodiscard]] int side(const glm::dvec3& q) const {
+    const glm::dvec3 w = q - a_;
+    const double mx = std::max(m_.x, std::abs(w.x)), my = std::max(m_.y, std::abs(w.y)),
+                 mz = std::max(m_.z, std::abs(w.z));
+    constexpr double kLow = 1e-60, kHigh = 1e60;
+    if (!(std::min({mx, my, mz}) > kLow && std::max({mx, my, mz}) < kHigh)) return 0;
+    const double det = glm::dot(w, n_);
+    const double bound = 20 * 5.1107127829973299e-15 * mx * my * mz;
+    return det > bound ? 1 : det < -bound ? -1 : 0;
+  }
+  // Whether p, q and r are all on one side for certain.
+  [[nodiscard]] bool all_on_one_side(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& r) const {
+    const int s = side(p);
+    return s != 0 && side(q) == s && side(r) == s;
+  }
+
+ private:
+  glm::dvec3 a_, n_, m_;
+};
+
 // The certain sides of p and q of the plane through a, b, c (certain_side); q's only where
 // p's is certain (0 otherwise).
 std::pair<int, int> certain_sides(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p,
@@ -109,11 +140,80 @@ class SoupIntersector {
 
   /// The intersecting pairs with one triangle in `triangles` and the other anywhere (both
   /// orders, possibly twice).
+  ///
+  /// The other triangles whose boxes can meet one of theirs are found first, in parallel, by
+  /// a grid of cells over the given boxes (marked where a box reaches; a triangle whose box
+  /// reaches no marked cell meets none of them): after a local edit, most of the mesh is
+  /// far from it, and its boxes need not be made nor sorted. The same pairs as a search
+  /// against every box.
   std::vector<Pair> run_touching(const std::vector<std::uint32_t>& triangles) const {
-    std::vector<std::uint32_t> all(mesh_.triangles.size());
-    for (std::size_t t = 0; t < all.size(); ++t) all[t] = static_cast<std::uint32_t>(t);
-    std::vector<Box> some = boxes(triangles), every = boxes(all);
+    std::vector<Box> some = boxes(triangles);
     std::vector<Pair> found;
+    if (some.empty()) return found;
+    // The grid: about 8 cells per given box, at most 2^21 in all, over their bounds.
+    float lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = some.front().min_coord(d);
+      hi[d] = some.front().max_coord(d);
+    }
+    for (const Box& b : some) {
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min(lo[d], b.min_coord(d));
+        hi[d] = std::max(hi[d], b.max_coord(d));
+      }
+    }
+    const double cells_wanted = std::clamp(8.0 * double(some.size()), 1.0, double(1 << 21));
+    double extent[3], volume = 1;
+    for (int d = 0; d < 3; ++d) {
+      extent[d] = std::max(double(hi[d]) - double(lo[d]), 1e-30);
+      volume *= extent[d];
+    }
+    const double cell = std::cbrt(volume / cells_wanted);
+    std::array<std::size_t, 3> n{};
+    for (int d = 0; d < 3; ++d) n[d] = std::clamp<std::size_t>(std::size_t(extent[d] / cell) + 1, 1, 1 << 10);
+    auto cell_of = [&](int d, float x) {  // monotone in x, clamped to the grid
+      const double t = (double(x) - double(lo[d])) / extent[d] * double(n[d]);
+      return static_cast<std::size_t>(std::clamp(t, 0.0, double(n[d] - 1)));
+    };
+    std::vector<std::uint8_t> marked(n[0] * n[1] * n[2], 0);
+    // (Large boxes would mark most of the grid at a high cost: then every cell is marked.)
+    std::size_t reach = 0;
+    for (const Box& b : some) {
+      std::size_t cells = 1;
+      for (int d = 0; d < 3; ++d) cells *= cell_of(d, b.max_coord(d)) - cell_of(d, b.min_coord(d)) + 1;
+      reach += cells;
+    }
+    if (reach > 8 * marked.size()) std::fill(marked.begin(), marked.end(), std::uint8_t{1});
+    for (const Box& b : reach > 8 * marked.size() ? std::vector<Box>{} : some) {
+      for (std::size_t z = cell_of(2, b.min_coord(2)); z <= cell_of(2, b.max_coord(2)); ++z) {
+        for (std::size_t y = cell_of(1, b.min_coord(1)); y <= cell_of(1, b.max_coord(1)); ++y) {
+          for (std::size_t x = cell_of(0, b.min_coord(0)); x <= cell_of(0, b.max_coord(0)); ++x)
+            marked[(z * n[1] + y) * n[0] + x] = 1;
+        }
+      }
+    }
+    const std::size_t nf = mesh_.triangles.size();
+    constexpr std::size_t kChunk = 1 << 14;
+    std::vector<std::vector<std::uint32_t>> part((nf + kChunk - 1) / kChunk);
+    tbb::parallel_for(std::size_t{0}, part.size(), [&](std::size_t k) {
+      for (std::size_t f = k * kChunk; f < std::min(nf, (k + 1) * kChunk); ++f) {
+        const Box b = float_box(static_cast<std::uint32_t>(f));
+        bool outside = false;
+        for (int d = 0; d < 3; ++d) outside = outside || b.max_coord(d) < lo[d] || b.min_coord(d) > hi[d];
+        if (outside) continue;
+        bool near = false;
+        for (std::size_t z = cell_of(2, b.min_coord(2)); !near && z <= cell_of(2, b.max_coord(2)); ++z) {
+          for (std::size_t y = cell_of(1, b.min_coord(1)); !near && y <= cell_of(1, b.max_coord(1)); ++y) {
+            for (std::size_t x = cell_of(0, b.min_coord(0)); !near && x <= cell_of(0, b.max_coord(0)); ++x)
+              near = marked[(z * n[1] + y) * n[0] + x] != 0;
+          }
+        }
+        if (near) part[k].push_back(static_cast<std::uint32_t>(f));
+      }
+    });
+    std::vector<std::uint32_t> candidates;
+    for (const auto& p : part) candidates.insert(candidates.end(), p.begin(), p.end());
+    std::vector<Box> every = boxes(candidates);
     auto callback = [&](const Box& a, const Box& b) {
       const std::uint32_t i = a.info(), j = b.info();
       if (i != j && intersect(i, j)) found.push_back({std::min(i, j), std::max(i, j)});
@@ -124,19 +224,23 @@ class SoupIntersector {
     return found;
   }
 
+  /// The box of triangle t, in single precision rounded outwards.
+  [[nodiscard]] Box float_box(std::uint32_t t) const {
+    const auto& tri = mesh_.triangles[t];
+    const glm::dvec3 &p = mesh_.positions[tri[0]], &q = mesh_.positions[tri[1]], &r = mesh_.positions[tri[2]];
+    float lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      const double a = std::min({p[d], q[d], r[d]}), b = std::max({p[d], q[d], r[d]});
+      lo[d] = static_cast<float>(a);
+      hi[d] = static_cast<float>(b);
+      if (double(lo[d]) > a) lo[d] = std::nextafter(lo[d], -HUGE_VALF);
+      if (double(hi[d]) < b) hi[d] = std::nextafter(hi[d], HUGE_VALF);
+    }
+    return Box(lo, hi, t);
+  }
+
   /// The boxes of the non-degenerate triangles of `triangles`.
   std::vector<Box> boxes(const std::vector<std::uint32_t>& triangles) const {
-    auto float_box = [](const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& r, std::uint32_t info) {
-      float lo[3], hi[3];
-      for (int d = 0; d < 3; ++d) {
-        const double a = std::min({p[d], q[d], r[d]}), b = std::max({p[d], q[d], r[d]});
-        lo[d] = static_cast<float>(a);
-        hi[d] = static_cast<float>(b);
-        if (double(lo[d]) > a) lo[d] = std::nextafter(lo[d], -HUGE_VALF);
-        if (double(hi[d]) < b) hi[d] = std::nextafter(hi[d], HUGE_VALF);
-      }
-      return Box(lo, hi, info);
-    };
     std::vector<Box> all(triangles.size());
     std::vector<std::uint8_t> valid(triangles.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096),
@@ -147,8 +251,7 @@ class SoupIntersector {
                           const Point p = point(tri[0]), q = point(tri[1]), r = point(tri[2]);
                           if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || CGAL::collinear(p, q, r))
                             continue;  // degenerate
-                          all[k] =
-                              float_box(mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]], t);
+                          all[k] = float_box(t);
                           valid[k] = 1;
                         }
                       });
@@ -245,10 +348,8 @@ class SoupIntersector {
     const glm::dvec3 &a0 = position(a, 0), &a1 = position(a, 1), &a2 = position(a, 2);
     const glm::dvec3 &b0 = position(b, 0), &b1 = position(b, 1), &b2 = position(b, 2);
     if (shared == 0) {
-      const int s = certain_side(a0, a1, a2, b0);
-      if (s != 0 && certain_side(a0, a1, a2, b1) == s && certain_side(a0, a1, a2, b2) == s) return false;
-      const int t = certain_side(b0, b1, b2, a0);
-      if (t != 0 && certain_side(b0, b1, b2, a1) == t && certain_side(b0, b1, b2, a2) == t) return false;
+      if (CertainPlane(a0, a1, a2).all_on_one_side(b0, b1, b2)) return false;
+      if (CertainPlane(b0, b1, b2).all_on_one_side(a0, a1, a2)) return false;
     } else if (shared == 1) {
       // One opposite edge strictly on one side of the other triangle's plane suffices: were
       // b's opposite edge to meet triangle a at x, the line from the shared vertex through x

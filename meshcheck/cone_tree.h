@@ -32,6 +32,7 @@ struct ConeDistance {
   double distance;  // signed: negative inside
   double radius;    // cone radius at the closest point
   std::uint32_t id = 0;  // Cone::id of the nearest cone
+  double t = 0;          // where along the cone the closest point lies: 0 at sphere a, 1 at sphere b
 };
 
 // Signed distance from p to the convex hull of the spheres (a, ra) and (b, rb). In the half
@@ -45,7 +46,7 @@ inline ConeDistance cone_distance(const Cone& c, const dvec3& p) {
     const bool a_big = c.ra >= c.rb;
     const dvec3& centre = a_big ? c.a : c.b;
     const double r = a_big ? c.ra : c.rb;
-    return {glm::length(p - centre) - r, r, c.id};
+    return {glm::length(p - centre) - r, r, c.id, a_big ? 0.0 : 1.0};
   }
   const dvec3 e = axis / len;
   const dvec3 w = p - c.a;
@@ -54,11 +55,11 @@ inline ConeDistance cone_distance(const Cone& c, const dvec3& p) {
   const double s = (c.ra - c.rb) / len;     // sine of the cone's half angle
   const double co = std::sqrt(std::max(0.0, 1.0 - s * s));
   const double u = y * co - x * s;  // along the tangent, 0 at a's tangent point
-  if (u <= 0) return {glm::length(w) - c.ra, c.ra, c.id};
-  if (u >= len * co) return {glm::length(p - c.b) - c.rb, c.rb, c.id};
+  if (u <= 0) return {glm::length(w) - c.ra, c.ra, c.id, 0.0};
+  if (u >= len * co) return {glm::length(p - c.b) - c.rb, c.rb, c.id, 1.0};
   const double d = y * s + x * co - c.ra;                    // distance to the tangent line
   const double t = std::clamp((y - d * s) / len, 0.0, 1.0);  // axial position of the closest point
-  return {d, c.ra + t * (c.rb - c.ra), c.id};
+  return {d, c.ra + t * (c.rb - c.ra), c.id, t};
 }
 
 // A bounding-volume hierarchy over cones: nearest cone by signed distance, exactly.
@@ -164,15 +165,15 @@ class ConeTree {
 };
 
 
-/// The round cone of every edge of `skel` (id: the node at its upper end), or for a lone node
-/// its sphere.
+/// The round cone of every edge of `skel` (id: the node at its upper end; its radii
+/// Skeleton::start_radius and the node's), or for a lone node its sphere.
 inline std::vector<Cone> skeleton_cones(const Skeleton& skel) {
   std::vector<Cone> cones;
   for (std::size_t i = 0; i < skel.size(); ++i) {
     const auto id = static_cast<std::uint32_t>(i);
     const NodeId parent = skel.parent[i];
     if (parent.valid()) {
-      cones.push_back({skel.position[parent.idx()], skel.position[i], skel.radius[parent.idx()], skel.radius[i], id});
+      cones.push_back({skel.position[parent.idx()], skel.position[i], skel.start_radius(NodeId(id)), skel.radius[i], id});
     } else if (skel.size() == 1) {
       cones.push_back({skel.position[i], skel.position[i], skel.radius[i], skel.radius[i], id});
     }

@@ -5,11 +5,12 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <bit>
 #include <numeric>
 #include <set>
 #include <tuple>
-#include <unordered_map>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "core/errors.h"
 #include "core/union_find.h"
@@ -28,15 +29,19 @@ constexpr std::uint32_t kNoTriangle = UINT32_MAX;
 namespace {
 
 /// Drops the triangles the fold repair removed (left as (u, u, u)) and the vertices no
-/// triangle uses any more, keeping the order of the rest.
-void drop_degenerate(MeshResult& r) {
+/// triangle uses any more, keeping the order of the rest; returns, per triangle left, its
+/// index before.
+std::vector<std::uint32_t> drop_degenerate(MeshResult& r) {
   Mesh& m = r.mesh;
   const bool kinds = r.triangle_kind.size() == m.triangles.size(), uvs = m.corner_uvs.size() == m.triangles.size(),
              branches = m.triangle_branch.size() == m.triangles.size();
   std::size_t w = 0;
+  std::vector<std::uint32_t> origin;
+  origin.reserve(m.triangles.size());
   for (std::size_t f = 0; f < m.triangles.size(); ++f) {
     const auto& t = m.triangles[f];
     if (t[0] == t[1] && t[1] == t[2]) continue;
+    origin.push_back(static_cast<std::uint32_t>(f));
     m.triangles[w] = t;
     if (kinds) r.triangle_kind[w] = r.triangle_kind[f];
     if (uvs) m.corner_uvs[w] = m.corner_uvs[f];
@@ -70,6 +75,7 @@ void drop_degenerate(MeshResult& r) {
   for (auto& t : m.triangles) {
     for (auto& v : t) v = renumber[v];
   }
+  return origin;
 }
 
 /// Connected parts of the mesh (through shared vertices).
@@ -121,47 +127,41 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
   return moving.size();
 }
 
-/// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`: pairs
-/// of triangles both found unchanged in `before` (the same three positions) carry over, and
-/// the rest are looked for around the changed triangles only (a pass over the boxes rather than
-/// the whole mesh's search: the repair's edits are local).
+/// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`;
+/// `origin[g]` names the triangle of `before` that triangle g of `after` may still be (or
+/// kNoTriangle). Pairs of triangles both found unchanged (the same three positions in the same
+/// turn as their origin, each origin claimed once, by the first) carry over, and the rest are
+/// looked for around the changed triangles only (the repair's edits are local). The edits
+/// report their origins (the fold repair keeps triangle indices, the self-union hands them
+/// on): no triangle of the whole mesh is hashed.
 std::vector<std::array<std::uint32_t, 2>> pairs_after_edit(const Mesh& before,
                                                            const std::vector<std::array<std::uint32_t, 2>>& pairs,
-                                                           const Mesh& after) {
-  using Key = std::array<double, 9>;
-  auto key = [](const Mesh& m, std::uint32_t f) {
-    const auto& t = m.triangles[f];
-    int first = 0;  // the rotation starting at the smallest position: the same triangle, one key
-    for (int k = 1; k < 3; ++k) {
-      const glm::dvec3 &p = m.positions[t[k]], &q = m.positions[t[first]];
-      if (std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z)) first = k;
+                                                           const Mesh& after, const std::vector<std::uint32_t>& origin) {
+  const auto nf = static_cast<std::uint32_t>(after.triangles.size());
+  // Whether g's positions are o's, turned or not.
+  auto same = [&](std::uint32_t g, std::uint32_t o) {
+    const auto &t = after.triangles[g], &u = before.triangles[o];
+    const glm::dvec3 p[3] = {after.positions[t[0]], after.positions[t[1]], after.positions[t[2]]};
+    const glm::dvec3 q[3] = {before.positions[u[0]], before.positions[u[1]], before.positions[u[2]]};
+    for (int r = 0; r < 3; ++r) {
+      if (p[0] == q[r] && p[1] == q[(r + 1) % 3] && p[2] == q[(r + 2) % 3]) return true;
     }
-    Key out{};
-    for (int k = 0; k < 3; ++k) {
-      const glm::dvec3& p = m.positions[t[(first + k) % 3]];
-      out[3 * k] = p.x;
-      out[3 * k + 1] = p.y;
-      out[3 * k + 2] = p.z;
-    }
-    return out;
+    return false;
   };
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const {
-      std::uint64_t h = 1469598103934665603ull;
-      for (const double x : k) h = (h ^ std::bit_cast<std::uint64_t>(x)) * 1099511628211ull;
-      return static_cast<std::size_t>(h ^ (h >> 29));
+  std::vector<std::uint8_t> kept(nf, 0);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nf, 1 << 14), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    for (std::uint32_t g = r.begin(); g != r.end(); ++g) {
+      const std::uint32_t o = origin[g];
+      kept[g] = o != kNoTriangle && same(g, o);
     }
-  };
-  std::unordered_map<Key, std::uint32_t, KeyHash> old_index(before.triangles.size());
-  for (std::uint32_t f = 0; f < before.triangles.size(); ++f) old_index.try_emplace(key(before, f), f);
+  });
   std::vector<std::uint32_t> now(before.triangles.size(), kNoTriangle);  // before -> after, unchanged ones
   std::vector<std::uint32_t> changed;
-  for (std::uint32_t f = 0; f < after.triangles.size(); ++f) {
-    const auto it = old_index.find(key(after, f));
-    if (it != old_index.end() && now[it->second] == kNoTriangle) {
-      now[it->second] = f;
+  for (std::uint32_t g = 0; g < nf; ++g) {
+    if (kept[g] && now[origin[g]] == kNoTriangle) {
+      now[origin[g]] = g;
     } else {
-      changed.push_back(f);
+      changed.push_back(g);
     }
   }
   std::vector<std::array<std::uint32_t, 2>> out = TriangleIntersections(after).pairs_touching(changed);
@@ -196,7 +196,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // Folds first: pairs of triangles within two rings of each other are creases of one sheet
   // (a tight crotch, a zigzag), which flips, moves and collapses untangle in place; a cut line
   // of the union would end inside them.
-  if (params.fold_rounds > 0 && !pairs.empty()) {
+  auto untangle_folds = [&](std::vector<std::array<std::uint32_t, 2>>& crossing) {
+    if (params.fold_rounds == 0 || crossing.empty()) return;
     const VertexCorners vc = vertex_corners(mesh);
     std::vector<std::uint8_t> suspect(mesh.triangles.size(), 0);
     std::vector<std::uint32_t> near;
@@ -206,7 +207,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       }
     };
     std::size_t folds = 0;
-    for (const auto& [f, g] : pairs) {
+    for (const auto& [f, g] : crossing) {
       near.clear();
       ring(f, near);
       const std::size_t first = near.size();
@@ -230,20 +231,22 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       options.max_pairs = std::max(options.max_pairs, mesh.triangles.size() / 8);
       MeshResult before = r;
       const FoldRepairStats fr = repair_folds(mesh, suspect, max_move, options);
-      st.fold_pairs = folds;
-      st.fold_changes = fr.flips + fr.moves + fr.collapses + fr.refills;
-      drop_degenerate(r);
+      st.fold_pairs += folds;
+      const std::size_t changes = fr.flips + fr.moves + fr.collapses + fr.refills;
+      st.fold_changes += changes;
+      const std::vector<std::uint32_t> kept = drop_degenerate(r);
       // Kept only as a closed 2-manifold (its collapses and refills can pinch an edge).
       if (const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh)); open > 0) {
         st.problem = "the fold repair left " + std::to_string(open) + " unpaired half-edges (undone)";
-        st.fold_changes = 0;
+        st.fold_changes -= changes;
         r = std::move(before);
       } else {
-        pairs = pairs_after_edit(before.mesh, pairs, mesh);
+        crossing = pairs_after_edit(before.mesh, crossing, mesh, kept);
       }
       st.timings.add("folds", clock.lap());
     }
-  }
+  };
+  untangle_folds(pairs);
   std::vector<std::uint32_t> origin;
   // Pairs a round left out (their union could not be judged) are not tried again: the rounds
   // after it meet only the pairs it made.
@@ -285,7 +288,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
     if (next.sound && next.parts <= now.parts) {
       next.volume = signed_volume(mesh);
-      after = pairs_after_edit(before.mesh, pairs, mesh);
+      after = pairs_after_edit(before.mesh, pairs, mesh, origin);
       next.pairs = after.size();
       next.thick_inside = thick_inside(mesh);
     }
@@ -334,15 +337,25 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
     options.grid = r.grid;
+    options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton.radius, skeleton.position, options, origin);
     st.patch_clusters = vp.clusters;
     st.patch_voxels = vp.voxels;
     if (vp.patched > 0) {
+      if (!r.triangle_kind.empty()) {
+        std::vector<TriangleKind> kind(origin.size());
+        for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
+        r.triangle_kind = std::move(kind);
+      }
       std::vector<std::array<std::uint32_t, 2>> after;
       MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
       if (next.sound && next.parts <= now.parts) {
+        after = pairs_after_edit(before.mesh, pairs, mesh, origin);
+        // The patches' own creases (where the voxel surface meets the cut one) are folds.
+        untangle_folds(after);
+        next.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0;
+        next.parts = components(mesh);
         next.volume = signed_volume(mesh);
-        after = pairs_after_edit(before.mesh, pairs, mesh);
         next.pairs = after.size();
         next.thick_inside = thick_inside(mesh);
       }
@@ -352,11 +365,6 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         r = std::move(before);
       } else {
         st.patched = vp.patched;
-        if (!r.triangle_kind.empty()) {
-          std::vector<TriangleKind> kind(origin.size());
-          for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
-          r.triangle_kind = std::move(kind);
-        }
         pairs = std::move(after);
       }
     }

@@ -21,6 +21,9 @@
 #include <CGAL/Surface_mesh.h>
 
 #include "core/union_find.h"
+#include "meshcheck/intersections.h"
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace sm {
 namespace {
@@ -61,14 +64,61 @@ std::uint32_t triangle_with_edge(const Mesh& mesh, const VertexCorners& vc, std:
 /// uses; at an edge of four or more (two solids of the union touching along it), each
 /// triangle is paired with its neighbour around the edge across the solid between them, so
 /// that the solids come apart. With `grid` > 0 the copies are on that grid, each at least a
-/// grid step from v, so the float32 file keeps them apart.
-std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand, double grid) {
+/// grid step from v, so the float32 file keeps them apart. `open` receives the triangles with
+/// a half-edge a -> b that has no single twin b -> a, or is not unique, after the splits.
+std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand, double grid,
+                          std::vector<std::uint32_t>& open) {
   const VertexCorners vc = vertex_corners(mesh);
   std::size_t split = 0;
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
+  // Most vertices are plain: their triangles form one cycle around them, each neighbour
+  // reached by one edge leaving and one arriving. Those are found first, in parallel, and
+  // skipped. (A split elsewhere keeps them plain: the two triangles of an edge to a split
+  // vertex share that edge, so they go to the same copy.)
+  std::vector<std::uint8_t> plain(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nv, 1 << 12), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    std::vector<std::uint32_t> leaving, arriving;
+    for (std::uint32_t v = r.begin(); v != r.end(); ++v) {
+      const std::uint32_t b = vc.begin[v], n = vc.begin[v + 1] - b;
+      if (n < 2) continue;
+      leaving.resize(n);
+      arriving.resize(n);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        leaving[i] = mesh.triangles[c / 3][(c % 3 + 1) % 3];
+        arriving[i] = mesh.triangles[c / 3][(c % 3 + 2) % 3];
+      }
+      // Walk the cycle: from corner i, the corner arriving from where i leaves to.
+      std::uint32_t i = 0, steps = 0;
+      bool one_cycle = true;
+      do {
+        std::uint32_t next = n, count = 0, out_count = 0;
+        for (std::uint32_t j = 0; j < n; ++j) {
+          if (arriving[j] == leaving[i]) {
+            next = j;
+            ++count;
+          }
+          out_count += leaving[j] == leaving[i];
+        }
+        if (count != 1 || out_count != 1) {
+          one_cycle = false;
+          break;
+        }
+        i = next;
+        ++steps;
+      } while (i != 0 && steps <= n);
+      plain[v] = one_cycle && steps == n;
+    }
+  });
+  // The corners at each vertex that is not plain, after the splits: a fan of each copy, or all.
+  std::vector<std::vector<std::uint32_t>> corners_at;
   for (std::uint32_t v = 0; v < nv; ++v) {
+    if (plain[v]) continue;
     const std::uint32_t b = vc.begin[v], e = vc.begin[v + 1], n = e - b;
-    if (n < 2) continue;
+    if (n < 2) {
+      if (n == 1) corners_at.push_back({vc.corner[b]});
+      continue;
+    }
     UnionFind fans(n);
     // Corners by the vertex after v (edge v -> x leaving) and before it (edge x -> v arriving).
     auto next_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 1) % 3]; };
@@ -119,7 +169,10 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
     for (std::uint32_t i = 0; i < n; ++i) {
       if (fans.find(i) == i) roots.push_back(i);
     }
-    if (roots.size() < 2) continue;
+    if (roots.size() < 2) {
+      corners_at.emplace_back(vc.corner.begin() + b, vc.corner.begin() + e);
+      continue;
+    }
     ++split;
     // Every fan gets its own copy (v itself is left unused).
     for (const std::uint32_t root : roots) {
@@ -132,6 +185,10 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
         sum += mesh.positions[t[(c % 3 + 1) % 3]] + mesh.positions[t[(c % 3 + 2) % 3]];
         count += 2;
       }
+      corners_at.emplace_back();
+      for (std::uint32_t i = 0; i < n; ++i) {
+        if (fans.find(i) == root) corners_at.back().push_back(vc.corner[b + i]);
+      }
       const auto copy = static_cast<std::uint32_t>(mesh.positions.size());
       mesh.positions.push_back(step_towards(mesh.positions[v], sum / count, grid));
       if (node) node->push_back((*node)[v]);
@@ -142,6 +199,23 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
       }
     }
   }
+  // The open edges after the splits, as open_edge_triangles would find them on the whole
+  // mesh: a half-edge a -> b at a vertex without exactly one of it and one twin b -> a. Plain
+  // vertices have none.
+  open.clear();
+  for (const std::vector<std::uint32_t>& at : corners_at) {
+    for (const std::uint32_t c : at) {
+      const std::uint32_t b = mesh.triangles[c / 3][(c % 3 + 1) % 3];
+      int same = 0, twin = 0;
+      for (const std::uint32_t cj : at) {
+        same += mesh.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
+        twin += mesh.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
+      }
+      if (same != 1 || twin != 1) open.push_back(c / 3);
+    }
+  }
+  std::sort(open.begin(), open.end());
+  open.erase(std::unique(open.begin(), open.end()), open.end());
   return split;
 }
 
@@ -157,10 +231,17 @@ glm::dvec3 barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec
 }
 
 
+/// The inradius of triangle (a, b, c) (0 where degenerate).
+double inradius(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const double perimeter = glm::distance(a, b) + glm::distance(b, c) + glm::distance(c, a);
+  return perimeter > 0 ? glm::length(glm::cross(b - a, c - a)) / perimeter : 0.0;
+}
+
 /// One attempt at the union of a set of pairs: refine their triangles, judge the patches.
 class Attempt {
  public:
-  Attempt(const Mesh& mesh, const VertexCorners& vc) : mesh_(mesh), vc_(vc), nf_(uint32_t(mesh.triangles.size())) {}
+  Attempt(const Mesh& mesh, const VertexCorners& vc)
+      : mesh_(mesh), vc_(vc), nf_(uint32_t(mesh.triangles.size())), intersections_(mesh) {}
 
   /// Refines the triangles of `pairs` and judges every patch. False with `problem` set when
   /// CGAL fails; otherwise `bad` lists the cut triangles (mesh indices) whose patches could not
@@ -191,9 +272,21 @@ class Attempt {
     std::array<std::uint32_t, 3> v;  // refined vertex indices
     std::uint32_t origin, patch;
   };
+  // The refinement of one group of cut triangles (refine_group), kept for later attempts.
+  struct Refined {
+    bool ok = false;
+    std::string problem;
+    std::vector<std::uint32_t> mesh_vertex;  // per vertex of the group's own: the mesh vertex
+    std::vector<glm::dvec3> positions;       // per refined vertex: its own, then the new ones
+    std::vector<Piece> pieces;               // in the group's numbering
+    std::size_t patches = 0;
+    std::vector<std::uint8_t> dangling;  // per patch
+  };
   void choose(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  [[nodiscard]] Refined refine_group(const std::vector<std::uint32_t>& group) const;
   bool refine();
   void canonicalize();
+  void prepare();
   void judge();
   [[nodiscard]] std::uint32_t mesh_vertex(std::uint32_t r) const { return r < n_sub_ ? mesh_vertex_of_sub_[r] : kNone; }
 
@@ -202,12 +295,17 @@ class Attempt {
   std::uint32_t nf_;
   std::vector<std::uint32_t> local_, cut_;  // cut triangles: mesh index <-> local index
   std::vector<std::uint32_t> mesh_vertex_of_sub_;
+  std::vector<std::uint32_t> first_cut_of_sub_;  // refine()'s: the first cut triangle at each
   std::uint32_t n_sub_ = 0;
+  TriangleIntersections intersections_;
+  std::map<std::vector<std::uint32_t>, Refined> cache_;  // by the group's triangles
   std::vector<Piece> pieces_;
   std::vector<glm::dvec3> refined_pos_;
   std::vector<std::uint8_t> dangling_;  // per patch: a cut line ends inside it
   std::vector<std::uint8_t> piece_keep_;  // per piece: kDrop, kKeep or kFlip
   std::vector<std::uint8_t> uncut_;     // per mesh triangle: its verdict where uncut
+  std::vector<std::uint32_t> across_;   // prepare()'s: per corner k of f, 3f + k, the triangle across its edge to k + 1
+  std::vector<double> inradius_;        // prepare()'s: per mesh triangle
 };
 
 // The cut triangles: those of the pairs, and where they meet at a vertex in several fans (not
@@ -257,32 +355,32 @@ void Attempt::choose(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   cut_triangles = cut_.size();
 }
 
-// CGAL's autorefinement of the cut triangles (a surface mesh of their own), with the cut
-// lines marked; pieces, their patches, and the patches a cut line ends in.
-bool Attempt::refine() {
-  std::vector<std::uint32_t> sub_of_vertex(mesh_.positions.size(), kNone);
-  mesh_vertex_of_sub_.clear();
+// CGAL's autorefinement of one group of cut triangles (a surface mesh of their own), with
+// the cut lines marked: its pieces (vertices numbered in the group: first its mesh vertices in
+// the order the triangles reach them, then the new ones), their patches, and the patches a
+// cut line ends in.
+Attempt::Refined Attempt::refine_group(const std::vector<std::uint32_t>& group) const {
+  Refined out;
+  std::map<std::uint32_t, std::uint32_t> sub_of_vertex;
   SurfaceMesh sm;
   std::array<VertexIndex, 3> corner;
-  for (const std::uint32_t f : cut_) {
+  for (const std::uint32_t f : group) {
     for (std::uint32_t k = 0; k < 3; ++k) {
-      std::uint32_t& s = sub_of_vertex[mesh_.triangles[f][k]];
-      if (s == kNone) {
-        s = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
-        mesh_vertex_of_sub_.push_back(mesh_.triangles[f][k]);
+      const auto [it, fresh] = sub_of_vertex.try_emplace(mesh_.triangles[f][k], std::uint32_t(out.mesh_vertex.size()));
+      if (fresh) {
+        out.mesh_vertex.push_back(mesh_.triangles[f][k]);
         const glm::dvec3& p = mesh_.positions[mesh_.triangles[f][k]];
         sm.add_vertex(Point(p.x, p.y, p.z));
       }
     }
   }
-  n_sub_ = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
   OriginMap origin = sm.add_property_map<FaceIndex, std::uint32_t>("f:origin", kNone).first;
-  for (const std::uint32_t f : cut_) {
+  for (const std::uint32_t f : group) {
     for (std::uint32_t k = 0; k < 3; ++k) corner[k] = VertexIndex(sub_of_vertex[mesh_.triangles[f][k]]);
     const FaceIndex face = sm.add_face(corner[0], corner[1], corner[2]);
     if (face == SurfaceMesh::null_face()) {
-      problem = "the cut triangles do not form a manifold";
-      return false;
+      out.problem = "the cut triangles do not form a manifold";
+      return out;
     }
     origin[face] = f;
   }
@@ -291,23 +389,22 @@ bool Attempt::refine() {
     PMP::experimental::autorefine(sm,
                                   CGAL::parameters::visitor(OriginVisitor(origin)).edge_is_constrained_map(cut_edge));
   } catch (const std::exception& e) {  // a CGAL precondition or an unexpected configuration
-    problem = std::string("CGAL's autorefinement failed: ") + e.what();
-    return false;
+    out.problem = std::string("CGAL's autorefinement failed: ") + e.what();
+    return out;
   }
   auto patch_map = sm.add_property_map<FaceIndex, std::size_t>("f:patch", 0).first;
-  patches = PMP::connected_components(sm, patch_map, CGAL::parameters::edge_is_constrained_map(cut_edge));
+  out.patches = PMP::connected_components(sm, patch_map, CGAL::parameters::edge_is_constrained_map(cut_edge));
   // A cut line that ends inside the surface (a fold at a vertex) leaves the same patch on
   // both sides of it: such a patch has no single winding number in front.
-  dangling_.assign(patches, 0);
+  out.dangling.assign(out.patches, 0);
   for (const auto e : sm.edges()) {
     if (!cut_edge[e]) continue;
     const auto h = sm.halfedge(e);
     const FaceIndex f = sm.face(h), g = sm.face(sm.opposite(h));
     if (f != SurfaceMesh::null_face() && g != SurfaceMesh::null_face() && patch_map[f] == patch_map[g])
-      dangling_[patch_map[f]] = 1;
+      out.dangling[patch_map[f]] = 1;
   }
-  pieces_.clear();
-  pieces_.reserve(sm.number_of_faces());
+  out.pieces.reserve(sm.number_of_faces());
   for (const FaceIndex f : sm.faces()) {
     Piece p{};
     std::size_t k = 0;
@@ -316,17 +413,88 @@ bool Attempt::refine() {
       p.v[k++] = static_cast<std::uint32_t>(v.idx());
     }
     if (k != 3 || origin[f] == kNone) {
-      problem = "the autorefinement made a face that is not a triangle of a known origin";
-      return false;
+      out.problem = "the autorefinement made a face that is not a triangle of a known origin";
+      return out;
     }
     p.origin = origin[f];
     p.patch = static_cast<std::uint32_t>(patch_map[f]);
-    pieces_.push_back(p);
+    out.pieces.push_back(p);
   }
-  refined_pos_.resize(sm.num_vertices());
+  out.positions.resize(sm.num_vertices());
   for (const VertexIndex v : sm.vertices()) {
     const Point& q = sm.point(v);
-    refined_pos_[v.idx()] = glm::dvec3(q.x(), q.y(), q.z());
+    out.positions[v.idx()] = glm::dvec3(q.x(), q.y(), q.z());
+  }
+  out.ok = true;
+  return out;
+}
+
+// The refinement of the cut triangles, put together from that of their groups: triangles
+// joined through shared vertices or crossing each other (including crossings no given pair
+// holds), which the refinement of all of them at once would cut alike, as nothing joins two
+// groups. The mesh does not change between attempts, which mostly leave out a few curves: a
+// group met before is taken from the cache. Then the whole is numbered as one refinement
+// would be (canonicalize).
+bool Attempt::refine() {
+  const auto nc = static_cast<std::uint32_t>(cut_.size());
+  std::vector<std::uint32_t> sub_of_vertex(mesh_.positions.size(), kNone);
+  mesh_vertex_of_sub_.clear();
+  UnionFind joined(nc);
+  for (std::uint32_t i = 0; i < nc; ++i) {
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      std::uint32_t& s = sub_of_vertex[mesh_.triangles[cut_[i]][k]];
+      if (s == kNone) {
+        s = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
+        mesh_vertex_of_sub_.push_back(mesh_.triangles[cut_[i]][k]);
+        first_cut_of_sub_.resize(mesh_vertex_of_sub_.size());
+        first_cut_of_sub_[s] = i;
+      }
+      joined.unite(i, first_cut_of_sub_[s]);
+    }
+  }
+  n_sub_ = static_cast<std::uint32_t>(mesh_vertex_of_sub_.size());
+  for (const auto& [f, g] : intersections_.pairs(cut_)) joined.unite(local_[f], local_[g]);
+  std::map<std::uint32_t, std::vector<std::uint32_t>> groups;  // by root: mesh triangles, ascending
+  for (std::uint32_t i = 0; i < nc; ++i) groups[joined.find(i)].push_back(cut_[i]);
+  std::vector<const Refined*> parts;
+  for (auto& [root, group] : groups) {
+    auto it = cache_.find(group);
+    if (it == cache_.end()) {
+      Refined r = refine_group(group);
+      it = cache_.emplace(std::move(group), std::move(r)).first;
+    }
+    if (!it->second.ok) {
+      problem = it->second.problem;
+      return false;
+    }
+    parts.push_back(&it->second);
+  }
+  pieces_.clear();
+  refined_pos_.assign(n_sub_, glm::dvec3(0.0));
+  for (std::uint32_t r = 0; r < n_sub_; ++r) refined_pos_[r] = mesh_.positions[mesh_vertex_of_sub_[r]];
+  dangling_.clear();
+  patches = 0;
+  std::vector<std::uint32_t> renumber;
+  for (const Refined* part : parts) {
+    const auto nsub = static_cast<std::uint32_t>(part->mesh_vertex.size());
+    renumber.assign(part->positions.size(), kNone);
+    for (std::uint32_t r = 0; r < part->positions.size(); ++r) {
+      if (r < nsub) {
+        renumber[r] = sub_of_vertex[part->mesh_vertex[r]];
+        refined_pos_[renumber[r]] = part->positions[r];
+      } else {
+        renumber[r] = static_cast<std::uint32_t>(refined_pos_.size());
+        refined_pos_.push_back(part->positions[r]);
+      }
+    }
+    const auto patch0 = static_cast<std::uint32_t>(patches);
+    for (Piece p : part->pieces) {
+      for (std::uint32_t& v : p.v) v = renumber[v];
+      p.patch += patch0;
+      pieces_.push_back(p);
+    }
+    dangling_.insert(dangling_.end(), part->dangling.begin(), part->dangling.end());
+    patches += part->patches;
   }
   canonicalize();
   return true;
@@ -386,6 +554,21 @@ void Attempt::canonicalize() {
 // in (where the surface folds through itself at a vertex) has no single verdict: each of its
 // pieces is judged on its own. A cut line along an uncut triangle's side (the refinement split
 // an edge the mesh shares with a triangle it did not cut) makes the patches there `bad`.
+// The tables of the mesh judge() reads on every attempt, made on the first (the mesh does
+// not change between attempts): the triangle across each edge, and each triangle's inradius.
+void Attempt::prepare() {
+  if (across_.size() == 3 * std::size_t{nf_}) return;
+  across_.resize(3 * std::size_t{nf_});
+  inradius_.resize(nf_);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nf_, 1 << 12), [&](const tbb::blocked_range<std::uint32_t>& r) {
+    for (std::uint32_t f = r.begin(); f != r.end(); ++f) {
+      const auto& t = mesh_.triangles[f];
+      for (int k = 0; k < 3; ++k) across_[3 * f + k] = triangle_with_edge(mesh_, vc_, t[(k + 1) % 3], t[k]);
+      inradius_[f] = inradius(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+    }
+  });
+}
+
 void Attempt::judge() {
   const auto np = static_cast<std::uint32_t>(patches);
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> patch_on_edge;  // directed mesh edge
@@ -395,6 +578,7 @@ void Attempt::judge() {
       if (a != kNone && b != kNone) patch_on_edge[{a, b}] = p.patch;
     }
   }
+  prepare();
   std::vector<std::uint8_t> bad_patch(np, 0), touches(nf_, 0);
   UnionFind region(nf_);
   for (std::uint32_t f = 0; f < nf_; ++f) {
@@ -402,7 +586,7 @@ void Attempt::judge() {
     const auto& t = mesh_.triangles[f];
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-      const std::uint32_t g = triangle_with_edge(mesh_, vc_, b, a);
+      const std::uint32_t g = across_[3 * f + k];
       if (g == kNone) continue;
       if (local_[g] == kNone) {
         region.unite(f, g);
@@ -415,10 +599,6 @@ void Attempt::judge() {
       }
     }
   }
-  auto inradius = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-    const double perimeter = glm::distance(a, b) + glm::distance(b, c) + glm::distance(c, a);
-    return perimeter > 0 ? glm::length(glm::cross(b - a, c - a)) / perimeter : 0.0;
-  };
   std::vector<double> piece_r(pieces_.size());
   std::vector<std::pair<double, std::uint32_t>> best_piece(np, {-1.0, 0});
   for (std::uint32_t i = 0; i < pieces_.size(); ++i) {
@@ -431,13 +611,13 @@ void Attempt::judge() {
   for (std::uint32_t f = 0; f < nf_; ++f) {
     if (touches[f]) region_touches[region.find(f)] = 1;
   }
-  std::map<std::uint32_t, std::pair<double, std::uint32_t>> best_uncut;  // ordered: deterministic
+  std::vector<std::uint32_t> best_uncut(nf_, kNone);  // by root (in increasing order: deterministic)
   for (std::uint32_t f = 0; f < nf_; ++f) {
-    if (local_[f] != kNone || !region_touches[region.find(f)]) continue;
-    const auto& t = mesh_.triangles[f];
-    const double r = inradius(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
-    auto [it, fresh] = best_uncut.try_emplace(region.find(f), r, f);
-    if (!fresh && r > it->second.first) it->second = {r, f};
+    if (local_[f] != kNone) continue;
+    const std::uint32_t root = region.find(f);
+    if (!region_touches[root]) continue;
+    std::uint32_t& best = best_uncut[root];
+    if (best == kNone || inradius_[f] > inradius_[best]) best = f;
   }
   std::vector<glm::dvec3> probe;
   auto add_probe = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, double r) {
@@ -461,11 +641,13 @@ void Attempt::judge() {
     own_probe[i] = static_cast<std::uint32_t>(probe.size());
     piece_probe(i);
   }
-  std::map<std::uint32_t, std::size_t> region_probe;
-  for (const auto& [root, best] : best_uncut) {
-    const auto& t = mesh_.triangles[best.second];
+  std::vector<std::size_t> region_probe(nf_, SIZE_MAX);  // by root
+  for (std::uint32_t root = 0; root < nf_; ++root) {
+    const std::uint32_t best = best_uncut[root];
+    if (best == kNone) continue;
+    const auto& t = mesh_.triangles[best];
     region_probe[root] = probe.size();
-    add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], best.first);
+    add_probe(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], inradius_[best]);
   }
   const std::vector<int> winding = winding_numbers(mesh_, probe);
   // Kept where exactly one side is outside (winding number 0), facing it: a side turned
@@ -490,8 +672,7 @@ void Attempt::judge() {
   uncut_.assign(nf_, kKeep);
   for (std::uint32_t f = 0; f < nf_; ++f) {
     if (local_[f] != kNone) continue;
-    const auto it = region_probe.find(region.find(f));
-    if (it != region_probe.end()) uncut_[f] = judge_sides(it->second);
+    if (const std::size_t at = region_probe[region.find(f)]; at != SIZE_MAX) uncut_[f] = judge_sides(at);
   }
 }
 
@@ -542,6 +723,9 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
   out.positions.insert(out.positions.end(), new_pos.begin(), new_pos.end());
   const bool uvs = mesh.corner_uvs.size() == nf, branches = mesh.triangle_branch.size() == nf;
   origin_of.clear();
+  out.triangles.reserve(nf + pieces_.size());
+  origin_of.reserve(nf + pieces_.size());
+  if (uvs) out.corner_uvs.reserve(nf + pieces_.size());
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (local_[f] != kNone || uncut_[f] == kDrop) continue;
     const auto& t = mesh.triangles[f];
@@ -599,28 +783,6 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
 
 namespace {
 
-/// The triangles with a half-edge a -> b that has no single twin b -> a, nor is unique.
-std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
-  const VertexCorners vc = vertex_corners(m);
-  std::vector<std::uint32_t> out;
-  for (std::uint32_t a = 0; a + 1 < vc.begin.size(); ++a) {
-    for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
-      const std::uint32_t c = vc.corner[k], f = c / 3;
-      const std::uint32_t b = m.triangles[f][(c % 3 + 1) % 3];
-      int same = 0, twin = 0;
-      for (std::uint32_t j = vc.begin[a]; j < vc.begin[a + 1]; ++j) {
-        const std::uint32_t cj = vc.corner[j];
-        same += m.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
-        twin += m.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
-      }
-      if (same != 1 || twin != 1) out.push_back(f);
-    }
-  }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
-}
-
 /// Components (through shared vertices) of `out` other than the largest: inner shells (a void
 /// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
 /// apart from the tube it folded) go. A part that holds an anchor, of either volume, is a branch
@@ -637,21 +799,32 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
     comp.unite(t[0], t[1]);
     comp.unite(t[1], t[2]);
   }
-  // Signed volumes about one common origin (any origin gives a closed component's volume).
-  std::map<std::uint32_t, double> volume;
-  std::map<std::uint32_t, std::vector<std::uint32_t>> members;
+  // Signed volumes about one common origin (any origin gives a closed component's volume),
+  // by root; the components in increasing order of their roots.
+  const auto nf = static_cast<std::uint32_t>(out.triangles.size());
+  std::vector<double> volume_of(out.positions.size(), 0.0);
+  std::vector<std::uint8_t> is_root(out.positions.size(), 0);
+  std::vector<std::uint32_t> root_of(nf);
   const glm::dvec3 o = out.positions[out.triangles.front()[0]];
-  for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+  for (std::uint32_t f = 0; f < nf; ++f) {
     const auto& t = out.triangles[f];
-    const std::uint32_t c = comp.find(t[0]);
-    volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
-    members[c].push_back(f);
+    const std::uint32_t c = root_of[f] = comp.find(t[0]);
+    volume_of[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+    is_root[c] = 1;
   }
-  std::uint32_t largest = volume.begin()->first;
+  std::vector<std::pair<std::uint32_t, double>> volume;
+  for (std::uint32_t c = 0; c < is_root.size(); ++c) {
+    if (is_root[c]) volume.emplace_back(c, volume_of[c]);
+  }
+  std::uint32_t largest = volume.front().first;
   for (const auto& [c, v] : volume) {
-    if (v > volume[largest]) largest = c;
+    if (v > volume_of[largest]) largest = c;
   }
-  std::map<std::uint32_t, std::uint8_t> keep_comp;
+  std::map<std::uint32_t, std::vector<std::uint32_t>> members;  // of the other components
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (root_of[f] != largest) members[root_of[f]].push_back(f);
+  }
+  std::vector<std::uint8_t> keep_comp(out.positions.size(), 0);
   for (const auto& [c, v] : volume) {
     if (c == largest) {
       keep_comp[c] = 1;
@@ -659,15 +832,19 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
     }
     bool holds = false;  // a void's shell holds no node; one that does is a branch turned over
     {
-      Mesh part;
-      part.positions = out.positions;
+      Mesh part;  // (its own vertices only)
+      std::map<std::uint32_t, std::uint32_t> vertex;
       glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
       for (const std::uint32_t f : members[c]) {
-        part.triangles.push_back(out.triangles[f]);
-        for (const std::uint32_t x : out.triangles[f]) {
+        Mesh::Triangle t = out.triangles[f];
+        for (std::uint32_t& x : t) {
           lo = glm::min(lo, out.positions[x]);
           hi = glm::max(hi, out.positions[x]);
+          const auto [it, fresh] = vertex.try_emplace(x, std::uint32_t(part.positions.size()));
+          if (fresh) part.positions.push_back(out.positions[x]);
+          x = it->second;
         }
+        part.triangles.push_back(t);
       }
       std::vector<glm::dvec3> near;
       for (const glm::dvec3& a : anchors) {
@@ -688,7 +865,7 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
   if (!severed.empty()) return severed;
   std::size_t w = 0;
   for (std::size_t f = 0; f < out.triangles.size(); ++f) {
-    if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
+    if (!keep_comp[root_of[f]]) continue;
     out.triangles[w] = out.triangles[f];
     origin_of[w] = origin_of[f];
     if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
@@ -965,13 +1142,14 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     attempt.assemble(out, origin_of, grid, trial);
     std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
     std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
-    trial.split_vertices = split_pinches(out, node, strand, grid);
+    std::vector<std::uint32_t> open_at;
+    trial.split_vertices = split_pinches(out, node, strand, grid, open_at);
     std::vector<std::uint8_t> was_cut(nf, 0);
     for (const auto& pr : active) was_cut[pr[0]] = was_cut[pr[1]] = 1;
     // Where the kept patches do not close up (a cut line ending where the surface folds), those
     // crossings are left out too.
     std::vector<std::uint32_t> open;
-    for (const std::uint32_t f : open_edge_triangles(out)) open.push_back(origin_of[f]);
+    for (const std::uint32_t f : open_at) open.push_back(origin_of[f]);
     if (!open.empty()) {
       leave_out(open);
       continue;

@@ -1146,6 +1146,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         const glm::dvec3 c = out.positions[out.triangles[f][0]];
         std::fprintf(stderr, "  pair %s x %s at %.3f %.3f %.3f\n", kind(f).c_str(), kind(g).c_str(), c.x, c.y, c.z);
       }
+      if (options.allow_crossings) continue;
       reject(patch_of[f], "the patch would make a crossing");
       reject(patch_of[g], "the patch would make a crossing");
     }

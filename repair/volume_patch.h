@@ -29,6 +29,7 @@ struct VolumePatchOptions {
   std::size_t max_voxels = 4'000'000;   ///< largest grid of one patch (coarser voxels beyond)
   double min_voxels_per_radius = 2.5;   ///< a region whose thinnest radius gets fewer is not patched
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
+  bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
 };
 
 struct VolumePatchStats {

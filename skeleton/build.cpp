@@ -35,6 +35,7 @@ struct WorkTree {
   std::vector<std::uint32_t> parent;                 // kNone for the root
   std::vector<std::vector<std::uint32_t>> children;  // in input order
   std::vector<std::int64_t> source;                  // input id or -1
+  std::vector<double> base;                          // Skeleton::base_radius (0: the parent's radius)
   std::vector<bool> removed;
   std::uint32_t root = 0;
 
@@ -44,6 +45,7 @@ struct WorkTree {
     parent.push_back(par);
     children.emplace_back();
     source.push_back(src);
+    base.push_back(0.0);
     removed.push_back(false);
     return static_cast<std::uint32_t>(pos.size() - 1);
   }
@@ -70,7 +72,7 @@ struct WorkTree {
     Projection pr{};
     pr.t = glm::dot(pos[x] - pos[a], ab) / l2;
     pr.length = std::sqrt(l2);
-    pr.radius = glm::mix(radius[a], radius[b], pr.t);
+    pr.radius = glm::mix(parent[b] == a && base[b] > 0 ? base[b] : radius[a], radius[b], pr.t);
     pr.foot = pos[a] + pr.t * ab;
     pr.offset = glm::length(pos[x] - pr.foot);
     return pr;
@@ -80,17 +82,21 @@ struct WorkTree {
   std::uint32_t insert_above(std::uint32_t c, dvec3 p, double r) {
     const std::uint32_t par = parent[c];
     const std::uint32_t m = add(p, r, par, -1);
+    std::swap(base[m], base[c]);  // the upper part starts at m's radius
     *std::find(children[par].begin(), children[par].end(), c) = m;
     children[m].push_back(c);
     parent[c] = m;
     return m;
   }
 
-  /// Removes node x, its children moving to node m (appended to m's children).
+  /// Removes node x, its children moving to node m (appended to m's children). Their edges
+  /// keep starting at x's radius (or their own base radius) where m is thicker.
   void fold_into(std::uint32_t x, std::uint32_t m) {
     for (const std::uint32_t g : children[x]) {
       children[m].push_back(g);
       parent[g] = m;
+      const double start = base[g] > 0 ? base[g] : radius[x];
+      base[g] = start < radius[m] ? start : 0.0;
     }
     children[x].clear();
     removed[x] = true;
@@ -191,6 +197,7 @@ WorkTree make_tree(const RawSkeleton& raw, std::uint32_t root,
   t.parent.assign(n, kNone);
   t.children.resize(n);
   t.source = raw.id;
+  t.base = raw.base_radius.size() == n ? raw.base_radius : std::vector<double>(n, 0.0);
   t.removed.assign(n, false);
   t.root = root;
   for (std::size_t i = 0; i < n; ++i) {
@@ -387,7 +394,8 @@ void resample_long_edges(WorkTree& t, const SkeletonParams& params, SkeletonRepo
     const std::uint32_t p = t.parent[c];
     if (p == kNone) continue;
     const double len = glm::length(t.pos[c] - t.pos[p]);
-    const double max_len = params.max_edge_ratio * 0.5 * (t.radius[c] + t.radius[p]);
+    const double r0 = t.base[c] > 0 ? t.base[c] : t.radius[p];  // the edge's radius at p
+    const double max_len = params.max_edge_ratio * 0.5 * (t.radius[c] + r0);
     if (len <= max_len) continue;
     const auto pieces = static_cast<std::size_t>(std::min(std::ceil(len / max_len), 1e4));
     ++rep.resampled_edges;
@@ -397,9 +405,10 @@ void resample_long_edges(WorkTree& t, const SkeletonParams& params, SkeletonRepo
     const auto slot = std::find(pc.begin(), pc.end(), c) - pc.begin();
     for (std::size_t k = 1; k < pieces; ++k) {
       const double a = double(k) / double(pieces);
-      const std::uint32_t m = t.add(glm::mix(t.pos[p], t.pos[c], a), glm::mix(t.radius[p], t.radius[c], a), prev, -1);
+      const std::uint32_t m = t.add(glm::mix(t.pos[p], t.pos[c], a), glm::mix(r0, t.radius[c], a), prev, -1);
       if (prev == p) {
         t.children[p][static_cast<std::size_t>(slot)] = m;
+        std::swap(t.base[m], t.base[c]);  // the first piece starts where the edge did
       } else {
         t.children[prev].push_back(m);
       }
@@ -606,6 +615,7 @@ bool merge_inner_branches(WorkTree& t, double max_move, SkeletonReport& rep, con
           const auto e = t.project(x, v, y);
           if (e.t >= 0.98 || e.t <= 0.0) continue;
           if (e.offset >= max_move * e.radius) continue;
+          if (t.radius[x] > e.radius) continue;  // thicker than the edge it would run inside
           if (e.t * e.length <= 1.5 * t.radius[v]) {
             // Within the fork's sphere: only a hub along y or a hair from v (see above).
             const bool along = glm::dot(normalize_or(ax, dvec3(0)), normalize_or(ay, dvec3(0))) > cos_along;
@@ -645,6 +655,7 @@ bool fold_backward_branches(WorkTree& t, double max_move, SkeletonReport& rep, c
         const auto e = t.project(x, p, v);
         if (e.t <= 0.02 || e.t >= 0.98 || (1.0 - e.t) * e.length <= 1.5 * t.radius[v]) continue;
         if (e.offset >= max_move * e.radius) continue;
+        if (t.radius[x] > e.radius) continue;  // thicker than the edge it would run inside
         const std::uint32_t m = t.insert_above(v, e.foot, e.radius);
         t.fold_into(x, m);
         ++rep.merged_inner;
@@ -911,6 +922,7 @@ Skeleton input_skeleton(const RawSkeleton& raw, const SkeletonParams& params) {
   s.children.resize(n);
   s.frame.resize(n);
   s.source_id = raw.id;
+  if (raw.base_radius.size() == n) s.base_radius = raw.base_radius;  // (a sanitized export's)
   for (std::size_t i = 0; i < n; ++i) {
     s.radius[i] = std::max(raw.radius[i], floor);
     if (t.parent[i] != kNone) s.parent[i] = NodeId(t.parent[i]);
@@ -976,6 +988,7 @@ SkeletonResult build_skeleton(const RawSkeleton& raw, const SkeletonParams& para
     auto [v, par] = stack.back();
     stack.pop_back();
     const NodeId id = s.add_node(par, t.pos[v], t.radius[v], t.source[v]);
+    if (par.valid()) s.base_radius[id.idx()] = t.base[v];
     const auto& ch = t.children[v];
     for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.emplace_back(*it, id);
   }
@@ -1017,6 +1030,8 @@ void validate_binary_skeleton(const Skeleton& s) {
   SM_CHECK(s.radius.size() == n && s.parent.size() == n && s.children.size() == n && s.frame.size() == n &&
                s.source_id.size() == n,
            "skeleton arrays have different lengths");
+  SM_CHECK(s.base_radius.empty() || s.base_radius.size() == n, "skeleton base radii must be none or one per node");
+  for (const double b : s.base_radius) SM_CHECK(std::isfinite(b) && b >= 0, "base radius must be finite and >= 0");
   if (n == 0) return;
   SM_CHECK(!s.parent[0].valid(), "node 0 must be the root");
   for (std::size_t i = 0; i < n; ++i) {

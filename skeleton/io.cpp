@@ -157,6 +157,12 @@ RawSkeleton parse_skeleton_json(std::string_view text, const std::string& name) 
     auto rad = node.find("radius");
     if (rad == node.end()) throw InvalidInputError(where + ": missing \"radius\"");
     const double r = get_number(*rad, "\"radius\"", where);
+    if (const auto base = node.find("base_radius"); base != node.end()) {
+      const double b = get_number(*base, "\"base_radius\"", where);
+      if (!(b >= 0)) throw InvalidInputError(where + ": \"base_radius\" must be >= 0, got " + excerpt(base->dump()));
+      raw.base_radius.resize(n, 0.0);
+      raw.base_radius[k] = b;
+    }
     raw.id.push_back(id);
     raw.parent_id.push_back(parent);
     raw.position.push_back(p);
@@ -246,6 +252,7 @@ std::string skeleton_to_json(const Skeleton& s, const std::string& source) {
     node["position"] = {s.position[i].x, s.position[i].y, s.position[i].z};
     node["radius"] = s.radius[i];
     if (s.source_id[i] >= 0) node["source_id"] = s.source_id[i];
+    if (i < s.base_radius.size() && s.base_radius[i] > 0) node["base_radius"] = s.base_radius[i];
     nodes.push_back(std::move(node));
   }
   doc["nodes"] = std::move(nodes);
@@ -264,6 +271,7 @@ std::string raw_skeleton_to_json(const RawSkeleton& raw) {
                      {"parent", raw.parent_id[i]},
                      {"position", {raw.position[i].x, raw.position[i].y, raw.position[i].z}},
                      {"radius", raw.radius[i]}});
+    if (i < raw.base_radius.size() && raw.base_radius[i] > 0) nodes.back()["base_radius"] = raw.base_radius[i];
   }
   doc["nodes"] = std::move(nodes);
   return doc.dump() + "\n";

@@ -12,6 +12,7 @@ std::size_t RawSkeleton::add(std::int64_t node_id, std::int64_t parent, dvec3 po
   position.push_back(pos);
   radius.push_back(r);
   if (!where.empty()) where.emplace_back();
+  if (!base_radius.empty()) base_radius.push_back(0.0);
   return id.size() - 1;
 }
 
@@ -76,6 +77,7 @@ NodeId Skeleton::add_node(NodeId p, dvec3 pos, double r, std::int64_t source) {
   children.push_back({NodeId{}, NodeId{}});
   frame.emplace_back();
   source_id.push_back(source);
+  if (base_radius.size() + 1 == position.size()) base_radius.push_back(0.0);
   return n;
 }
 
@@ -86,6 +88,10 @@ RawSkeleton raw_from_skeleton(const Skeleton& s, const std::string& source) {
   for (std::size_t i = 0; i < s.size(); ++i) {
     out.add(static_cast<std::int64_t>(i), s.parent[i].valid() ? std::int64_t(s.parent[i].value) : -1, s.position[i],
             s.radius[i]);
+  }
+  if (s.base_radius.size() == s.size() &&
+      std::any_of(s.base_radius.begin(), s.base_radius.end(), [](double b) { return b > 0; })) {
+    out.base_radius = s.base_radius;
   }
   return out;
 }

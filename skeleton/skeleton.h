@@ -29,6 +29,9 @@ struct RawSkeleton {
   std::vector<std::int64_t> parent_id;  ///< #N parent ids as given; -1 marks the root
   std::vector<dvec3> position;          ///< #N positions (metres, world frame of the input)
   std::vector<double> radius;           ///< #N radii (metres)
+  /// #N or empty: radius of the edge to the node at its parent's end, 0 = the parent's radius
+  /// (JSON "base_radius", written by strandmesh's own export: Skeleton::base_radius).
+  std::vector<double> base_radius;
   std::vector<std::string> where;       ///< #N or empty: human-readable place of each node for
                                         ///< error messages ("line 12"); empty → "node id <id>"
   UpAxis up_axis = UpAxis::z;
@@ -68,6 +71,10 @@ struct Skeleton {
   std::vector<std::array<NodeId, 2>> children;  ///< #N [main, lateral], invalid when absent
   std::vector<Frame> frame;                     ///< #N orthonormal cross-section frames
   std::vector<std::int64_t> source_id;          ///< #N id in the input; -1 for inserted nodes
+  /// #N (or empty: all 0) radius of the edge to n at its parent's end where it is not the
+  /// parent's radius, else 0. Set where sanitizing folded a branch's first nodes into the
+  /// thicker branch they ran inside: the lateral then leaves at its own radius, as in the input.
+  std::vector<double> base_radius;
   UpAxis up_axis = UpAxis::z;
 
   [[nodiscard]] std::size_t size() const { return position.size(); }
@@ -78,6 +85,12 @@ struct Skeleton {
   }
   [[nodiscard]] bool is_tip(NodeId n) const { return !children[n.idx()][0].valid(); }
   [[nodiscard]] bool is_fork(NodeId n) const { return children[n.idx()][1].valid(); }
+  /// Radius of the edge to n at its parent's end (metres): base_radius where set, else the
+  /// parent's radius. Precondition: n is not the root.
+  [[nodiscard]] double start_radius(NodeId n) const {
+    const double b = n.idx() < base_radius.size() ? base_radius[n.idx()] : 0.0;
+    return b > 0 ? b : radius[parent[n.idx()].idx()];
+  }
   /// Length of the edge from n's parent to n (0 for the root).
   [[nodiscard]] double edge_length(NodeId n) const;
   /// Number of edges from the root to n.

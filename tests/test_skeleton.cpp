@@ -281,8 +281,31 @@ TEST(Skeleton, BranchRunningInsideItsSiblingIsMerged) {
       while (s.source_id[p.idx()] < 0 && !s.is_fork(p)) p = s.parent[p.idx()];
       EXPECT_NEAR(s.position[p.idx()].z, 2.2, 1e-9);
       EXPECT_NEAR(s.position[p.idx()].x, 0.0, 1e-9);
+      // It still starts at its own radius (node 4's), not the trunk's.
+      EXPECT_EQ(s.start_radius(NodeId(i)), 0.05);
     }
   }
+  // The base radius survives the JSON export: re-imported, the lateral starts at 0.05 again.
+  const Skeleton again = build_skeleton(parse_skeleton_json(skeleton_to_json(s), "export")).skeleton;
+  std::size_t laterals = 0;
+  for (std::size_t i = 1; i < again.size(); ++i) {
+    if (again.start_radius(NodeId(i)) == 0.05) ++laterals;
+  }
+  EXPECT_EQ(laterals, 1u);
+}
+
+TEST(Skeleton, ThickerNodeIsNotFoldedIntoAThinnerSibling) {
+  // Node 3 (radius 0.12) lies on the axis of its sibling's edge 1 -> 2, but that edge is
+  // thinner (0.05 there): folding it would lose its thickness. It stays.
+  RawSkeleton raw;
+  raw.add(0, -1, dvec3(0), 0.15);
+  raw.add(1, 0, dvec3(0, 0, 1), 0.12);
+  raw.add(2, 1, dvec3(0, 0, 3), 0.04);
+  raw.add(3, 1, dvec3(0, 0.005, 1.3), 0.12);
+  raw.add(4, 3, dvec3(0.8, 0, 1.6), 0.1);
+  const auto r = build_skeleton(raw);
+  EXPECT_EQ(r.report.merged_inner, 0u);
+  EXPECT_EQ(std::count(r.skeleton.source_id.begin(), r.skeleton.source_id.end(), 3), 1);
 }
 
 TEST(Skeleton, WhorlHubJustAboveAForkIsMerged) {

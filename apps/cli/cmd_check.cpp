@@ -31,6 +31,7 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
           bool quality_limits = false;
           double tolerance = MeshCheckParams{}.fidelity_tolerance;
           std::size_t examples = MeshCheckParams{}.max_examples;
+          std::size_t worst = 0;
           std::uint32_t lod = 0;
           InputOptions input_options;  ///< how to read --skeleton
         };
@@ -60,13 +61,18 @@ void add_check_command(CLI::App& app, const GlobalOptions& global) {
                        "Offending edges, triangle pairs and skeleton nodes listed per kind (a count)")
             ->capture_default_str()
             ->check(kNotNegative);
+        sub.add_option("--worst", o->worst,
+                       "With --skeleton: list the N vertices farthest from the skeleton's round cones, each with "
+                       "the node at the upper end of its nearest edge (index in file order) and where along it")
+            ->check(kNotNegative);
         sub.footer(
             "Exit codes: 0 all checks passed, 4 the mesh fails a check, 1 unreadable or malformed input,\n"
             "            2 usage error.");
         return [o, &global] {
           MeshCheckParams params{.self_intersections = !o->no_self_intersections,
                                  .fidelity_tolerance = o->tolerance,
-                                 .max_examples = o->examples};
+                                 .max_examples = o->examples,
+                                 .fidelity_worst = o->worst};
           if (o->quality_limits) params.quality_limits = QualityLimits{};
           MeshReadParams read;
           read.lod = o->lod;

@@ -168,8 +168,10 @@ RawSkeleton read_skeleton(const std::filesystem::path& path, const ReadOptions& 
                                                      : 1.0;
   if (length != 1.0)
     for (dvec3& p : raw.position) p *= length;
-  if (thickness != 1.0)
+  if (thickness != 1.0) {
     for (double& r : raw.radius) r *= thickness;
+    for (double& r : raw.base_radius) r *= thickness;
+  }
   return raw;
 }
 
