@@ -338,7 +338,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.reach = params.patch_reach;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
-    const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton.radius, skeleton.position, options, origin);
+    const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);
     st.patch_clusters = vp.clusters;
     st.patch_voxels = vp.voxels;
     if (vp.patched > 0) {

@@ -19,6 +19,7 @@
 #include "core/math.h"
 #include "core/union_find.h"
 #include "meshcheck/intersections.h"
+#include "skeleton/skeleton.h"
 
 namespace sm {
 namespace {
@@ -140,9 +141,8 @@ bool boundary_loops(const std::vector<std::array<std::uint32_t, 2>>& edges, std:
 
 class Builder {
  public:
-  Builder(const Mesh& mesh, const VertexCorners& vc, std::span<const double> node_radius,
-          const VolumePatchOptions& options)
-      : mesh_(mesh), vc_(vc), node_radius_(node_radius), options_(options) {}
+  Builder(const Mesh& mesh, const VertexCorners& vc, const Skeleton& skeleton, const VolumePatchOptions& options)
+      : mesh_(mesh), vc_(vc), skeleton_(skeleton), options_(options) {}
 
   // The triangles across each edge: opposite[3 f + k] is the triangle on edge (t[k], t[k+1]).
   void link() {
@@ -241,7 +241,7 @@ class Builder {
       patch.failure = "the region is too large for its thinnest branch";
       return;
     }
-    const double band = 3 * h;
+    const double band = 4 * h;
     const dvec3 origin = region.lo - dvec3(4 * h);
     const glm::ivec3 n = glm::ivec3(glm::floor(size / h)) + glm::ivec3(9);
     const std::size_t nvox = static_cast<std::size_t>(n.x) * n.y * n.z;
@@ -278,46 +278,7 @@ class Builder {
             if (kept && d < dist_kept[v]) dist_kept[v] = d;
           }
     }
-    // Components of the voxels off the wall (within half a voxel of the surface).
-    const auto wall = static_cast<float>(0.55 * h);
-    std::vector<std::int32_t> comp(nvox, -1);
-    std::vector<std::uint8_t> touches;
-    std::vector<glm::dvec3> probe;
-    std::vector<std::size_t> queue;
-    for (std::size_t s = 0; s < nvox; ++s) {
-      if (comp[s] >= 0 || dist[s] <= wall) continue;
-      const auto id = static_cast<std::int32_t>(touches.size());
-      touches.push_back(0);
-      probe.push_back(centre(static_cast<int>(s % n.x), static_cast<int>((s / n.x) % n.y),
-                             static_cast<int>(s / (static_cast<std::size_t>(n.x) * n.y))));
-      queue.assign(1, s);
-      comp[s] = id;
-      for (std::size_t q = 0; q < queue.size(); ++q) {
-        const std::size_t v = queue[q];
-        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
-                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
-        if (i == 0 || j == 0 || k == 0 || i == n.x - 1 || j == n.y - 1 || k == n.z - 1) touches[id] = 1;
-        const int di[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-        for (const auto& d : di) {
-          const int a = i + d[0], b = j + d[1], c = k + d[2];
-          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
-          const std::size_t w = at(a, b, c);
-          if (comp[w] >= 0 || dist[w] <= wall) continue;
-          comp[w] = id;
-          queue.push_back(w);
-        }
-      }
-    }
-    // Winding numbers: one probe per component against the whole surface; a voxel on the wall
-    // takes its neighbours' numbers plus the surface's signed crossings of the step between
-    // them (found among the triangles binned on the grid), by majority, layer by layer from
-    // the components inwards. Solid is a winding number other than 0 (a part turned inside
-    // out is the tree's too).
-    if (touches.size() > 4096) {
-      patch.failure = "the region's voxels fall into too many pieces";
-      return;
-    }
-    std::vector<int> winding = winding_numbers(mesh_, probe);
+    // Triangles binned on the grid, for the nearest cut triangle of a point (below).
     const int bin = 2;  // voxels per bin side
     const glm::ivec3 nb = (n + glm::ivec3(bin - 1)) / bin;
     std::vector<std::vector<std::uint32_t>> bins_of(static_cast<std::size_t>(nb.x) * nb.y * nb.z);
@@ -331,80 +292,47 @@ class Builder {
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i].push_back(f);
     }
-    // Signed crossings of the step from voxel centre p to q: +1 per triangle entered (from its front).
-    auto crossings = [&](const dvec3& p, const dvec3& q) {
-      const glm::ivec3 lo = glm::clamp(glm::ivec3(glm::floor((glm::min(p, q) - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
-      const glm::ivec3 hi = glm::clamp(glm::ivec3(glm::floor((glm::max(p, q) - origin) / (h * bin))), glm::ivec3(0), nb - glm::ivec3(1));
-      int sum = 0;
-      std::vector<std::uint32_t> seen;
-      for (int k = lo.z; k <= hi.z; ++k)
-        for (int j = lo.y; j <= hi.y; ++j)
-          for (int i = lo.x; i <= hi.x; ++i)
-            for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i]) {
-              if (std::find(seen.begin(), seen.end(), f) != seen.end()) continue;
-              seen.push_back(f);
-              const auto& t = mesh_.triangles[f];
-              const dvec3 a = mesh_.positions[t[0]], e1 = mesh_.positions[t[1]] - a, e2 = mesh_.positions[t[2]] - a;
-              const dvec3 d = q - p, pv = glm::cross(d, e2);
-              const double det = glm::dot(e1, pv);
-              if (std::abs(det) < 1e-30) continue;
-              const double inv = 1.0 / det;
-              const dvec3 sv = p - a;
-              const double u = glm::dot(sv, pv) * inv;
-              if (u < 0 || u > 1) continue;
-              const dvec3 qv = glm::cross(sv, e1);
-              const double v = glm::dot(d, qv) * inv;
-              if (v < 0 || u + v > 1) continue;
-              const double tt = glm::dot(e2, qv) * inv;
-              if (tt < 0 || tt >= 1) continue;
-              sum += det > 0 ? 1 : -1;
-            }
-      return sum;
+    // The solid: inside the region, the union of the skeleton's round cones (the input is the
+    // truth, and the surface there is what could not be judged); near the kept surface, which
+    // is clean, the surface's own signed distance (signed by its nearest triangle), blended
+    // into the cones over two voxels so that the patch meets it.
+    struct Cone {
+      dvec3 a, b;
+      double ra, rb;
     };
-    constexpr int kUnknown = std::numeric_limits<int>::min();
-    std::vector<int> wn(nvox, kUnknown);
-    std::vector<std::size_t> layer;
-    for (std::size_t v = 0; v < nvox; ++v) {
-      if (comp[v] >= 0) wn[v] = winding[static_cast<std::size_t>(comp[v])];
-    }
-    const int steps[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (int round = 0; round < 64; ++round) {
-      layer.clear();
-      for (std::size_t v = 0; v < nvox; ++v) {
-        if (wn[v] != kUnknown) continue;
-        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
-                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
-        for (const auto& d : steps) {
-          const int a = i + d[0], b = j + d[1], c = k + d[2];
-          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
-          if (wn[at(a, b, c)] != kUnknown) {
-            layer.push_back(v);
-            break;
-          }
-        }
-      }
-      if (layer.empty()) break;
-      std::vector<int> value(layer.size());
-      for (std::size_t l = 0; l < layer.size(); ++l) {
-        const std::size_t v = layer[l];
-        const int i = static_cast<int>(v % n.x), j = static_cast<int>((v / n.x) % n.y),
-                  k = static_cast<int>(v / (static_cast<std::size_t>(n.x) * n.y));
-        std::map<int, int> votes;
-        for (const auto& d : steps) {
-          const int a = i + d[0], b = j + d[1], c = k + d[2];
-          if (a < 0 || b < 0 || c < 0 || a >= n.x || b >= n.y || c >= n.z) continue;
-          const int from = wn[at(a, b, c)];
-          if (from == kUnknown) continue;
-          ++votes[from + crossings(centre(a, b, c), centre(i, j, k))];
-        }
-        value[l] = std::max_element(votes.begin(), votes.end(), [](const auto& x, const auto& y) {
-                     return x.second < y.second || (x.second == y.second && x.first > y.first);
-                   })->first;
-      }
-      for (std::size_t l = 0; l < layer.size(); ++l) wn[layer[l]] = value[l];
+    std::vector<Cone> cones;
+    for (std::size_t c = 0; c < skeleton_.position.size(); ++c) {
+      const NodeId parent = skeleton_.parent[c];
+      if (!parent.valid()) continue;
+      const Cone cone{skeleton_.position[parent.idx()], skeleton_.position[c],
+                      skeleton_.start_radius(NodeId(static_cast<std::uint32_t>(c))), skeleton_.radius[c]};
+      Box cb;
+      cb.add(cone.a);
+      cb.add(cone.b);
+      if (cb.grown(std::max(cone.ra, cone.rb) + band).overlaps(grid_box)) cones.push_back(cone);
     }
     std::vector<float> field(nvox);
-    for (std::size_t v = 0; v < nvox; ++v) field[v] = wn[v] != 0 ? -dist[v] : dist[v];
+    for (int k = 0; k < n.z; ++k)
+      for (int j = 0; j < n.y; ++j)
+        for (int i = 0; i < n.x; ++i) {
+          const std::size_t v = at(i, j, k);
+          const dvec3 p = centre(i, j, k);
+          double fc = band;
+          for (const Cone& c : cones) {
+            const dvec3 ab = c.b - c.a;
+            const double len2 = glm::dot(ab, ab);
+            const double t = len2 > 0 ? std::clamp(glm::dot(p - c.a, ab) / len2, 0.0, 1.0) : 0.0;
+            fc = std::min(fc, glm::distance(p, c.a + t * ab) - (c.ra + t * (c.rb - c.ra)));
+          }
+          const double w = std::clamp((3 * h - static_cast<double>(dist_kept[v])) / (2 * h), 0.0, 1.0);
+          double fm = band;
+          if (w > 0 && nearest[v] != kNone) {
+            const auto& t = mesh_.triangles[nearest[v]];
+            const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+            fm = glm::dot(p - q, mesh_.face_normal(t)) > 0 ? dist[v] : -dist[v];
+          }
+          field[v] = static_cast<float>(std::clamp(w * fm + (1 - w) * fc, -band, band));
+        }
     openvdb::initialize();
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(static_cast<float>(band));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
@@ -421,7 +349,7 @@ class Builder {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0, true);
+    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, options_.adaptivity, true);
 
     // Sample helpers on the grid (nearest voxel).
     auto voxel_of = [&](const dvec3& p) {
@@ -463,8 +391,7 @@ class Builder {
     std::vector<std::uint8_t> keep_vertex(pos.size(), 0);
     for (std::size_t i = 0; i < pos.size(); ++i) {
       const std::size_t v = voxel_of(pos[i]);
-      keep_vertex[i] = region.contains(pos[i]) && nearest[v] != kNone && cut_set.contains(nearest[v]) &&
-                       dist_kept[v] > gap;
+      keep_vertex[i] = region.contains(pos[i]) && static_cast<double>(dist_kept[v]) > gap;
     }
     std::vector<std::uint8_t> keep(iso.size(), 0);
     for (std::size_t f = 0; f < iso.size(); ++f)
@@ -564,6 +491,13 @@ class Builder {
         }
       }
       if (rim_used[rim_of[a]] || best > 4 * h) {
+        if (std::getenv("SM_DEBUG_PATCH")) {
+          std::fprintf(stderr, "  hole %zu of %zu (%zu vertices at %.3f %.3f %.3f): best %.1f h, used %d; rims", a,
+                       holes.size(), holes[a].size(), mesh_.positions[holes[a][0]].x, mesh_.positions[holes[a][0]].y,
+                       mesh_.positions[holes[a][0]].z, best / h, rim_used[rim_of[a]]);
+          for (const auto& r : rims) std::fprintf(stderr, " %zu", r.size());
+          std::fprintf(stderr, "\n");
+        }
         patch.failure = "a hole has no rim of its own near it";
         return;
       }
@@ -847,7 +781,7 @@ class Builder {
  private:
   const Mesh& mesh_;
   const VertexCorners& vc_;
-  std::span<const double> node_radius_;
+  const Skeleton& skeleton_;
   const VolumePatchOptions& options_;
   std::vector<std::uint32_t> opposite_;
 };
@@ -951,8 +885,10 @@ Mesh assemble(const Mesh& mesh, const std::vector<Patch>& patches, const std::ve
 }  // namespace
 
 VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs,
-                              std::span<const double> node_radius, std::span<const glm::dvec3> anchors,
-                              const VolumePatchOptions& options, std::vector<std::uint32_t>& origin) {
+                              const Skeleton& skeleton, const VolumePatchOptions& options,
+                              std::vector<std::uint32_t>& origin) {
+  const std::span<const double> node_radius = skeleton.radius;
+  const std::span<const glm::dvec3> anchors = skeleton.position;
   VolumePatchStats st;
   origin.resize(mesh.triangles.size());
   std::iota(origin.begin(), origin.end(), 0u);
@@ -1018,7 +954,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   }
 
   const TriangleBins bins(mesh);
-  Builder builder(mesh, vc, node_radius, options);
+  Builder builder(mesh, vc, skeleton, options);
   builder.link();
   std::vector<std::uint8_t> use(patches.size(), 0);
   for (std::size_t p = 0; p < patches.size(); ++p) {

@@ -22,13 +22,18 @@
 #include "core/mesh.h"
 
 namespace sm {
+struct Skeleton;
+}
+
+namespace sm {
 
 struct VolumePatchOptions {
   double voxels_per_radius = 6;         ///< voxel size: the thinnest local radius over this
   double reach = 2.5;                   ///< region: the pairs' box grown by this many local radii
-  std::size_t max_voxels = 4'000'000;   ///< largest grid of one patch (coarser voxels beyond)
+  std::size_t max_voxels = 3'000'000;   ///< largest grid of one patch (coarser voxels beyond)
   double min_voxels_per_radius = 2.5;   ///< a region whose thinnest radius gets fewer is not patched
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
+  double adaptivity = 0;              ///< OpenVDB's: larger polygons where the surface is flat (0: none)
   bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
 };
 
@@ -48,7 +53,7 @@ struct VolumePatchStats {
 /// is, or the nearest cut-out triangle for a new one. Preconditions: `mesh` closed,
 /// edge-manifold and consistently oriented; vertex_node filled.
 VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs,
-                              std::span<const double> node_radius, std::span<const glm::dvec3> anchors,
-                              const VolumePatchOptions& options, std::vector<std::uint32_t>& origin);
+                              const Skeleton& skeleton, const VolumePatchOptions& options,
+                              std::vector<std::uint32_t>& origin);
 
 }  // namespace sm
