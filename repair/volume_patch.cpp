@@ -170,65 +170,70 @@ class Builder {
 
   void build(Patch& patch, const TriangleBins& bins) {
     const Box& region = patch.region;
-    // The cut: triangles wholly inside the region.
-    const std::vector<std::uint32_t> near = bins.near(region);
-    for (const std::uint32_t f : near) {
-      const auto& t = mesh_.triangles[f];
-      if (region.contains(mesh_.positions[t[0]]) && region.contains(mesh_.positions[t[1]]) &&
-          region.contains(mesh_.positions[t[2]]))
-        patch.cut.push_back(f);
-    }
-    std::unordered_map<std::uint32_t, bool> cut_set;
-    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
-    // The hole's loops, in the orientation of the cut triangles.
+    // The cut: the surface inside the region's box is replaced. phi < 0 inside the box; the
+    // triangles across its faces are split where phi, interpolated along their edges, is 0,
+    // and the patch is split there too, so that both end on the same curves.
+    const dvec3 mid = 0.5 * (region.lo + region.hi), half = 0.5 * (region.hi - region.lo);
+    auto phi = [&](const dvec3& p) {
+      const dvec3 d = glm::abs(p - mid) - half;
+      return std::max({d.x, d.y, d.z});
+    };
+    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
+    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mesh_cut_point;
+    auto cut_point = [&](std::uint32_t u, std::uint32_t w, std::uint32_t f) {
+      const auto key = std::make_pair(std::min(u, w), std::max(u, w));
+      if (const auto it = mesh_cut_point.find(key); it != mesh_cut_point.end()) return it->second;
+      const dvec3 pu = mesh_.positions[key.first], pw = mesh_.positions[key.second];
+      const double fu = phi(pu), fw = phi(pw);
+      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
+      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+      patch.positions.push_back(q);
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(q);
+      mesh_cut_point.emplace(key, id);
+      return id;
+    };
+    // Hole edges in the direction the patch must run along them (against the kept part's).
     std::vector<std::array<std::uint32_t, 2>> hole_edges;
-    for (const std::uint32_t f : patch.cut) {
+    for (const std::uint32_t f : bins.near(region.grown(1e-9))) {
       const auto& t = mesh_.triangles[f];
-      for (int k = 0; k < 3; ++k) {
-        const std::uint32_t g = opposite_[3 * f + k];
-        if (g == kNone) {
-          patch.failure = "an open edge in the region";
-          return;
-        }
-        if (!cut_set.contains(g)) hole_edges.push_back({t[k], t[(k + 1) % 3]});
+      const bool in[3] = {phi(mesh_.positions[t[0]]) < 0, phi(mesh_.positions[t[1]]) < 0, phi(mesh_.positions[t[2]]) < 0};
+      const int count = in[0] + in[1] + in[2];
+      if (count == 0) continue;
+      if (count == 3) {
+        patch.cut.push_back(f);
+        continue;
+      }
+      patch.replaced.push_back(f);
+      // Rotate so that corner 0 is the odd one out.
+      int o = 0;
+      for (int k = 0; k < 3; ++k)
+        if ((count == 1) == in[k]) o = k;
+      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
+      const std::uint32_t ab = cut_point(a, b, f), ca = cut_point(c, a, f);
+      if (count == 2) {  // a outside: the kept part is the triangle at a
+        patch.fans.push_back({{a, ab, ca}, f});
+        hole_edges.push_back({ca, ab});
+      } else {  // a inside: the kept part is the quad b, c, ca, ab
+        patch.fans.push_back({{ab, b, c}, f});
+        patch.fans.push_back({{ab, c, ca}, f});
+        hole_edges.push_back({ab, ca});
       }
     }
+    std::sort(patch.cut.begin(), patch.cut.end());
     std::vector<std::vector<std::uint32_t>> holes;
-    // Where the boundary passes a vertex twice, the cut gives up the triangles there.
-    for (int round = 0; round < 8; ++round) {
-      std::map<std::uint32_t, int> leaving;
-      for (const auto& e : hole_edges) ++leaving[e[0]];
-      std::vector<std::uint32_t> pinched;
-      for (const auto& [v, c] : leaving)
-        if (c > 1) pinched.push_back(v);
-      if (pinched.empty()) break;
-      std::erase_if(patch.cut, [&](std::uint32_t f) {
-        const auto& t = mesh_.triangles[f];
-        return std::any_of(pinched.begin(), pinched.end(),
-                           [&](std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; });
-      });
-      cut_set.clear();
-      for (const std::uint32_t f : patch.cut) cut_set[f] = true;
-      hole_edges.clear();
-      for (const std::uint32_t f : patch.cut) {
-        const auto& t = mesh_.triangles[f];
-        for (int k = 0; k < 3; ++k)
-          if (!cut_set.contains(opposite_[3 * f + k])) hole_edges.push_back({t[k], t[(k + 1) % 3]});
-      }
-    }
-    if (patch.cut.empty()) {
-      patch.failure = "the region holds no whole triangle";
-      return;
-    }
     if (!boundary_loops(hole_edges, holes)) {
-      patch.failure = "the region's boundary touches itself";
+      patch.failure = "the region's boundary crosses the surface in touching loops";
       return;
     }
     // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
     // the grid leave a hole without a rim, and the patch is not made).
     const double rmin = std::max(patch.radius_min, 1e-5);
-    const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
-    auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
+    std::unordered_map<std::uint32_t, bool> cut_set;
+    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
+    for (const std::uint32_t f : patch.replaced) cut_set[f] = true;
 
     // The grid: the region and a margin of three voxels.
     double h = rmin / options_.voxels_per_radius;
@@ -324,7 +329,7 @@ class Builder {
             const double t = len2 > 0 ? std::clamp(glm::dot(p - c.a, ab) / len2, 0.0, 1.0) : 0.0;
             fc = std::min(fc, glm::distance(p, c.a + t * ab) - (c.ra + t * (c.rb - c.ra)));
           }
-          const double w = std::clamp((3 * h - static_cast<double>(dist_kept[v])) / (2 * h), 0.0, 1.0);
+          const double w = std::clamp((phi(p) + 3 * h) / (2 * h), 0.0, 1.0);
           double fm = band;
           if (w > 0 && nearest[v] != kNone) {
             const auto& t = mesh_.triangles[nearest[v]];
@@ -385,130 +390,7 @@ class Builder {
     if (facing < 0)
       for (auto& t : iso) std::swap(t[1], t[2]);
 
-    // Cut back to the cut: keep the triangles whose vertices lie nearest a cut triangle, a
-    // little away from the kept surface, so that the rim runs along the hole.
-    const double gap = 0.75 * h;
-    std::vector<std::uint8_t> keep_vertex(pos.size(), 0);
-    for (std::size_t i = 0; i < pos.size(); ++i) {
-      const std::size_t v = voxel_of(pos[i]);
-      keep_vertex[i] = region.contains(pos[i]) && static_cast<double>(dist_kept[v]) > gap;
-    }
-    std::vector<std::uint8_t> keep(iso.size(), 0);
-    for (std::size_t f = 0; f < iso.size(); ++f)
-      keep[f] = keep_vertex[iso[f][0]] && keep_vertex[iso[f][1]] && keep_vertex[iso[f][2]];
-    // The rim smoothed on the grid's scale: notches filled, ears dropped.
-    {
-      std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> by_edge;
-      for (std::uint32_t f = 0; f < iso.size(); ++f)
-        for (int k = 0; k < 3; ++k) by_edge[{iso[f][k], iso[f][(k + 1) % 3]}] = f;
-      std::vector<std::array<std::uint32_t, 3>> nb(iso.size());
-      for (std::uint32_t f = 0; f < iso.size(); ++f)
-        for (int k = 0; k < 3; ++k) {
-          const auto it = by_edge.find({iso[f][(k + 1) % 3], iso[f][k]});
-          nb[f][k] = it == by_edge.end() ? kNone : it->second;
-        }
-      for (int round = 0; round < 3; ++round) {
-        std::vector<std::uint8_t> next = keep;
-        for (std::uint32_t f = 0; f < iso.size(); ++f) {
-          int kept_nb = 0;
-          for (const std::uint32_t g : nb[f]) kept_nb += g != kNone && keep[g];
-          const bool inside_region = region.contains(pos[iso[f][0]]) && region.contains(pos[iso[f][1]]) &&
-                                     region.contains(pos[iso[f][2]]);
-          if (!keep[f] && kept_nb >= 2 && inside_region) next[f] = 1;
-          if (keep[f] && kept_nb <= 1) next[f] = 0;
-        }
-        keep = std::move(next);
-      }
-    }
-    std::vector<Mesh::Triangle> kept;
-    for (std::size_t f = 0; f < iso.size(); ++f)
-      if (keep[f]) kept.push_back(iso[f]);
-    // The kept triangles' boundary; where it passes a vertex twice (a neck of the cut), the
-    // triangles at that vertex go too.
-    std::vector<std::array<std::uint32_t, 2>> iso_edges;
-    for (int round = 0;; ++round) {
-      std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_count;
-      for (const auto& t : kept)
-        for (int k = 0; k < 3; ++k) ++edge_count[{t[k], t[(k + 1) % 3]}];
-      iso_edges.clear();
-      std::map<std::uint32_t, int> leaving;
-      for (const auto& [e, c] : edge_count) {
-        if (c > 1) {
-          patch.failure = "the volume's surface is not a manifold";
-          return;
-        }
-        if (!edge_count.contains({e.second, e.first})) {
-          iso_edges.push_back({e.first, e.second});
-          ++leaving[e.first];
-        }
-      }
-      std::vector<std::uint8_t> pinched(pos.size(), 0);
-      bool any = false;
-      for (const auto& [v, c] : leaving) {
-        if (c > 1) pinched[v] = 1, any = true;
-      }
-      if (!any || round == 8) break;
-      std::erase_if(kept, [&](const Mesh::Triangle& t) { return pinched[t[0]] || pinched[t[1]] || pinched[t[2]]; });
-    }
-    UnionFind parts(pos.size());
-    for (const auto& t : kept) {
-      parts.unite(t[0], t[1]);
-      parts.unite(t[1], t[2]);
-    }
-    std::vector<std::uint8_t> open_part(pos.size(), 0);
-    for (const auto& e : iso_edges) open_part[parts.find(e[0])] = 1;
-    std::erase_if(kept, [&](const Mesh::Triangle& t) { return !open_part[parts.find(t[0])]; });
-    std::vector<std::vector<std::uint32_t>> rims;
-    if (!boundary_loops(iso_edges, rims)) {
-      patch.failure = "the volume's surface touches itself at its rim";
-      return;
-    }
-    // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
-    // whose rims meet no hole (bits of branches passing the region's edge) are dropped.
-    std::vector<std::size_t> rim_of(holes.size(), kNone);
-    std::vector<std::uint8_t> rim_used(rims.size(), 0);
-    auto drop_unmatched = [&] {
-      std::vector<std::uint8_t> matched_part(pos.size(), 0);
-      for (std::size_t b = 0; b < rims.size(); ++b)
-        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
-      for (std::size_t b = 0; b < rims.size(); ++b)
-        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) return false;
-      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
-      return true;
-    };
-    for (std::size_t a = 0; a < holes.size(); ++a) {
-      double best = std::numeric_limits<double>::max();
-      for (std::size_t b = 0; b < rims.size(); ++b) {
-        double sum = 0;
-        for (const std::uint32_t v : holes[a]) {
-          double d = std::numeric_limits<double>::max();
-          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(mesh_.positions[v], pos[u]));
-          sum += d;
-        }
-        if (sum / holes[a].size() < best) {
-          best = sum / holes[a].size();
-          rim_of[a] = b;
-        }
-      }
-      if (rim_used[rim_of[a]] || best > 4 * h) {
-        if (std::getenv("SM_DEBUG_PATCH")) {
-          std::fprintf(stderr, "  hole %zu of %zu (%zu vertices at %.3f %.3f %.3f): best %.1f h, used %d; rims", a,
-                       holes.size(), holes[a].size(), mesh_.positions[holes[a][0]].x, mesh_.positions[holes[a][0]].y,
-                       mesh_.positions[holes[a][0]].z, best / h, rim_used[rim_of[a]]);
-          for (const auto& r : rims) std::fprintf(stderr, " %zu", r.size());
-          std::fprintf(stderr, "\n");
-        }
-        patch.failure = "a hole has no rim of its own near it";
-        return;
-      }
-      rim_used[rim_of[a]] = 1;
-    }
-    if (!drop_unmatched()) {
-      patch.failure = "a part of the volume's surface has a rim that meets no hole";
-      return;
-    }
-
-    // The patch's vertices: those of the kept triangles, renumbered after the mesh's.
+    // The patch: the volume's surface inside the box, split along phi = 0 like the mesh.
     std::vector<std::uint32_t> index(pos.size(), kNone);
     auto add = [&](std::uint32_t u) {
       if (index[u] != kNone) return index[u];
@@ -516,27 +398,111 @@ class Builder {
       const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
       patch.positions.push_back(p);
       std::uint32_t f = nearest[voxel_of(pos[u])];
-      if (f == kNone) f = patch.cut.front();
+      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
       const auto& t = mesh_.triangles[f];
       patch.vertex_origin.push_back(f);
       patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
                                                          mesh_.positions[t[2]]));
       return index[u];
     };
-    for (const auto& t : kept) patch.triangles.push_back({add(t[0]), add(t[1]), add(t[2])});
-    patch.surface_triangles = patch.triangles.size();
-    // The rims in the patch's numbering.
-    for (auto& rim : rims)
-      for (std::uint32_t& u : rim) u = add(u);
-    // The kept surface's triangles on the holes, to take the rim's vertices (fans).
-    for (const auto& hole : holes) {
-      for (std::size_t i = 0; i < hole.size(); ++i) {
-        const std::uint32_t f = opposite_of(hole[i], hole[(i + 1) % hole.size()]);
-        if (std::find(patch.replaced.begin(), patch.replaced.end(), f) != patch.replaced.end()) continue;
-        patch.replaced.push_back(f);
-        patch.fans.push_back({mesh_.triangles[f], f});
+    // The patch ends inside the box by `inset`, so that its rim and the hole lie apart (two
+    // curves on one face would cross each other) and the strip between them is a short tube.
+    const double inset = 0.0;
+    auto phi_in = [&](const dvec3& p) { return phi(p) + inset; };
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
+    auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
+      const auto key = std::make_pair(std::min(u, x), std::max(u, x));
+      if (const auto it = iso_cut_point.find(key); it != iso_cut_point.end()) return it->second;
+      const dvec3 pu = pos[key.first], pw = pos[key.second];
+      const double fu = phi_in(pu), fw = phi_in(pw);
+      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
+      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
+      patch.positions.push_back(q);
+      std::uint32_t f = nearest[voxel_of(q)];
+      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
+      const auto& t = mesh_.triangles[f];
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(
+          closest_on_triangle(q, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
+      iso_cut_point.emplace(key, id);
+      return id;
+    };
+    std::vector<std::uint8_t> inside(pos.size());
+    for (std::size_t i = 0; i < pos.size(); ++i) inside[i] = phi_in(pos[i]) < 0;
+    std::vector<Mesh::Triangle> kept;  // in patch numbering
+    std::vector<std::array<std::uint32_t, 2>> rim_edges;
+    for (const auto& t : iso) {
+      const int corners_in = inside[t[0]] + inside[t[1]] + inside[t[2]];
+      if (corners_in == 0) continue;
+      if (corners_in == 3) {
+        kept.push_back({add(t[0]), add(t[1]), add(t[2])});
+        continue;
+      }
+      int o = 0;
+      for (int k = 0; k < 3; ++k)
+        if ((corners_in == 1) == static_cast<bool>(inside[t[k]])) o = k;
+      const std::uint32_t a = t[o], b = t[(o + 1) % 3], c = t[(o + 2) % 3];
+      const std::uint32_t ab = iso_cut(a, b), ca = iso_cut(c, a);
+      if (corners_in == 1) {  // a inside
+        kept.push_back({add(a), ab, ca});
+        rim_edges.push_back({ab, ca});
+      } else {  // a outside: the quad b, c, ca, ab
+        kept.push_back({ab, add(b), add(c)});
+        kept.push_back({ab, add(c), ca});
+        rim_edges.push_back({ca, ab});
       }
     }
+    // Parts of the patch without a rim (lumps inside the box) are dropped.
+    const std::size_t np = nv + patch.positions.size();
+    UnionFind parts(np);
+    for (const auto& t : kept) {
+      parts.unite(t[0], t[1]);
+      parts.unite(t[1], t[2]);
+    }
+    std::vector<std::vector<std::uint32_t>> rims;
+    if (!boundary_loops(rim_edges, rims)) {
+      patch.failure = "the volume's surface crosses the box in touching loops";
+      return;
+    }
+    // Each hole to the rim nearest it on average, one to one; parts of the volume's surface
+    // whose rims meet no hole (bits of branches passing the box's edge) are dropped.
+    std::vector<std::size_t> rim_of(holes.size(), kNone);
+    std::vector<std::uint8_t> rim_used(rims.size(), 0);
+    for (std::size_t a = 0; a < holes.size(); ++a) {
+      double best = std::numeric_limits<double>::max();
+      for (std::size_t b = 0; b < rims.size(); ++b) {
+        double sum = 0;
+        for (const std::uint32_t v : holes[a]) {
+          double d = std::numeric_limits<double>::max();
+          for (const std::uint32_t u : rims[b]) d = std::min(d, glm::distance(at_pos(v), at_pos(u)));
+          sum += d;
+        }
+        if (sum / holes[a].size() < best) {
+          best = sum / holes[a].size();
+          rim_of[a] = b;
+        }
+      }
+      if (rim_of[a] == kNone || rim_used[rim_of[a]] || best > 2 * inset + 3 * h) {
+        patch.failure = "a hole has no rim of its own near it";
+        return;
+      }
+      rim_used[rim_of[a]] = 1;
+    }
+    {
+      std::vector<std::uint8_t> matched_part(np, 0);
+      for (std::size_t b = 0; b < rims.size(); ++b)
+        if (rim_used[b]) matched_part[parts.find(rims[b][0])] = 1;
+      for (std::size_t b = 0; b < rims.size(); ++b) {
+        if (!rim_used[b] && matched_part[parts.find(rims[b][0])]) {
+          patch.failure = "a part of the volume's surface has a rim that meets no hole";
+          return;
+        }
+      }
+      std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+    }
+    patch.triangles = kept;
+    patch.surface_triangles = patch.triangles.size();
     // Near the holes the cut surface is clean and is the solid's boundary: the patch's vertices
     // there go onto it (the nearest point of a cut triangle), so that patch and kept surface
     // meet as one sheet instead of two a voxel apart.
@@ -545,7 +511,7 @@ class Builder {
       const int cells = static_cast<int>(std::ceil(reach_band / (h * bin)));
       for (std::size_t k = 0; k < patch.positions.size(); ++k) {
         const dvec3 p = patch.positions[k];
-        if (dist_kept[voxel_of(p)] >= reach_band) continue;
+        if (phi(p) < -reach_band) continue;
         const glm::ivec3 c = glm::ivec3(glm::floor((p - origin) / (h * bin)));
         double best = reach_band;
         dvec3 onto = p;
@@ -554,7 +520,6 @@ class Builder {
             for (int x = c.x - cells; x <= c.x + cells; ++x) {
               if (x < 0 || y < 0 || z < 0 || x >= nb.x || y >= nb.y || z >= nb.z) continue;
               for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(z) * nb.y + y) * nb.x + x]) {
-                if (!cut_set.contains(f)) continue;
                 const auto& t = mesh_.triangles[f];
                 const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
                 const double d = glm::distance(p, q);
@@ -662,11 +627,32 @@ class Builder {
         const dvec3 u = at_pos(hole[i]), w = at_pos(hole[(i + 1) % nh]);
         dvec3 q = u + t * (w - u);
         if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+        // A rim vertex landing on the one before it merges into it (an edge collapse).
+        if (!moved.empty() && glm::distance(q, patch.positions[moved.back().v - nv]) < 0.05 * h &&
+            k + 1 < nr) {
+          rename[r] = moved.back().v;
+          continue;
+        }
         patch.positions[r - nv] = q;
         moved.push_back({unwrapped[k], r, false, true});
       }
       merged.insert(merged.end(), moved.begin(), moved.end());
       std::stable_sort(merged.begin(), merged.end(), [](const Mark& x, const Mark& y) { return x.s < y.s; });
+      if (const char* dv = std::getenv("SM_DEBUG_VERTEX")) {
+        const auto want = static_cast<std::uint32_t>(std::atoi(dv));
+        for (std::size_t k = 0; k < merged.size(); ++k) {
+          if (merged[k].v != want) continue;
+          for (std::size_t q = (k >= 4 ? k - 4 : 0); q < std::min(merged.size(), k + 5); ++q)
+            std::fprintf(stderr, "  merged[%zu] s %.6f v %u hole %d rim %d\n", q, merged[q].s, merged[q].v, merged[q].hole,
+                         merged[q].rim);
+        }
+        for (const auto& [r, hv] : rename)
+          if (r == want || hv == want) std::fprintf(stderr, "  rename %u -> %u\n", r, hv);
+        for (std::size_t k = 0; k < nr; ++k)
+          if (rim[(first + k) % nr] == want)
+            std::fprintf(stderr, "  rim index %zu of %zu: prev %u next %u\n", k, nr, rim[(first + k + nr - 1) % nr],
+                         rim[(first + k + 1) % nr]);
+      }
       // Each side's edges and the other side's vertices between their ends.
       const std::size_t nm = merged.size();
       for (int side = 0; side < 2; ++side) {
