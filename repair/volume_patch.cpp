@@ -11,6 +11,7 @@
 #include <map>
 #include <numeric>
 #include <unordered_map>
+#include <tuple>
 #include <utility>
 
 #include <openvdb/openvdb.h>
@@ -137,6 +138,16 @@ bool boundary_loops(const std::vector<std::array<std::uint32_t, 2>>& edges, std:
     loops.push_back(std::move(loop));
   }
   return true;
+}
+
+// Barycentric coordinates of p (in the triangle's plane) in (a, b, c).
+glm::dvec3 barycentric_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
+  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
+  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1), den = d00 * d11 - d01 * d01;
+  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
+  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
+  return {1.0 - v - w, v, w};
 }
 
 class Builder {
@@ -306,11 +317,20 @@ class Builder {
       double ra, rb;
     };
     std::vector<Cone> cones;
+    // The input's edges: nodes the sanitizing inserted (binary forks, clusters of laterals)
+    // are skipped, each input node joined to its nearest input ancestor.
+    const bool has_source = skeleton_.source_id.size() == skeleton_.position.size();
+    auto from_input = [&](std::size_t i) { return !has_source || skeleton_.source_id[i] >= 0; };
     for (std::size_t c = 0; c < skeleton_.position.size(); ++c) {
-      const NodeId parent = skeleton_.parent[c];
-      if (!parent.valid()) continue;
-      const Cone cone{skeleton_.position[parent.idx()], skeleton_.position[c],
-                      skeleton_.start_radius(NodeId(static_cast<std::uint32_t>(c))), skeleton_.radius[c]};
+      if (!skeleton_.parent[c].valid() || !from_input(c)) continue;
+      NodeId first = NodeId(static_cast<std::uint32_t>(c)), up = skeleton_.parent[c];
+      while (up.valid() && !from_input(up.idx())) {
+        first = up;
+        up = skeleton_.parent[up.idx()];
+      }
+      if (!up.valid()) continue;
+      const double start = first.idx() == c ? skeleton_.start_radius(first) : skeleton_.radius[up.idx()];
+      const Cone cone{skeleton_.position[up.idx()], skeleton_.position[c], start, skeleton_.radius[c]};
       Box cb;
       cb.add(cone.a);
       cb.add(cone.b);
@@ -361,17 +381,35 @@ class Builder {
       const glm::ivec3 c = glm::clamp(glm::ivec3(glm::round((p - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
       return at(c.x, c.y, c.z);
     };
-    std::vector<dvec3> pos(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) pos[i] = origin + dvec3(points[i].x(), points[i].y(), points[i].z());
+    // The volume's surface on the float grid, points at one position welded (the mesher can
+    // place two at one spot, and the grid can round two together): a triangle left with two
+    // corners at one vertex is an edge collapsed, dropped.
+    std::vector<dvec3> pos;
+    std::vector<std::uint32_t> weld(points.size());
+    {
+      std::map<std::tuple<double, double, double>, std::uint32_t> at_point;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        dvec3 q = origin + dvec3(points[i].x(), points[i].y(), points[i].z());
+        if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+        const auto [it, fresh] = at_point.try_emplace({q.x, q.y, q.z}, static_cast<std::uint32_t>(pos.size()));
+        if (fresh) pos.push_back(q);
+        weld[i] = it->second;
+      }
+    }
     std::vector<Mesh::Triangle> iso;
-    for (const auto& t : tris) iso.push_back({t.x(), t.y(), t.z()});
+    auto add_iso = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+      const Mesh::Triangle t{weld[a], weld[b], weld[c]};
+      if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0]) iso.push_back(t);
+    };
+    for (const auto& t : tris) add_iso(t.x(), t.y(), t.z());
     for (const auto& q : quads) {
-      if (glm::distance(pos[q.x()], pos[q.z()]) <= glm::distance(pos[q.y()], pos[q.w()])) {
-        iso.push_back({q.x(), q.y(), q.z()});
-        iso.push_back({q.x(), q.z(), q.w()});
+      const dvec3 px = pos[weld[q.x()]], py = pos[weld[q.y()]], pz = pos[weld[q.z()]], pw = pos[weld[q.w()]];
+      if (glm::distance(px, pz) <= glm::distance(py, pw)) {
+        add_iso(q.x(), q.y(), q.z());
+        add_iso(q.x(), q.z(), q.w());
       } else {
-        iso.push_back({q.x(), q.y(), q.w()});
-        iso.push_back({q.y(), q.z(), q.w()});
+        add_iso(q.x(), q.y(), q.w());
+        add_iso(q.y(), q.z(), q.w());
       }
     }
     // Orientation: most triangles must face down the level set's slope (outward).
@@ -523,10 +561,12 @@ class Builder {
                 const auto& t = mesh_.triangles[f];
                 const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
                 const double d = glm::distance(p, q);
-                if (d < best) {
-                  best = d;
-                  onto = q;
-                }
+                if (d >= best) continue;
+                best = d;
+                // Only onto a triangle's inside: points nearest an edge or corner would land
+                // on one another.
+                const dvec3 w = barycentric_of(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], q);
+                onto = std::min({w.x, w.y, w.z}) > 1e-3 ? q : p;
               }
             }
         patch.positions[k] = options_.grid > 0 ? snap_to_grid(onto, options_.grid) : onto;
@@ -627,13 +667,10 @@ class Builder {
         const dvec3 u = at_pos(hole[i]), w = at_pos(hole[(i + 1) % nh]);
         dvec3 q = u + t * (w - u);
         if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
-        // A rim vertex landing on the one before it merges into it (an edge collapse).
-        if (!moved.empty() && glm::distance(q, patch.positions[moved.back().v - nv]) < 0.05 * h &&
-            k + 1 < nr) {
-          rename[r] = moved.back().v;
-          continue;
-        }
-        patch.positions[r - nv] = q;
+        // A rim vertex that would land on the one before it stays where it is (off the hole
+        // by less than a voxel; the fans take it there).
+        if (moved.empty() || glm::distance(q, patch.positions[moved.back().v - nv]) >= 0.05 * h)
+          patch.positions[r - nv] = q;
         moved.push_back({unwrapped[k], r, false, true});
       }
       merged.insert(merged.end(), moved.begin(), moved.end());
@@ -758,6 +795,51 @@ class Builder {
       patch.fans.clear();
       for (std::size_t f = 0; f < kt.size(); ++f) patch.fans.push_back({kt[f], ko[f]});
     }
+    // Vertices the zipper or the projection put at one position are one vertex (the edge
+    // between them collapsed; a triangle left with two corners at one vertex goes).
+    {
+      std::map<std::tuple<double, double, double>, std::uint32_t> at_point;
+      std::map<std::uint32_t, std::uint32_t> same;
+      auto visit = [&](std::uint32_t v) {
+        const dvec3 q = at_pos(v);
+        const auto [it, fresh] = at_point.try_emplace({q.x, q.y, q.z}, v);
+        if (!fresh && it->second != v) {
+          // The mesh's own vertex, else the first seen, stands for the position.
+          if (v < nv && it->second >= nv) {
+            same[it->second] = v;
+            it->second = v;
+          } else {
+            same[v] = it->second;
+          }
+        }
+      };
+      for (const auto& t : patch.triangles)
+        for (const std::uint32_t v : t) visit(v);
+      for (const auto& [t, o] : patch.fans)
+        for (const std::uint32_t v : t) visit(v);
+      auto canonical = [&](std::uint32_t v) {
+        for (auto it = same.find(v); it != same.end(); it = same.find(v)) v = it->second;
+        return v;
+      };
+      for (auto& t : patch.triangles)
+        for (std::uint32_t& v : t) v = canonical(v);
+      for (auto& [t, o] : patch.fans)
+        for (std::uint32_t& v : t) v = canonical(v);
+      std::erase_if(patch.fans, [](const auto& fo) {
+        const auto& t = fo.first;
+        return t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+      });
+    }
+    if (const char* dv = std::getenv("SM_DEBUG_VERTEX")) {
+      const auto want = static_cast<std::uint32_t>(std::atoi(dv));
+      if (want >= nv && want - nv < patch.positions.size()) {
+        const dvec3 q = patch.positions[want - nv];
+        std::fprintf(stderr, "  vertex %u at %.9f %.9f %.9f phi %.3g h\n", want, q.x, q.y, q.z, phi(q) / h);
+        for (const auto& t : patch.triangles)
+          if (t[0] == want || t[1] == want || t[2] == want)
+            std::fprintf(stderr, "    tri %u %u %u\n", t[0], t[1], t[2]);
+      }
+    }
     std::erase_if(patch.triangles, [&](const Mesh::Triangle& t) {
       return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || at_pos(t[0]) == at_pos(t[1]) ||
              at_pos(t[1]) == at_pos(t[2]) || at_pos(t[2]) == at_pos(t[0]);
@@ -772,14 +854,6 @@ class Builder {
   std::vector<std::uint32_t> opposite_;
 };
 
-glm::dvec3 barycentric_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
-  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
-  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1), den = d00 * d11 - d01 * d01;
-  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
-  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
-  return {1.0 - v - w, v, w};
-}
 
 // The mesh with the patches in `use` in place of their cut triangles; `first_new[p]` receives
 // the index of patch p's first triangle in the result (its triangles follow in order).
