@@ -43,6 +43,8 @@ const ParamSpec<R> kFields[] = {
      .unit = "voxels", .help = "voxels per thinnest local radius of those patches", .slider = {3, 16}},
     {.key = "patch_reach", .field = &R::patch_reach, .range = {.min = 0.5, .max = 20}, .unit = "x local radius",
      .help = "a patch's region: the pairs' box grown by this many local radii", .slider = {1, 8}},
+    {.key = "patch_max_voxels", .field = &R::patch_max_voxels, .range = {.min = 1000, .max = 100'000'000},
+     .unit = "voxels", .help = "largest voxel grid of one patch (coarser voxels beyond)"},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

@@ -3,8 +3,6 @@
 #include "repair/repair.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <numeric>
 #include <set>
 #include <tuple>
@@ -312,14 +310,14 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     }
     // The pairs left out, in the new numbering: their triangles were not cut, so each is the
     // one triangle of the result from its origin.
-    std::vector<std::uint32_t> now(before.mesh.triangles.size(), kNoTriangle), count(now.size(), 0);
+    std::vector<std::uint32_t> now_of(before.mesh.triangles.size(), kNoTriangle), count(now_of.size(), 0);
     for (std::uint32_t f = 0; f < origin.size(); ++f) {
-      now[origin[f]] = f;
+      now_of[origin[f]] = f;
       ++count[origin[f]];
     }
     std::set<std::array<std::uint32_t, 2>> still;
     auto carry = [&](std::uint32_t a, std::uint32_t b) {
-      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now[a], now[b]));
+      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now_of[a], now_of[b]));
     };
     for (const auto& [a, b] : left_out) carry(a, b);
     for (const auto& [a, b] : u.left_out_pairs) carry(a, b);
@@ -336,6 +334,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     VolumePatchOptions options;
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
+    options.max_voxels = params.patch_max_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);
@@ -361,7 +360,6 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       }
       if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;
-        if (std::getenv("SM_DEBUG_PATCH")) std::fprintf(stderr, "volume patch refused: %s\n", why.c_str());
         r = std::move(before);
       } else {
         st.patched = vp.patched;

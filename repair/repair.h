@@ -73,9 +73,11 @@ struct RepairParams {
   /// grid of the solid there (repair/volume_patch.h).
   bool volume_patch = true;
   /// Voxels per thinnest local radius of those patches.
-  double patch_voxels_per_radius = 6;
+  double patch_voxels_per_radius = 4;
   /// A patch's region: the pairs' box grown by this many local radii.
   double patch_reach = 2.5;
+  /// Largest voxel grid of one patch (coarser voxels beyond, down to 2.5 per thinnest radius).
+  std::uint32_t patch_max_voxels = 1'500'000;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order

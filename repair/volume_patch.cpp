@@ -242,9 +242,6 @@ class Builder {
     // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
     // the grid leave a hole without a rim, and the patch is not made).
     const double rmin = std::max(patch.radius_min, 1e-5);
-    std::unordered_map<std::uint32_t, bool> cut_set;
-    for (const std::uint32_t f : patch.cut) cut_set[f] = true;
-    for (const std::uint32_t f : patch.replaced) cut_set[f] = true;
 
     // The grid: the region and a margin of three voxels.
     double h = rmin / options_.voxels_per_radius;
@@ -264,7 +261,7 @@ class Builder {
     patch.voxels = nvox;
     auto at = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * n.y + j) * n.x + i; };
     auto centre = [&](int i, int j, int k) { return origin + h * dvec3(i, j, k); };
-    std::vector<float> dist(nvox, static_cast<float>(band)), dist_kept(nvox, static_cast<float>(band));
+    std::vector<float> dist(nvox, static_cast<float>(band));
     std::vector<std::uint32_t> nearest(nvox, kNone);
     Box grid_box{origin, origin + h * dvec3(n - glm::ivec3(1))};
     std::vector<std::uint32_t> local;  // triangles reaching into the grid
@@ -280,7 +277,6 @@ class Builder {
       local.push_back(f);
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
-      const bool kept = !cut_set.contains(f);
       for (int k = lo.z; k <= hi.z; ++k)
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) {
@@ -291,7 +287,6 @@ class Builder {
               dist[v] = d;
               nearest[v] = f;
             }
-            if (kept && d < dist_kept[v]) dist_kept[v] = d;
           }
     }
     // Triangles binned on the grid, for the nearest cut triangle of a point (below).
@@ -443,16 +438,12 @@ class Builder {
                                                          mesh_.positions[t[2]]));
       return index[u];
     };
-    // The patch ends inside the box by `inset`, so that its rim and the hole lie apart (two
-    // curves on one face would cross each other) and the strip between them is a short tube.
-    const double inset = 0.0;
-    auto phi_in = [&](const dvec3& p) { return phi(p) + inset; };
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
     auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
       const auto key = std::make_pair(std::min(u, x), std::max(u, x));
       if (const auto it = iso_cut_point.find(key); it != iso_cut_point.end()) return it->second;
       const dvec3 pu = pos[key.first], pw = pos[key.second];
-      const double fu = phi_in(pu), fw = phi_in(pw);
+      const double fu = phi(pu), fw = phi(pw);
       dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
       if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
       const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
@@ -467,7 +458,7 @@ class Builder {
       return id;
     };
     std::vector<std::uint8_t> inside(pos.size());
-    for (std::size_t i = 0; i < pos.size(); ++i) inside[i] = phi_in(pos[i]) < 0;
+    for (std::size_t i = 0; i < pos.size(); ++i) inside[i] = phi(pos[i]) < 0;
     std::vector<Mesh::Triangle> kept;  // in patch numbering
     std::vector<std::array<std::uint32_t, 2>> rim_edges;
     for (const auto& t : iso) {
@@ -521,7 +512,7 @@ class Builder {
           rim_of[a] = b;
         }
       }
-      if (rim_of[a] == kNone || rim_used[rim_of[a]] || best > 2 * inset + 3 * h) {
+      if (rim_of[a] == kNone || rim_used[rim_of[a]] || best > 3 * h) {
         patch.failure = "a hole has no rim of its own near it";
         return;
       }
@@ -675,21 +666,6 @@ class Builder {
       }
       merged.insert(merged.end(), moved.begin(), moved.end());
       std::stable_sort(merged.begin(), merged.end(), [](const Mark& x, const Mark& y) { return x.s < y.s; });
-      if (const char* dv = std::getenv("SM_DEBUG_VERTEX")) {
-        const auto want = static_cast<std::uint32_t>(std::atoi(dv));
-        for (std::size_t k = 0; k < merged.size(); ++k) {
-          if (merged[k].v != want) continue;
-          for (std::size_t q = (k >= 4 ? k - 4 : 0); q < std::min(merged.size(), k + 5); ++q)
-            std::fprintf(stderr, "  merged[%zu] s %.6f v %u hole %d rim %d\n", q, merged[q].s, merged[q].v, merged[q].hole,
-                         merged[q].rim);
-        }
-        for (const auto& [r, hv] : rename)
-          if (r == want || hv == want) std::fprintf(stderr, "  rename %u -> %u\n", r, hv);
-        for (std::size_t k = 0; k < nr; ++k)
-          if (rim[(first + k) % nr] == want)
-            std::fprintf(stderr, "  rim index %zu of %zu: prev %u next %u\n", k, nr, rim[(first + k + nr - 1) % nr],
-                         rim[(first + k + 1) % nr]);
-      }
       // Each side's edges and the other side's vertices between their ends.
       const std::size_t nm = merged.size();
       for (int side = 0; side < 2; ++side) {
@@ -731,11 +707,11 @@ class Builder {
     }
     // Fans: the patch's triangles on an edge (a, b) in the free direction, and the kept
     // surface's on (b, a), take the points listed for it.
-    auto refan = [&](std::vector<Mesh::Triangle>& tris, std::vector<std::uint32_t>* origins, bool kept_side) {
+    auto refan = [&](std::vector<Mesh::Triangle>& list, std::vector<std::uint32_t>* origins, bool kept_side) {
       std::vector<Mesh::Triangle> out;
       std::vector<std::uint32_t> out_origin;
-      for (std::size_t f = 0; f < tris.size(); ++f) {
-        const auto& t = tris[f];
+      for (std::size_t f = 0; f < list.size(); ++f) {
+        const auto& t = list[f];
         std::vector<std::uint32_t> ring;
         int split = 0, where = 0;
         for (int k = 0; k < 3; ++k) {
@@ -773,13 +749,13 @@ class Builder {
           continue;
         }
         const std::uint32_t apex = t[(where + 2) % 3];
-        const auto at = static_cast<std::size_t>(std::find(ring.begin(), ring.end(), apex) - ring.begin());
+        const auto from = static_cast<std::size_t>(std::find(ring.begin(), ring.end(), apex) - ring.begin());
         for (std::size_t k = 1; k + 1 < ring.size(); ++k) {
-          out.push_back({apex, ring[(at + k) % ring.size()], ring[(at + k + 1) % ring.size()]});
+          out.push_back({apex, ring[(from + k) % ring.size()], ring[(from + k + 1) % ring.size()]});
           out_origin.push_back(o);
         }
       }
-      tris = std::move(out);
+      list = std::move(out);
       if (origins) *origins = std::move(out_origin);
     };
     refan(patch.triangles, nullptr, false);
@@ -829,16 +805,6 @@ class Builder {
         const auto& t = fo.first;
         return t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
       });
-    }
-    if (const char* dv = std::getenv("SM_DEBUG_VERTEX")) {
-      const auto want = static_cast<std::uint32_t>(std::atoi(dv));
-      if (want >= nv && want - nv < patch.positions.size()) {
-        const dvec3 q = patch.positions[want - nv];
-        std::fprintf(stderr, "  vertex %u at %.9f %.9f %.9f phi %.3g h\n", want, q.x, q.y, q.z, phi(q) / h);
-        for (const auto& t : patch.triangles)
-          if (t[0] == want || t[1] == want || t[2] == want)
-            std::fprintf(stderr, "    tri %u %u %u\n", t[0], t[1], t[2]);
-      }
     }
     std::erase_if(patch.triangles, [&](const Mesh::Triangle& t) {
       return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || at_pos(t[0]) == at_pos(t[1]) ||
@@ -991,9 +957,6 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   }
   std::vector<Patch> patches;
   for (auto& [root, p] : by_root) {
-    if (std::getenv("SM_DEBUG_PATCH"))
-      std::fprintf(stderr, "cluster: size %.3f %.3f %.3f rmin %.4f rmax %.4f\n", p.region.hi.x - p.region.lo.x,
-                   p.region.hi.y - p.region.lo.y, p.region.hi.z - p.region.lo.z, p.radius_min, p.radius_max);
     p.region = p.region.grown(options.reach * std::max(p.radius_min, 1e-4));
     patches.push_back(std::move(p));
   }
@@ -1036,11 +999,6 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     }
     use[p] = patches[p].failure.empty();
     if (!use[p] && st.first_failure.empty()) st.first_failure = patches[p].failure;
-    if (std::getenv("SM_DEBUG_PATCH"))
-      std::fprintf(stderr, "patch %zu: box %.3f %.3f %.3f .. %.3f %.3f %.3f rmax %.4f cut %zu voxels %zu: %s\n", p,
-                   patches[p].region.lo.x, patches[p].region.lo.y, patches[p].region.lo.z, patches[p].region.hi.x,
-                   patches[p].region.hi.y, patches[p].region.hi.z, patches[p].radius_max, patches[p].cut.size(),
-                   patches[p].voxels, patches[p].failure.empty() ? "built" : patches[p].failure.c_str());
   }
 
   // Keep the patches that make no crossing, close up, and keep every anchor inside that was.
@@ -1059,49 +1017,11 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         patch_of[f] = static_cast<std::uint32_t>(p);
       }
     }
-    if (const char* dump = std::getenv("SM_DUMP_PATCH"); dump && round == 0) {
-      const std::uint32_t want = static_cast<std::uint32_t>(std::atoi(dump));
-      if (want < patches.size() && use[want]) {
-        FILE* fo = std::fopen("/tmp/patch.obj", "w");
-        const Box show = patches[want].region.grown(patches[want].radius_max);
-        for (const auto& q : out.positions) std::fprintf(fo, "v %.6f %.6f %.6f\n", q.x, q.y, q.z);
-        const char* names[] = {"kept", "surface", "strip", "fan"};
-        {
-          std::vector<std::uint32_t> fresh_want;
-          for (std::uint32_t f = 0; f < out.triangles.size(); ++f)
-            if (patch_of[f] == want) fresh_want.push_back(f);
-          std::fprintf(fo, "o bad\n");
-          for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh_want))
-            for (const std::uint32_t x : {f, g}) {
-              const auto& t = out.triangles[x];
-              std::fprintf(fo, "f %u %u %u\n", t[0] + 1, t[1] + 1, t[2] + 1);
-            }
-        }
-        for (int g = 0; g < 4; ++g) {
-          std::fprintf(fo, "o %s\n", names[g]);
-          for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
-            int kind = 0;
-            if (patch_of[f] == want) {
-              const std::size_t k = f - first_new[want];
-              kind = k < patches[want].surface_triangles ? 1 : (k < patches[want].triangles.size() ? 2 : 3);
-            } else if (patch_of[f] != kNone) {
-              continue;
-            }
-            if (kind != g) continue;
-            const auto& t = out.triangles[f];
-            if (g == 0 && !(show.contains(out.positions[t[0]]) || show.contains(out.positions[t[1]]))) continue;
-            std::fprintf(fo, "f %u %u %u\n", t[0] + 1, t[1] + 1, t[2] + 1);
-          }
-        }
-        std::fclose(fo);
-      }
-    }
     bool changed = false;
     auto reject = [&](std::uint32_t p, const char* why) {
       if (p == kNone || !use[p]) return;
       use[p] = 0;
       changed = true;
-      if (std::getenv("SM_DEBUG_PATCH")) std::fprintf(stderr, "patch %u rejected: %s\n", p, why);
       if (st.first_failure.empty()) st.first_failure = why;
     };
     // Every half-edge of a patch triangle has exactly one twin.
@@ -1118,30 +1038,11 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
           twins += u[(kk + 2) % 3] == b;
         }
         if (twins != 1 || same != 1) {
-          if (std::getenv("SM_DEBUG_PATCH"))
-            for (std::uint32_t c = ovc.begin[a]; c < ovc.begin[a + 1]; ++c) {
-              const std::uint32_t g = ovc.corner[c] / 3;
-              const auto& u = out.triangles[g];
-              std::fprintf(stderr, "    at %u: tri %u (%u %u %u) origin %u patch %u nv %zu\n", a, g, u[0], u[1], u[2],
-                           origin[g], patch_of[g], mesh.positions.size());
-            }
-            std::fprintf(stderr, "  patch %u open: tri %u (%s) edge %u-%u twins %d same %d\n", patch_of[f], f,
-                         f - first_new[patch_of[f]] < patches[patch_of[f]].surface_triangles ? "surface" : "strip", a, b,
-                         twins, same);
           reject(patch_of[f], "the patch does not close up");
         }
       }
     }
     for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {
-      if (std::getenv("SM_DEBUG_PATCH")) {
-        auto kind = [&](std::uint32_t x) {
-          if (patch_of[x] == kNone) return std::string("old");
-          const std::size_t k = x - first_new[patch_of[x]];
-          return std::to_string(patch_of[x]) + (k < patches[patch_of[x]].surface_triangles ? ":surface" : ":strip");
-        };
-        const glm::dvec3 c = out.positions[out.triangles[f][0]];
-        std::fprintf(stderr, "  pair %s x %s at %.3f %.3f %.3f\n", kind(f).c_str(), kind(g).c_str(), c.x, c.y, c.z);
-      }
       if (options.allow_crossings) continue;
       reject(patch_of[f], "the patch would make a crossing");
       reject(patch_of[g], "the patch would make a crossing");
