@@ -314,16 +314,10 @@ class FoldRepair {
   }
 
   // Intersecting pairs of a triangle of `faces` (sorted) with a triangle of `others` (each
-  // pair once). `found`, when given, receives them (as indices into faces and others);
-  // `first`, when given, are tested first: where a change is judged against the crossings
-  // before it, those mostly still cross, and the count reaches `stop` sooner. (The count
-  // stops at the first face after reaching `stop`: whether it stays below `stop` is the same
-  // for any order.)
-  using Crossed = std::vector<std::array<std::uint32_t, 2>>;
+  // pair once).
   [[nodiscard]] std::size_t crossings_around(const std::vector<std::uint32_t>& faces,
                                              const std::vector<std::uint32_t>& others,
-                                             const std::vector<Box>& other_boxes, std::size_t stop = SIZE_MAX,
-                                             Crossed* found = nullptr, const Crossed* first = nullptr) const {
+                                             const std::vector<Box>& other_boxes, std::size_t stop = SIZE_MAX) const {
     // Which of `others` are among `faces`, with their boxes as they are now (they moved with
     // the fan or patch), once per call rather than per pair: mine[k] is 1 + the index of
     // others[k]'s box in moved, or 0.
@@ -338,33 +332,15 @@ class FoldRepair {
       }
     }
     std::size_t n = 0;
-    auto counted = [&](std::uint32_t f, std::size_t k) {  // a pair the count holds (once)
-      const std::uint32_t g = others[k];
-      return g != f && alive(g) && !(mine[k] && g < f);  // (else counted from g)
-    };
-    std::vector<std::uint8_t>& tested = scratch_tested_;
-    if (first) {
-      tested.assign(faces.size() * others.size(), 0);
-      for (const auto& [i, k] : *first) {
-        if (n >= stop) return n;
-        const std::uint32_t f = faces[i];
-        if (!counted(f, k)) continue;
-        tested[i * others.size() + k] = 1;
-        if (!overlap(box(f), mine[k] ? moved[mine[k] - 1] : other_boxes[k])) continue;
-        if (intersect(f, others[k])) ++n;
-      }
-    }
-    for (std::size_t i = 0; i < faces.size(); ++i) {
+    for (const std::uint32_t f : faces) {
       if (n >= stop) break;
-      const std::uint32_t f = faces[i];
       const Box bf = box(f);
       for (std::size_t k = 0; k < others.size(); ++k) {
-        if (!counted(f, k) || (first && tested[i * others.size() + k])) continue;
+        const std::uint32_t g = others[k];
+        if (g == f || !alive(g)) continue;
+        if (mine[k] && g < f) continue;  // counted from g
         if (!overlap(bf, mine[k] ? moved[mine[k] - 1] : other_boxes[k])) continue;
-        if (intersect(f, others[k])) {
-          ++n;
-          if (found) found->push_back({std::uint32_t(i), std::uint32_t(k)});
-        }
+        if (intersect(f, g)) ++n;
       }
     }
     return n;
@@ -404,8 +380,7 @@ class FoldRepair {
         near_boxes.push_back(region_boxes[k]);
       }
     }
-    Crossed crossed;
-    const std::size_t before = crossings_around(faces, near, near_boxes, SIZE_MAX, &crossed);
+    const std::size_t before = crossings_around(faces, near, near_boxes);
     // Nor may the move carry the fan across a skeleton node, as collapses and refills may not
     // (samples x particle seeds 1-3: one more node inside, small_pine seed 2).
     const std::vector<std::size_t> kept = kept_within(reach);
@@ -441,8 +416,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < faces.size() && ok; ++i) {
         ok = glm::dot(mesh_.face_normal(mesh_.triangles[faces[i]]), facing[i]) > 0;
       }
-      if (ok && crossings_around(faces, near, near_boxes, before, nullptr, &crossed) < before &&
-          !crosses_kept(kept, fan, fan, v, old)) {
+      if (ok && crossings_around(faces, near, near_boxes, before) < before && !crosses_kept(kept, fan, fan, v, old)) {
         moved_.insert(moved_.end(), faces.begin(), faces.end());
         return true;
       }
@@ -801,19 +775,6 @@ class FoldRepair {
       }
     }
 
-    // The region's crossings between the fan and `near`, tested first for each target (most
-    // still cross where a target fails).
-    Crossed crossed;
-    auto index_in = [](const std::vector<std::uint32_t>& list, std::uint32_t f) {
-      const auto it = std::lower_bound(list.begin(), list.end(), f);
-      return it != list.end() && *it == f ? static_cast<std::uint32_t>(it - list.begin()) : UINT32_MAX;
-    };
-    for (const auto& pq : crossing) {
-      for (int side = 0; side < 2; ++side) {
-        const std::uint32_t i = index_in(fan, pq[side]), k = index_in(near, pq[1 - side]);
-        if (i != UINT32_MAX && k != UINT32_MAX) crossed.push_back({i, k});
-      }
-    }
     const std::vector<std::size_t> kept = kept_within(reach);
     const std::vector<Mesh::Triangle> old_faces = fan_triangles(faces);
     // Rewire: w -> u in the fan; f1 and f2 die.
@@ -834,7 +795,7 @@ class FoldRepair {
       for (std::size_t i = 0; i < fan.size() && ok; ++i) {
         ok = glm::dot(mesh_.face_normal(mesh_.triangles[fan[i]]), facing[i]) > 0 && !sliver(mesh_.triangles[fan[i]]);
       }
-      if (ok && crossings_around(fan, near, near_boxes, before, nullptr, &crossed) < before &&
+      if (ok && crossings_around(fan, near, near_boxes, before) < before &&
           !crosses_kept(kept, old_faces, fan_triangles(fan), u, pu)) {
         set_triangle(f1, Mesh::Triangle{u, u, u});
         set_triangle(f2, Mesh::Triangle{u, u, u});
@@ -980,7 +941,6 @@ class FoldRepair {
   mutable std::vector<Box> scratch_boxes_;          // crossings_around's
   std::vector<Box> scratch_region_boxes_;           // flip_one_edge_of's and move_one_vertex_of's
   mutable std::vector<std::uint32_t> scratch_mine_;  // crossings_around's
-  mutable std::vector<std::uint8_t> scratch_tested_;  // crossings_around's
   mutable std::vector<std::uint32_t> vertex_mark_, triangle_mark_;  // within_rings's, by stamp
   mutable std::uint32_t stamp_ = 0;
   mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
