@@ -277,6 +277,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     const SelfUnionStats u = self_union(mesh, to_try, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
+      st.timings.add("self_union", clock.lap());  // (its attempts' time too)
       break;
     }
     // The figures after it, measured only as far as the rule reads them (it stops at the first
