@@ -810,7 +810,42 @@ class Builder {
       return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || at_pos(t[0]) == at_pos(t[1]) ||
              at_pos(t[1]) == at_pos(t[2]) || at_pos(t[2]) == at_pos(t[0]);
     });
+    drop_unused(patch, nv);
   }
+
+  // The patch's vertices renumbered without those no triangle uses any more (rim vertices
+  // renamed to hole vertices, corners of dropped triangles).
+  static void drop_unused(Patch& patch, std::uint32_t nv) {
+    std::vector<std::uint32_t> renumber(patch.positions.size(), kNone);
+    std::vector<std::uint32_t> order;  // old patch index, in first use
+    auto visit = [&](std::uint32_t v) {
+      if (v >= nv && renumber[v - nv] == kNone) {
+        renumber[v - nv] = nv + static_cast<std::uint32_t>(order.size());
+        order.push_back(v - nv);
+      }
+    };
+    for (const auto& t : patch.triangles)
+      for (const std::uint32_t v : t) visit(v);
+    for (const auto& [t, o] : patch.fans)
+      for (const std::uint32_t v : t) visit(v);
+    std::vector<glm::dvec3> positions, closest;
+    std::vector<std::uint32_t> origins;
+    for (const std::uint32_t k : order) {
+      positions.push_back(patch.positions[k]);
+      closest.push_back(patch.vertex_closest[k]);
+      origins.push_back(patch.vertex_origin[k]);
+    }
+    patch.positions = std::move(positions);
+    patch.vertex_closest = std::move(closest);
+    patch.vertex_origin = std::move(origins);
+    for (auto& t : patch.triangles)
+      for (std::uint32_t& v : t)
+        if (v >= nv) v = renumber[v - nv];
+    for (auto& [t, o] : patch.fans)
+      for (std::uint32_t& v : t)
+        if (v >= nv) v = renumber[v - nv];
+  }
+
 
  private:
   const Mesh& mesh_;
