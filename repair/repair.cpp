@@ -367,8 +367,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         pairs = std::move(after);
       }
     }
-    if (vp.patched < vp.clusters && !vp.first_failure.empty())
-      st.warnings.add("volume_patch_refused", "a volume patch was not made: " + vp.first_failure);
+    for (const auto& [why, count] : vp.failures)
+      st.warnings.add_count("volume_patch_refused", "region of crossings not patched: " + why, count);
     st.timings.add("volume_patch", clock.lap());
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);

@@ -1034,6 +1034,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     }
     use[p] = patches[p].failure.empty();
     if (!use[p] && st.first_failure.empty()) st.first_failure = patches[p].failure;
+    if (!use[p]) ++st.failures[patches[p].failure];
   }
 
   // Keep the patches that make no crossing, close up, and keep every anchor inside that was.
@@ -1058,6 +1059,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       use[p] = 0;
       changed = true;
       if (st.first_failure.empty()) st.first_failure = why;
+      ++st.failures[why];
     };
     // Every half-edge of a patch triangle has exactly one twin.
     const VertexCorners ovc = vertex_corners(out);

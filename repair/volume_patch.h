@@ -16,6 +16,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <span>
 #include <string>
 #include <vector>
@@ -45,6 +46,7 @@ struct VolumePatchStats {
   std::size_t new_triangles = 0;     ///< triangles of the patches and their strips
   std::size_t voxels = 0;            ///< voxels of all grids built
   std::string first_failure;         ///< why the first cluster not patched was not (empty: none)
+  std::map<std::string, std::size_t> failures;  ///< regions not patched, by why
 };
 
 /// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) by patches, in
