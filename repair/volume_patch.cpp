@@ -15,6 +15,7 @@
 #include <utility>
 
 #include <openvdb/openvdb.h>
+#include <tbb/parallel_for.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
 #include "core/math.h"
@@ -331,19 +332,36 @@ class Builder {
       cb.add(cone.b);
       if (cb.grown(std::max(cone.ra, cone.rb) + band).overlaps(grid_box)) cones.push_back(cone);
     }
+    // The cones' distance, each over its own box only (the rest of the grid is farther than
+    // the band from it), in slices in parallel (a minimum: the same for any order).
+    std::vector<float> cone_field(nvox, static_cast<float>(band));
+    for (const Cone& c : cones) {
+      Box cb;
+      cb.add(c.a);
+      cb.add(c.b);
+      cb = cb.grown(std::max(c.ra, c.rb) + band);
+      const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((cb.lo - origin) / h)), glm::ivec3(0));
+      const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((cb.hi - origin) / h)), n - glm::ivec3(1));
+      if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) continue;
+      const dvec3 ab = c.b - c.a;
+      const double len2 = glm::dot(ab, ab);
+      tbb::parallel_for(lo.z, hi.z + 1, [&](int k) {
+        for (int j = lo.y; j <= hi.y; ++j)
+          for (int i = lo.x; i <= hi.x; ++i) {
+            const dvec3 p = centre(i, j, k);
+            const double t = len2 > 0 ? std::clamp(glm::dot(p - c.a, ab) / len2, 0.0, 1.0) : 0.0;
+            const auto d = static_cast<float>(glm::distance(p, c.a + t * ab) - (c.ra + t * (c.rb - c.ra)));
+            float& f = cone_field[at(i, j, k)];
+            f = std::min(f, d);
+          }
+      });
+    }
     std::vector<float> field(nvox);
-    for (int k = 0; k < n.z; ++k)
+    tbb::parallel_for(0, n.z, [&](int k) {
       for (int j = 0; j < n.y; ++j)
         for (int i = 0; i < n.x; ++i) {
           const std::size_t v = at(i, j, k);
           const dvec3 p = centre(i, j, k);
-          double fc = band;
-          for (const Cone& c : cones) {
-            const dvec3 ab = c.b - c.a;
-            const double len2 = glm::dot(ab, ab);
-            const double t = len2 > 0 ? std::clamp(glm::dot(p - c.a, ab) / len2, 0.0, 1.0) : 0.0;
-            fc = std::min(fc, glm::distance(p, c.a + t * ab) - (c.ra + t * (c.rb - c.ra)));
-          }
           const double w = std::clamp((phi(p) + 3 * h) / (2 * h), 0.0, 1.0);
           double fm = band;
           if (w > 0 && nearest[v] != kNone) {
@@ -351,8 +369,9 @@ class Builder {
             const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
             fm = glm::dot(p - q, mesh_.face_normal(t)) > 0 ? dist[v] : -dist[v];
           }
-          field[v] = static_cast<float>(std::clamp(w * fm + (1 - w) * fc, -band, band));
+          field[v] = static_cast<float>(std::clamp(w * fm + (1 - w) * static_cast<double>(cone_field[v]), -band, band));
         }
+    });
     openvdb::initialize();
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(static_cast<float>(band));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
