@@ -1036,11 +1036,11 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   std::vector<std::uint8_t> use(patches.size(), 0);
   for (std::size_t p = 0; p < patches.size(); ++p) {
     // Where the box's faces cut the surface where it is not yet clean (branches still
-    // overlapping there), the box grows, up to twice, as long as it stays clear of the others.
+    // overlapping there), the box grows, up to four times, as long as it stays clear of the others.
     for (int attempt = 0;; ++attempt) {
       builder.build(patches[p], bins);
       st.voxels += patches[p].voxels;
-      if (patches[p].failure.empty() || attempt == 2 || patches[p].voxels == 0) break;
+      if (patches[p].failure.empty() || attempt == 4 || patches[p].voxels == 0) break;
       const Box grown = patches[p].region.grown(options.reach * std::max(patches[p].radius_min, 1e-4));
       bool clear = true;
       for (std::size_t q = 0; q < patches.size(); ++q) clear = clear && (q == p || !grown.overlaps(patches[q].region));
