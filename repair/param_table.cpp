@@ -45,6 +45,8 @@ const ParamSpec<R> kFields[] = {
      .help = "a patch's region: the pairs' box grown by this many local radii", .slider = {1, 8}},
     {.key = "patch_max_voxels", .field = &R::patch_max_voxels, .range = {.min = 1000, .max = 100'000'000},
      .unit = "voxels", .help = "largest voxel grid of one patch (coarser voxels beyond)"},
+    {.key = "patch_budget_voxels", .field = &R::patch_budget_voxels, .range = {.min = 0, .max = 4'000'000'000},
+     .unit = "voxels", .help = "voxels of all patches' grids together, smallest regions first (the rest not patched)"},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

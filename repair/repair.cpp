@@ -336,6 +336,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
+    options.max_total_voxels = params.patch_budget_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);

@@ -78,6 +78,8 @@ struct RepairParams {
   double patch_reach = 2.5;
   /// Largest voxel grid of one patch (coarser voxels beyond, down to 2.5 per thinnest radius).
   std::uint32_t patch_max_voxels = 1'500'000;
+  /// Voxels of all patches' grids together, smallest regions first (the rest are not patched).
+  std::uint32_t patch_budget_voxels = 40'000'000;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order

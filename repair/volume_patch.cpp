@@ -1015,20 +1015,48 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     patches.push_back(std::move(p));
   }
   st.clusters = patches.size();
+  // Overlapping regions merge: passes of a sweep along x joining every overlapping pair,
+  // until none overlap (a merged box can reach a further one).
   for (bool merged = true; merged;) {
     merged = false;
-    for (std::size_t a = 0; a < patches.size() && !merged; ++a) {
-      for (std::size_t b = a + 1; b < patches.size(); ++b) {
-        if (!patches[a].region.overlaps(patches[b].region)) continue;
-        patches[a].region.add(patches[b].region);
-        patches[a].radius_max = std::max(patches[a].radius_max, patches[b].radius_max);
-        patches[a].radius_min = std::min(patches[a].radius_min, patches[b].radius_min);
-        patches.erase(patches.begin() + static_cast<std::ptrdiff_t>(b));
+    std::vector<std::uint32_t> order(patches.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return std::tie(patches[a].region.lo.x, a) < std::tie(patches[b].region.lo.x, b);
+    });
+    UnionFind joined(patches.size());
+    std::vector<std::uint32_t> open;
+    for (const std::uint32_t i : order) {
+      std::erase_if(open, [&](std::uint32_t a) { return patches[a].region.hi.x < patches[i].region.lo.x; });
+      for (const std::uint32_t a : open) {
+        if (!patches[a].region.overlaps(patches[i].region)) continue;
+        joined.unite(a, i);
         merged = true;
-        break;
       }
+      open.push_back(i);
     }
+    if (!merged) break;
+    std::vector<Patch> next;
+    std::map<std::uint32_t, std::size_t> merged_into;
+    for (std::uint32_t i = 0; i < patches.size(); ++i) {
+      const auto [it, fresh] = merged_into.try_emplace(joined.find(i), next.size());
+      if (fresh) {
+        next.push_back(std::move(patches[i]));
+        continue;
+      }
+      Patch& into = next[it->second];
+      into.region.add(patches[i].region);
+      into.radius_max = std::max(into.radius_max, patches[i].radius_max);
+      into.radius_min = std::min(into.radius_min, patches[i].radius_min);
+    }
+    patches = std::move(next);
   }
+  // Smallest regions first, within a budget of voxels for the whole step: its cost is
+  // bounded however many regions a tree has.
+  std::stable_sort(patches.begin(), patches.end(), [](const Patch& a, const Patch& b) {
+    const dvec3 sa = a.region.hi - a.region.lo, sb = b.region.hi - b.region.lo;
+    return sa.x * sa.y * sa.z < sb.x * sb.y * sb.z;
+  });
 
   const TriangleBins bins(mesh);
   Builder builder(mesh, vc, skeleton, options);
@@ -1038,6 +1066,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     // Where the box's faces cut the surface where it is not yet clean (branches still
     // overlapping there), the box grows, up to four times, as long as it stays clear of the others.
     for (int attempt = 0;; ++attempt) {
+      if (st.voxels >= options.max_total_voxels) {
+        patches[p].failure = "the step's budget of voxels is spent";
+        break;
+      }
       builder.build(patches[p], bins);
       st.voxels += patches[p].voxels;
       if (patches[p].failure.empty() || attempt == 4 || patches[p].voxels == 0) break;

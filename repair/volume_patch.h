@@ -33,6 +33,7 @@ struct VolumePatchOptions {
   double voxels_per_radius = 4;         ///< voxel size: the thinnest local radius over this
   double reach = 2.5;                   ///< region: the pairs' box grown by this many local radii
   std::size_t max_voxels = 1'500'000;   ///< largest grid of one patch (coarser voxels beyond)
+  std::size_t max_total_voxels = 40'000'000;  ///< all patches' grids together (the rest not patched)
   double min_voxels_per_radius = 2.5;   ///< a region whose thinnest radius gets fewer is not patched
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
   double adaptivity = 0;              ///< OpenVDB's: larger polygons where the surface is flat (0: none)
