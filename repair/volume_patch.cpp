@@ -109,7 +109,6 @@ struct Patch {
   std::vector<glm::dvec3> vertex_closest;      // per patch vertex: nearest point on it
   // Triangles over mesh vertices (index < nv) and patch vertices (nv + k).
   std::vector<Mesh::Triangle> triangles;
-  std::size_t surface_triangles = 0;  // the first ones are the volume's surface, the rest strips
   std::vector<std::uint32_t> replaced;  // kept triangles on split hole edges, replaced by fans
   std::vector<std::pair<Mesh::Triangle, std::uint32_t>> fans;  // those fans' triangles, with their origin
   std::size_t voxels = 0;
@@ -141,15 +140,6 @@ bool boundary_loops(const std::vector<std::array<std::uint32_t, 2>>& edges, std:
   return true;
 }
 
-// Barycentric coordinates of p (in the triangle's plane) in (a, b, c).
-glm::dvec3 barycentric_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
-  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
-  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1), den = d00 * d11 - d01 * d01;
-  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
-  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
-  return {1.0 - v - w, v, w};
-}
 
 class Builder {
  public:
@@ -190,16 +180,19 @@ class Builder {
       const dvec3 d = glm::abs(p - mid) - half;
       return std::max({d.x, d.y, d.z});
     };
+    // Where phi is 0 on the segment pu - pw (linearly between its ends), on the float grid.
+    auto zero_on = [&](const dvec3& pu, const dvec3& pw) {
+      const double fu = phi(pu), fw = phi(pw);
+      const dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
+      return options_.grid > 0 ? snap_to_grid(q, options_.grid) : q;
+    };
     const auto nv = static_cast<std::uint32_t>(mesh_.positions.size());
     auto at_pos = [&](std::uint32_t v) { return v < nv ? mesh_.positions[v] : patch.positions[v - nv]; };
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mesh_cut_point;
     auto cut_point = [&](std::uint32_t u, std::uint32_t w, std::uint32_t f) {
       const auto key = std::make_pair(std::min(u, w), std::max(u, w));
       if (const auto it = mesh_cut_point.find(key); it != mesh_cut_point.end()) return it->second;
-      const dvec3 pu = mesh_.positions[key.first], pw = mesh_.positions[key.second];
-      const double fu = phi(pu), fw = phi(pw);
-      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
-      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const dvec3 q = zero_on(mesh_.positions[key.first], mesh_.positions[key.second]);
       const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
       patch.positions.push_back(q);
       patch.vertex_origin.push_back(f);
@@ -388,7 +381,7 @@ class Builder {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, options_.adaptivity, true);
+    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0, true);
 
     // Sample helpers on the grid (nearest voxel).
     auto voxel_of = [&](const dvec3& p) {
@@ -461,10 +454,7 @@ class Builder {
     auto iso_cut = [&](std::uint32_t u, std::uint32_t x) {
       const auto key = std::make_pair(std::min(u, x), std::max(u, x));
       if (const auto it = iso_cut_point.find(key); it != iso_cut_point.end()) return it->second;
-      const dvec3 pu = pos[key.first], pw = pos[key.second];
-      const double fu = phi(pu), fw = phi(pw);
-      dvec3 q = pu + (pw - pu) * std::clamp(fu / (fu - fw), 0.0, 1.0);
-      if (options_.grid > 0) q = snap_to_grid(q, options_.grid);
+      const dvec3 q = zero_on(pos[key.first], pos[key.second]);
       const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
       patch.positions.push_back(q);
       std::uint32_t f = nearest[voxel_of(q)];
@@ -550,7 +540,6 @@ class Builder {
       std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
     }
     patch.triangles = kept;
-    patch.surface_triangles = patch.triangles.size();
     // Near the holes the cut surface is clean and is the solid's boundary: the patch's vertices
     // there go onto it (the nearest point of a cut triangle), so that patch and kept surface
     // meet as one sheet instead of two a voxel apart.
@@ -575,7 +564,7 @@ class Builder {
                 best = d;
                 // Only onto a triangle's inside: points nearest an edge or corner would land
                 // on one another.
-                const dvec3 w = barycentric_of(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], q);
+                const dvec3 w = barycentric(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], q);
                 onto = std::min({w.x, w.y, w.z}) > 1e-3 ? q : p;
               }
             }
@@ -778,7 +767,6 @@ class Builder {
       if (origins) *origins = std::move(out_origin);
     };
     refan(patch.triangles, nullptr, false);
-    patch.surface_triangles = patch.triangles.size();
     {
       std::vector<Mesh::Triangle> kt;
       std::vector<std::uint32_t> ko;
@@ -911,7 +899,7 @@ Mesh assemble(const Mesh& mesh, const std::vector<Patch>& patches, const std::ve
       std::array<glm::vec2, 3> uv{};
       for (int k = 0; k < 3; ++k) {
         const glm::dvec3 q = t[k] >= nv ? patch.vertex_closest[t[k] - nv] : mesh.positions[t[k]];
-        const glm::dvec3 w = barycentric_of(mesh.positions[ot[0]], mesh.positions[ot[1]], mesh.positions[ot[2]], q);
+        const glm::dvec3 w = barycentric(mesh.positions[ot[0]], mesh.positions[ot[1]], mesh.positions[ot[2]], q);
         uv[k] = glm::vec2(w.x * glm::dvec2(ouv[0]) + w.y * glm::dvec2(ouv[1]) + w.z * glm::dvec2(ouv[2]));
       }
       out.corner_uvs.push_back(uv);
@@ -1084,7 +1072,6 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       patches[p] = std::move(fresh);
     }
     use[p] = patches[p].failure.empty();
-    if (!use[p] && st.first_failure.empty()) st.first_failure = patches[p].failure;
     if (!use[p]) ++st.failures[patches[p].failure];
   }
 
@@ -1109,7 +1096,6 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       if (p == kNone || !use[p]) return;
       use[p] = 0;
       changed = true;
-      if (st.first_failure.empty()) st.first_failure = why;
       ++st.failures[why];
     };
     // Every half-edge of a patch triangle has exactly one twin.

@@ -36,7 +36,6 @@ struct VolumePatchOptions {
   std::size_t max_total_voxels = 40'000'000;  ///< all patches' grids together (the rest not patched)
   double min_voxels_per_radius = 2.5;   ///< a region whose thinnest radius gets fewer is not patched
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
-  double adaptivity = 0;              ///< OpenVDB's: larger polygons where the surface is flat (0: none)
   bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
 };
 
@@ -46,7 +45,6 @@ struct VolumePatchStats {
   std::size_t removed_triangles = 0; ///< surface triangles cut out
   std::size_t new_triangles = 0;     ///< triangles of the patches and their strips
   std::size_t voxels = 0;            ///< voxels of all grids built
-  std::string first_failure;         ///< why the first cluster not patched was not (empty: none)
   std::map<std::string, std::size_t> failures;  ///< regions not patched, by why
 };
 
