@@ -359,25 +359,57 @@ class Walker {
   /// The slice step: with ring_edge, the height of an equilateral triangle on the edge of a
   /// round section of the local radius (times the node's local factor); else slice_step x the
   /// local radius. At least min_slice_step x the neighbour distance (over the resolution).
+  /// The mean and the shortest edge length of stored loop l (metres).
+  [[nodiscard]] std::pair<double, double> loop_edges(std::uint32_t l) const {
+    const ContourSet& c = *store_;
+    const std::uint32_t b = c.loop_begin[l], n = c.loop_begin[l + 1] - b;
+    double perimeter = 0, shortest = std::numeric_limits<double>::infinity();
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const double e = glm::length(c.point[b + (k + 1) % n] - c.point[b + k]);
+      perimeter += e;
+      shortest = std::min(shortest, e);
+    }
+    return {perimeter / double(std::max<std::uint32_t>(n, 1)), shortest};
+  }
+  /// The edge length of a round section's loop of the local radius (ring_edge > 0; metres).
+  [[nodiscard]] double ring_edge_at(const SliceGeometry& g) const {
+    const double circumference = 2.0 * std::numbers::pi * g.radius;
+    return circumference / double(ring_vertices(circumference));
+  }
   [[nodiscard]] double fine_step(const SliceGeometry& g) const {
     if (ring_edge() > 0) {
-      const double circumference = 2.0 * std::numbers::pi * g.radius;
-      const double edge = circumference / double(ring_vertices(circumference));
-      return std::max(local(g.node).slice_step * 0.8660254037844386 * edge, p_.min_slice_step * spacing_ / p_.resolution);
+      return std::max(local(g.node).slice_step * 0.8660254037844386 * ring_edge_at(g),
+                      p_.min_slice_step * spacing_ / p_.resolution);
     }
     return std::max(slice_step(g.node) * g.radius, p_.min_slice_step * spacing_);
   }
-  /// Distance to the next slice from a slice with geometry g: slice_step x the local radius,
-  /// but no more than max_slices_per_edge slices on one edge (a long thin twig is a straight
-  /// round cone between its nodes and needs no more), except where a bundle is still leaving
-  /// its fork.
-  [[nodiscard]] double step_at(const SliceGeometry& g) const {
+  /// Distance to the next slice from a slice with geometry g: fine_step, but no more than
+  /// max_slices_per_edge slices on one edge (a long thin twig is a straight round cone between
+  /// its nodes and needs no more), except where a bundle is still leaving its fork.
+  ///
+  /// `loop` (optional) is the loop just sliced there: with ring_edge, the aspect limit is on its
+  /// edges (a thin bundle keeps fewer vertices than the round section's, an uneven outline more,
+  /// and the shortest edge makes the thinnest triangle); without it, the round section's.
+  [[nodiscard]] double step_at(const SliceGeometry& g, std::uint32_t loop = UINT32_MAX) const {
     double step = fine_step(g);
     const NodeId parent = s_.parent[g.node.idx()];
     if (parent.valid() && p_.max_slices_per_edge > 0) {
       const double l = len(g.node);
       const bool in_transition = s_.is_fork(parent) && g.t * l < transition_length(g.node);
-      if (!in_transition) step = std::max(step, l / double(p_.max_slices_per_edge));
+      if (!in_transition) {
+        double capped = l / (double(p_.max_slices_per_edge) * (ring_edge() > 0 ? p_.resolution : 1.0));
+        // With rings from an edge length, the cap only stretches the slices of thin twigs
+        // (loops finer than ring_edge), and no more than max_slice_aspect of their shortest edge,
+        // so their triangles are not needles; elsewhere the slices stay isotropic.
+        if (ring_edge() > 0) {
+          const auto [mean, shortest] = loop != UINT32_MAX ? loop_edges(loop) : std::pair{ring_edge_at(g), ring_edge_at(g)};
+          const double w = std::clamp((0.9 - mean / ring_edge()) / 0.2, 0.0, 1.0);
+          constexpr double kIsotropic = 0.8660254037844386;  // an equilateral triangle's height
+          const double aspect = kIsotropic + w * std::max(p_.max_slice_aspect - kIsotropic, 0.0);
+          capped = std::min(capped, aspect * shortest);
+        }
+        step = std::max(step, capped);
+      }
     }
     return step;
   }
@@ -1114,9 +1146,9 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       }
       pts_.clear();
       evaluate(cur, t, pts_);
-      add_loop(pts_, g, LoopKind::plain, anchor_distance + d, tube);
+      const std::uint32_t loop = add_loop(pts_, g, LoopKind::plain, anchor_distance + d, tube);
       last = d;
-      d += step;
+      d += ring_edge() > 0 ? step_at(g, loop) : step;
       continue;
     }
     // d has reached node cur.

@@ -74,23 +74,30 @@ struct ContourParams {
   /// strands, evenly spaced along it, and slices follow each other at the height of an
   /// equilateral triangle on an edge of its round section (circumference / vertices), so
   /// triangles are close to isotropic: trunks get fine rings and close slices, thin twigs
-  /// min_ring_vertices and slices about a radius apart. 0 = every boundary strand and
-  /// slice_step (the loops as the strands give them, needle triangles on thick branches; the
-  /// default for now: configs/closeup.json sets 6, docs/quality.md).
+  /// min_ring_vertices (or their strands, if fewer) and slices as max_slice_aspect allows.
+  /// 0 = every boundary strand and slice_step (needle triangles on thick branches and twigs;
+  /// the default for now: configs/even.json and configs/closeup.json set 6, docs/quality.md).
   double ring_edge = 0.0;
-  /// Fewest vertices a loop keeps where its boundary has more (thin twigs stay round).
+  /// Fewest vertices a loop keeps where its boundary has more (a count; 6-gons' chords pass
+  /// 13 % of the radius inside the round section, 7-gons' 10 %: configs/even.json sets 7).
   std::uint32_t min_ring_vertices = 6;
   /// Scales the ring resolution and the slice spacing together (2 = edges half as long, twice
-  /// min_ring_vertices, slices at least half of min_slice_step apart: about 4 times the
-  /// triangles); with ring_edge > 0 only.
+  /// min_ring_vertices, slices at least half of min_slice_step apart, twice max_slices_per_edge:
+  /// about 4 times the triangles); with ring_edge > 0 only.
   double resolution = 1.0;
   /// Distance between consecutive slices along a branch, relative to the local radius (with
   /// ring_edge = 0; otherwise the slices follow the rings).
   double slice_step = 0.4;
   /// Most slices on one edge away from forks (a count; 0 = no limit): a long thin twig is a
-  /// straight round cone between its nodes and needs no more (but its triangles are needles:
-  /// configs/closeup.json sets 0).
+  /// straight round cone between its nodes and needs no more; with ring_edge > 0,
+  /// max_slice_aspect keeps its triangles from becoming needles.
   std::uint32_t max_slices_per_edge = 4;
+  /// With ring_edge > 0, the slices of a loop whose edges are shorter than ring_edge asks (a
+  /// thin twig held round by min_ring_vertices or its strands; mean edge under 0.7 ring_edge,
+  /// fading out to 0.9) may be up to this many of its shortest edges apart where
+  /// max_slices_per_edge wants them farther: triangles at most this elongated, at about a
+  /// fifth of the isotropic twig's count (a ratio; 0 = isotropic everywhere).
+  double max_slice_aspect = 4.5;
   /// Where a branch bends at a node, the straight strip between the loops on either side
   /// passes this far from the node at most (relative to its radius); farther, the node's own
   /// section is added as a loop (thin twigs sliced coarsely would otherwise leave their

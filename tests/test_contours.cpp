@@ -397,6 +397,36 @@ TEST(Contours, RingEdgeSetsTheLoopsAndMatchedSlices) {
   EXPECT_GT(fine.contours.point.size(), c.point.size());
 }
 
+TEST(Contours, SliceAspectStretchesThinBranchesWithinItsLimit) {
+  // Rings finer than ring_edge asks (here every loop: a target of 40 neighbour distances) with
+  // one slice per edge wanted: the slices stretch to max_slice_aspect x the loop's shortest
+  // edge, no farther; with max_slice_aspect 0 they stay isotropic (more loops).
+  ContourParams p;
+  p.ring_edge = 40;
+  p.max_slices_per_edge = 1;
+  const auto u = test::up_to_contours(test::straight_branch(6), 1, p);
+  expect_well_formed(u);
+  const ContourSet& c = u.contours;
+  ASSERT_EQ(c.tubes.size(), 1u);
+  std::size_t stretched = 0;
+  for (std::uint32_t l = 0; l + 2 < c.loop_count(); ++l) {  // (the tip's loop closes the last gap)
+    double shortest = std::numeric_limits<double>::infinity(), perimeter = 0;
+    for (std::uint32_t k = 0; k < c.loop_size(l); ++k) {
+      const std::uint32_t a = c.loop_begin[l] + k, b = c.loop_begin[l] + (k + 1) % c.loop_size(l);
+      shortest = std::min(shortest, glm::length(c.point[b] - c.point[a]));
+      perimeter += glm::length(c.point[b] - c.point[a]);
+    }
+    ASSERT_LT(perimeter / c.loop_size(l), 0.7 * p.ring_edge * u.particles.neighbour_distance) << "loop " << l;
+    const double gap = c.loop_distance[l + 1] - c.loop_distance[l];
+    EXPECT_LE(gap, p.max_slice_aspect * shortest * (1 + 1e-9)) << "loop " << l;
+    stretched += gap > 0.99 * p.max_slice_aspect * shortest;
+  }
+  EXPECT_GT(stretched, c.loop_count() / 2);
+  p.max_slice_aspect = 0;
+  const auto even = test::up_to_contours(test::straight_branch(6), 1, p);
+  EXPECT_GT(even.contours.loop_count(), c.loop_count() + c.loop_count() / 2);
+}
+
 TEST(Contours, StraightBranchIsOneTubeOfEvenSlices) {
   // Edges of 0.4 m at radii 0.1 to 0.05 m: the step (0.4 x radius) would give 5 to 10 slices
   // per edge, capped at max_slices_per_edge; with the root's loop and the tip's, 2 + 5 x cap.
