@@ -292,6 +292,7 @@ TEST(Pipeline, FoldRepairMovesVerticesWhereFlipsDoNotHelp) {
   with_moves.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   with_moves.repair.fold_rounds = 0;
   flips_only.repair.fork_retry = with_moves.repair.fork_retry = false;
+  flips_only.repair.sliver_angle = with_moves.repair.sliver_angle = 0;  // (vertex for vertex)
   // (Sliced with crossing loops kept, as before contours.uncross_loops, which leaves no fold here.)
   flips_only.contours.uncross_loops = with_moves.contours.uncross_loops = false;
   flips_only.repair.junction_fold_max_move = 0;
@@ -327,6 +328,7 @@ TEST(Pipeline, FoldRepairCollapsesEdgesWhereMovesDoNotHelp) {
   collapses_only.repair.self_union = false;  // the earlier repairs alone, not the repair stage
   collapses_only.repair.fold_rounds = 0;
   no_collapses.repair.fork_retry = collapses_only.repair.fork_retry = false;
+  no_collapses.repair.sliver_angle = collapses_only.repair.sliver_angle = 0;  // (its collapses alone)
   no_collapses.repair.junction_fold_collapses = false;
   no_collapses.repair.junction_fold_refills = collapses_only.repair.junction_fold_refills = false;
   PipelineResult a, b;
