@@ -65,6 +65,36 @@ int certain_side(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
   return det > bound ? 1 : det < -bound ? -1 : 0;
 }
 
+// certain_side for several points q against one plane through a, b, c: its normal and the
+// sizes of its edges worked out once (the same operations, the same answers).
+class CertainPlane {
+ public:
+  CertainPlane(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+      : a_(a), n_(glm::cross(b - a, c - a)) {
+    const glm::dvec3 u = b - a, v = c - a;
+    m_ = glm::dvec3(std::max(std::abs(u.x), std::abs(v.x)), std::max(std::abs(u.y), std::abs(v.y)),
+                    std::max(std::abs(u.z), std::abs(v.z)));
+  }
+  [[nodiscard]] int side(const glm::dvec3& q) const {
+    const glm::dvec3 w = q - a_;
+    const double mx = std::max(m_.x, std::abs(w.x)), my = std::max(m_.y, std::abs(w.y)),
+                 mz = std::max(m_.z, std::abs(w.z));
+    constexpr double kLow = 1e-60, kHigh = 1e60;
+    if (!(std::min({mx, my, mz}) > kLow && std::max({mx, my, mz}) < kHigh)) return 0;
+    const double det = glm::dot(w, n_);
+    const double bound = 20 * 5.1107127829973299e-15 * mx * my * mz;
+    return det > bound ? 1 : det < -bound ? -1 : 0;
+  }
+  // Whether p, q and r are all on one side for certain.
+  [[nodiscard]] bool all_on_one_side(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& r) const {
+    const int s = side(p);
+    return s != 0 && side(q) == s && side(r) == s;
+  }
+
+ private:
+  glm::dvec3 a_, n_, m_;
+};
+
 // The certain sides of p and q of the plane through a, b, c (certain_side); q's only where
 // p's is certain (0 otherwise).
 std::pair<int, int> certain_sides(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p,
@@ -318,10 +348,8 @@ class SoupIntersector {
     const glm::dvec3 &a0 = position(a, 0), &a1 = position(a, 1), &a2 = position(a, 2);
     const glm::dvec3 &b0 = position(b, 0), &b1 = position(b, 1), &b2 = position(b, 2);
     if (shared == 0) {
-      const int s = certain_side(a0, a1, a2, b0);
-      if (s != 0 && certain_side(a0, a1, a2, b1) == s && certain_side(a0, a1, a2, b2) == s) return false;
-      const int t = certain_side(b0, b1, b2, a0);
-      if (t != 0 && certain_side(b0, b1, b2, a1) == t && certain_side(b0, b1, b2, a2) == t) return false;
+      if (CertainPlane(a0, a1, a2).all_on_one_side(b0, b1, b2)) return false;
+      if (CertainPlane(b0, b1, b2).all_on_one_side(a0, a1, a2)) return false;
     } else if (shared == 1) {
       // One opposite edge strictly on one side of the other triangle's plane suffices: were
       // b's opposite edge to meet triangle a at x, the line from the shared vertex through x

@@ -264,21 +264,34 @@ class FoldRepair {
   [[nodiscard]] std::vector<std::uint32_t> within_two_rings(const std::vector<std::uint32_t>& faces) const {
     return within_rings(faces, 2);
   }
+  // (Sorted once at the end: each ring is found as a set, through marks stamped with a
+  // fresh number per call rather than by sorting.)
   [[nodiscard]] std::vector<std::uint32_t> within_rings(const std::vector<std::uint32_t>& faces, int rings) const {
+    if (vertex_mark_.size() != mesh_.positions.size()) vertex_mark_.assign(mesh_.positions.size(), 0);
+    if (triangle_mark_.size() != mesh_.triangles.size()) triangle_mark_.assign(mesh_.triangles.size(), 0);
     std::vector<std::uint32_t> verts, out = faces;
     for (int ring = 0; ring < rings; ++ring) {
+      const std::uint32_t stamp = ++stamp_;
       verts.clear();
-      for (const std::uint32_t g : out) verts.insert(verts.end(), mesh_.triangles[g].begin(), mesh_.triangles[g].end());
-      std::sort(verts.begin(), verts.end());
-      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      for (const std::uint32_t g : out) {
+        for (const std::uint32_t v : mesh_.triangles[g]) {
+          if (vertex_mark_[v] != stamp) {
+            vertex_mark_[v] = stamp;
+            verts.push_back(v);
+          }
+        }
+      }
       out.clear();
       for (const std::uint32_t v : verts) {
-        const auto here = around(v);
-        out.insert(out.end(), here.begin(), here.end());
+        for (const std::uint32_t g : around(v)) {
+          if (triangle_mark_[g] != stamp) {
+            triangle_mark_[g] = stamp;
+            out.push_back(g);
+          }
+        }
       }
-      std::sort(out.begin(), out.end());
-      out.erase(std::unique(out.begin(), out.end()), out.end());
     }
+    if (rings > 0) std::sort(out.begin(), out.end());
     return out;
   }
 
@@ -928,6 +941,8 @@ class FoldRepair {
   mutable std::vector<Box> scratch_boxes_;          // crossings_around's
   std::vector<Box> scratch_region_boxes_;           // flip_one_edge_of's and move_one_vertex_of's
   mutable std::vector<std::uint32_t> scratch_mine_;  // crossings_around's
+  mutable std::vector<std::uint32_t> vertex_mark_, triangle_mark_;  // within_rings's, by stamp
+  mutable std::uint32_t stamp_ = 0;
   mutable std::vector<std::uint32_t> keep_by_x_;    // keep_side_'s indices by x (kept_within)
   std::span<const glm::dvec3> axis_point_;
   AxisTargets axis_targets_;

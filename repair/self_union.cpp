@@ -64,8 +64,10 @@ std::uint32_t triangle_with_edge(const Mesh& mesh, const VertexCorners& vc, std:
 /// uses; at an edge of four or more (two solids of the union touching along it), each
 /// triangle is paired with its neighbour around the edge across the solid between them, so
 /// that the solids come apart. With `grid` > 0 the copies are on that grid, each at least a
-/// grid step from v, so the float32 file keeps them apart.
-std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand, double grid) {
+/// grid step from v, so the float32 file keeps them apart. `open` receives the triangles with
+/// a half-edge a -> b that has no single twin b -> a, or is not unique, after the splits.
+std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<StrandId>* strand, double grid,
+                          std::vector<std::uint32_t>& open) {
   const VertexCorners vc = vertex_corners(mesh);
   std::size_t split = 0;
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
@@ -108,10 +110,15 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
       plain[v] = one_cycle && steps == n;
     }
   });
+  // The corners at each vertex that is not plain, after the splits: a fan of each copy, or all.
+  std::vector<std::vector<std::uint32_t>> corners_at;
   for (std::uint32_t v = 0; v < nv; ++v) {
     if (plain[v]) continue;
     const std::uint32_t b = vc.begin[v], e = vc.begin[v + 1], n = e - b;
-    if (n < 2) continue;
+    if (n < 2) {
+      if (n == 1) corners_at.push_back({vc.corner[b]});
+      continue;
+    }
     UnionFind fans(n);
     // Corners by the vertex after v (edge v -> x leaving) and before it (edge x -> v arriving).
     auto next_of = [&](std::uint32_t i) { const std::uint32_t c = vc.corner[b + i]; return mesh.triangles[c / 3][(c % 3 + 1) % 3]; };
@@ -162,7 +169,10 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
     for (std::uint32_t i = 0; i < n; ++i) {
       if (fans.find(i) == i) roots.push_back(i);
     }
-    if (roots.size() < 2) continue;
+    if (roots.size() < 2) {
+      corners_at.emplace_back(vc.corner.begin() + b, vc.corner.begin() + e);
+      continue;
+    }
     ++split;
     // Every fan gets its own copy (v itself is left unused).
     for (const std::uint32_t root : roots) {
@@ -175,6 +185,10 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
         sum += mesh.positions[t[(c % 3 + 1) % 3]] + mesh.positions[t[(c % 3 + 2) % 3]];
         count += 2;
       }
+      corners_at.emplace_back();
+      for (std::uint32_t i = 0; i < n; ++i) {
+        if (fans.find(i) == root) corners_at.back().push_back(vc.corner[b + i]);
+      }
       const auto copy = static_cast<std::uint32_t>(mesh.positions.size());
       mesh.positions.push_back(step_towards(mesh.positions[v], sum / count, grid));
       if (node) node->push_back((*node)[v]);
@@ -185,6 +199,23 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
       }
     }
   }
+  // The open edges after the splits, as open_edge_triangles would find them on the whole
+  // mesh: a half-edge a -> b at a vertex without exactly one of it and one twin b -> a. Plain
+  // vertices have none.
+  open.clear();
+  for (const std::vector<std::uint32_t>& at : corners_at) {
+    for (const std::uint32_t c : at) {
+      const std::uint32_t b = mesh.triangles[c / 3][(c % 3 + 1) % 3];
+      int same = 0, twin = 0;
+      for (const std::uint32_t cj : at) {
+        same += mesh.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
+        twin += mesh.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
+      }
+      if (same != 1 || twin != 1) open.push_back(c / 3);
+    }
+  }
+  std::sort(open.begin(), open.end());
+  open.erase(std::unique(open.begin(), open.end()), open.end());
   return split;
 }
 
@@ -692,6 +723,9 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
   out.positions.insert(out.positions.end(), new_pos.begin(), new_pos.end());
   const bool uvs = mesh.corner_uvs.size() == nf, branches = mesh.triangle_branch.size() == nf;
   origin_of.clear();
+  out.triangles.reserve(nf + pieces_.size());
+  origin_of.reserve(nf + pieces_.size());
+  if (uvs) out.corner_uvs.reserve(nf + pieces_.size());
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (local_[f] != kNone || uncut_[f] == kDrop) continue;
     const auto& t = mesh.triangles[f];
@@ -749,34 +783,6 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
 
 namespace {
 
-/// The triangles with a half-edge a -> b that has no single twin b -> a, nor is unique.
-std::vector<std::uint32_t> open_edge_triangles(const Mesh& m) {
-  const VertexCorners vc = vertex_corners(m);
-  const auto nv = static_cast<std::uint32_t>(vc.begin.size() - 1);
-  constexpr std::uint32_t kChunk = 1 << 14;
-  std::vector<std::vector<std::uint32_t>> part((nv + kChunk - 1) / kChunk);  // (vertices in parallel)
-  tbb::parallel_for(std::size_t{0}, part.size(), [&](std::size_t p) {
-    for (std::uint32_t a = std::uint32_t(p) * kChunk; a < std::min(nv, std::uint32_t(p + 1) * kChunk); ++a) {
-      for (std::uint32_t k = vc.begin[a]; k < vc.begin[a + 1]; ++k) {
-        const std::uint32_t c = vc.corner[k], f = c / 3;
-        const std::uint32_t b = m.triangles[f][(c % 3 + 1) % 3];
-        int same = 0, twin = 0;
-        for (std::uint32_t j = vc.begin[a]; j < vc.begin[a + 1]; ++j) {
-          const std::uint32_t cj = vc.corner[j];
-          same += m.triangles[cj / 3][(cj % 3 + 1) % 3] == b;
-          twin += m.triangles[cj / 3][(cj % 3 + 2) % 3] == b;
-        }
-        if (same != 1 || twin != 1) part[p].push_back(f);
-      }
-    }
-  });
-  std::vector<std::uint32_t> out;
-  for (const auto& q : part) out.insert(out.end(), q.begin(), q.end());
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
-}
-
 /// Components (through shared vertices) of `out` other than the largest: inner shells (a void
 /// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
 /// apart from the tube it folded) go. A part that holds an anchor, of either volume, is a branch
@@ -793,21 +799,32 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
     comp.unite(t[0], t[1]);
     comp.unite(t[1], t[2]);
   }
-  // Signed volumes about one common origin (any origin gives a closed component's volume).
-  std::map<std::uint32_t, double> volume;
-  std::map<std::uint32_t, std::vector<std::uint32_t>> members;
+  // Signed volumes about one common origin (any origin gives a closed component's volume),
+  // by root; the components in increasing order of their roots.
+  const auto nf = static_cast<std::uint32_t>(out.triangles.size());
+  std::vector<double> volume_of(out.positions.size(), 0.0);
+  std::vector<std::uint8_t> is_root(out.positions.size(), 0);
+  std::vector<std::uint32_t> root_of(nf);
   const glm::dvec3 o = out.positions[out.triangles.front()[0]];
-  for (std::uint32_t f = 0; f < out.triangles.size(); ++f) {
+  for (std::uint32_t f = 0; f < nf; ++f) {
     const auto& t = out.triangles[f];
-    const std::uint32_t c = comp.find(t[0]);
-    volume[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
-    members[c].push_back(f);
+    const std::uint32_t c = root_of[f] = comp.find(t[0]);
+    volume_of[c] += glm::dot(out.positions[t[0]] - o, glm::cross(out.positions[t[1]] - o, out.positions[t[2]] - o));
+    is_root[c] = 1;
   }
-  std::uint32_t largest = volume.begin()->first;
+  std::vector<std::pair<std::uint32_t, double>> volume;
+  for (std::uint32_t c = 0; c < is_root.size(); ++c) {
+    if (is_root[c]) volume.emplace_back(c, volume_of[c]);
+  }
+  std::uint32_t largest = volume.front().first;
   for (const auto& [c, v] : volume) {
-    if (v > volume[largest]) largest = c;
+    if (v > volume_of[largest]) largest = c;
   }
-  std::map<std::uint32_t, std::uint8_t> keep_comp;
+  std::map<std::uint32_t, std::vector<std::uint32_t>> members;  // of the other components
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (root_of[f] != largest) members[root_of[f]].push_back(f);
+  }
+  std::vector<std::uint8_t> keep_comp(out.positions.size(), 0);
   for (const auto& [c, v] : volume) {
     if (c == largest) {
       keep_comp[c] = 1;
@@ -815,15 +832,19 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
     }
     bool holds = false;  // a void's shell holds no node; one that does is a branch turned over
     {
-      Mesh part;
-      part.positions = out.positions;
+      Mesh part;  // (its own vertices only)
+      std::map<std::uint32_t, std::uint32_t> vertex;
       glm::dvec3 lo(HUGE_VAL), hi(-HUGE_VAL);
       for (const std::uint32_t f : members[c]) {
-        part.triangles.push_back(out.triangles[f]);
-        for (const std::uint32_t x : out.triangles[f]) {
+        Mesh::Triangle t = out.triangles[f];
+        for (std::uint32_t& x : t) {
           lo = glm::min(lo, out.positions[x]);
           hi = glm::max(hi, out.positions[x]);
+          const auto [it, fresh] = vertex.try_emplace(x, std::uint32_t(part.positions.size()));
+          if (fresh) part.positions.push_back(out.positions[x]);
+          x = it->second;
         }
+        part.triangles.push_back(t);
       }
       std::vector<glm::dvec3> near;
       for (const glm::dvec3& a : anchors) {
@@ -844,7 +865,7 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
   if (!severed.empty()) return severed;
   std::size_t w = 0;
   for (std::size_t f = 0; f < out.triangles.size(); ++f) {
-    if (!keep_comp[comp.find(out.triangles[f][0])]) continue;
+    if (!keep_comp[root_of[f]]) continue;
     out.triangles[w] = out.triangles[f];
     origin_of[w] = origin_of[f];
     if (uvs) out.corner_uvs[w] = out.corner_uvs[f];
@@ -1121,13 +1142,14 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     attempt.assemble(out, origin_of, grid, trial);
     std::vector<NodeId>* node = out.vertex_node.size() == out.positions.size() ? &out.vertex_node : nullptr;
     std::vector<StrandId>* strand = out.vertex_strand.size() == out.positions.size() ? &out.vertex_strand : nullptr;
-    trial.split_vertices = split_pinches(out, node, strand, grid);
+    std::vector<std::uint32_t> open_at;
+    trial.split_vertices = split_pinches(out, node, strand, grid, open_at);
     std::vector<std::uint8_t> was_cut(nf, 0);
     for (const auto& pr : active) was_cut[pr[0]] = was_cut[pr[1]] = 1;
     // Where the kept patches do not close up (a cut line ending where the surface folds), those
     // crossings are left out too.
     std::vector<std::uint32_t> open;
-    for (const std::uint32_t f : open_edge_triangles(out)) open.push_back(origin_of[f]);
+    for (const std::uint32_t f : open_at) open.push_back(origin_of[f]);
     if (!open.empty()) {
       leave_out(open);
       continue;
