@@ -34,6 +34,16 @@ Frame transport_frame(const Frame& f, const dvec3& t) {
   return out;
 }
 
+dvec3 barycentric(const dvec3& a, const dvec3& b, const dvec3& c, const dvec3& p) {
+  const dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
+  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1);
+  const double den = d00 * d11 - d01 * d01;
+  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
+  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
+  return {1.0 - v - w, v, w};
+}
+
 dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c) {
   const dvec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);

@@ -48,6 +48,10 @@ void closest_segment_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, c
 /// The point of triangle (a, b, c) nearest to p (Ericson, Real-Time Collision Detection §5.1.5).
 dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c);
 
+/// Barycentric coordinates of p, projected onto the plane of (a, b, c), in that triangle
+/// (unclamped; (1, 0, 0) for a degenerate triangle).
+dvec3 barycentric(const dvec3& a, const dvec3& b, const dvec3& c, const dvec3& p);
+
 /// The solid angle (steradians, signed: positive when a, b, c run counter-clockwise seen from
 /// the origin) that the triangle with corners a, b, c, relative to the point, spans there (Van
 /// Oosterom and Strackee). Summed over a closed mesh and divided by 4 pi: the winding number.

@@ -37,6 +37,16 @@ const ParamSpec<R> kFields[] = {
      .help = "rounds of fold repair on nearby pairs anywhere before the union (0 = none)", .slider = {0, 16}},
     {.key = "fold_max_move", .field = &R::fold_max_move, .range = {.min = 0, .max = 1}, .unit = "x local radius",
      .help = "largest vertex move of that fold repair"},
+    {.key = "volume_patch", .field = &R::volume_patch,
+     .help = "replace the surface around pairs the union left by a patch drawn from a voxel grid of the solid"},
+    {.key = "patch_voxels_per_radius", .field = &R::patch_voxels_per_radius, .range = {.min = 2.5, .max = 32},
+     .unit = "voxels", .help = "voxels per thinnest local radius of those patches", .slider = {3, 16}},
+    {.key = "patch_reach", .field = &R::patch_reach, .range = {.min = 0.5, .max = 20}, .unit = "x local radius",
+     .help = "a patch's region: the pairs' box grown by this many local radii", .slider = {1, 8}},
+    {.key = "patch_max_voxels", .field = &R::patch_max_voxels, .range = {.min = 1000, .max = 100'000'000},
+     .unit = "voxels", .help = "largest voxel grid of one patch (coarser voxels beyond)"},
+    {.key = "patch_budget_voxels", .field = &R::patch_budget_voxels, .range = {.min = 0, .max = 4'000'000'000},
+     .unit = "voxels", .help = "voxels of all patches' grids together, smallest regions first (the rest not patched)"},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

@@ -15,6 +15,7 @@
 #include "meshcheck/intersections.h"
 #include "repair/fold_repair.h"
 #include "repair/self_union.h"
+#include "repair/volume_patch.h"
 #include "repair/verdict.h"
 
 namespace sm {
@@ -193,7 +194,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // Folds first: pairs of triangles within two rings of each other are creases of one sheet
   // (a tight crotch, a zigzag), which flips, moves and collapses untangle in place; a cut line
   // of the union would end inside them.
-  if (params.fold_rounds > 0 && !pairs.empty()) {
+  auto untangle_folds = [&](std::vector<std::array<std::uint32_t, 2>>& crossing) {
+    if (params.fold_rounds == 0 || crossing.empty()) return;
     const VertexCorners vc = vertex_corners(mesh);
     std::vector<std::uint8_t> suspect(mesh.triangles.size(), 0);
     std::vector<std::uint32_t> near;
@@ -203,7 +205,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       }
     };
     std::size_t folds = 0;
-    for (const auto& [f, g] : pairs) {
+    for (const auto& [f, g] : crossing) {
       near.clear();
       ring(f, near);
       const std::size_t first = near.size();
@@ -227,20 +229,22 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       options.max_pairs = std::max(options.max_pairs, mesh.triangles.size() / 8);
       MeshResult before = r;
       const FoldRepairStats fr = repair_folds(mesh, suspect, max_move, options);
-      st.fold_pairs = folds;
-      st.fold_changes = fr.flips + fr.moves + fr.collapses + fr.refills;
+      st.fold_pairs += folds;
+      const std::size_t changes = fr.flips + fr.moves + fr.collapses + fr.refills;
+      st.fold_changes += changes;
       const std::vector<std::uint32_t> kept = drop_degenerate(r);
       // Kept only as a closed 2-manifold (its collapses and refills can pinch an edge).
       if (const std::size_t open = unpaired_half_edges(mesh, vertex_corners(mesh)); open > 0) {
         st.problem = "the fold repair left " + std::to_string(open) + " unpaired half-edges (undone)";
-        st.fold_changes = 0;
+        st.fold_changes -= changes;
         r = std::move(before);
       } else {
-        pairs = pairs_after_edit(before.mesh, pairs, mesh, kept);
+        crossing = pairs_after_edit(before.mesh, crossing, mesh, kept);
       }
       st.timings.add("folds", clock.lap());
     }
-  }
+  };
+  untangle_folds(pairs);
   std::vector<std::uint32_t> origin;
   // Pairs a round left out (their union could not be judged) are not tried again: the rounds
   // after it meet only the pairs it made.
@@ -273,6 +277,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     const SelfUnionStats u = self_union(mesh, to_try, r.grid, skeleton.position, origin);
     if (!u.problem.empty()) {
       st.problem = u.problem;
+      st.timings.add("self_union", clock.lap());  // (its attempts' time too)
       break;
     }
     // The figures after it, measured only as far as the rule reads them (it stops at the first
@@ -306,19 +311,66 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     }
     // The pairs left out, in the new numbering: their triangles were not cut, so each is the
     // one triangle of the result from its origin.
-    std::vector<std::uint32_t> now(before.mesh.triangles.size(), kNoTriangle), count(now.size(), 0);
+    std::vector<std::uint32_t> now_of(before.mesh.triangles.size(), kNoTriangle), count(now_of.size(), 0);
     for (std::uint32_t f = 0; f < origin.size(); ++f) {
-      now[origin[f]] = f;
+      now_of[origin[f]] = f;
       ++count[origin[f]];
     }
     std::set<std::array<std::uint32_t, 2>> still;
     auto carry = [&](std::uint32_t a, std::uint32_t b) {
-      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now[a], now[b]));
+      if (count[a] == 1 && count[b] == 1) still.insert(ordered(now_of[a], now_of[b]));
     };
     for (const auto& [a, b] : left_out) carry(a, b);
     for (const auto& [a, b] : u.left_out_pairs) carry(a, b);
     left_out = std::move(still);
     pairs = std::move(after);
+  }
+  // Step 6: what the union left, patched from a voxel grid of the solid around it.
+  if (params.volume_patch && !pairs.empty() && mesh.vertex_node.size() == mesh.positions.size()) {
+    if (!params.self_union) {
+      now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
+             .thick_inside = thick_inside(mesh)};
+    }
+    MeshResult before = r;
+    VolumePatchOptions options;
+    options.voxels_per_radius = params.patch_voxels_per_radius;
+    options.reach = params.patch_reach;
+    options.max_voxels = params.patch_max_voxels;
+    options.max_total_voxels = params.patch_budget_voxels;
+    options.grid = r.grid;
+    options.allow_crossings = true;  // the fold repair below untangles the seams' creases
+    const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);
+    st.patch_clusters = vp.clusters;
+    st.patch_voxels = vp.voxels;
+    if (vp.patched > 0) {
+      if (!r.triangle_kind.empty()) {
+        std::vector<TriangleKind> kind(origin.size());
+        for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
+        r.triangle_kind = std::move(kind);
+      }
+      std::vector<std::array<std::uint32_t, 2>> after;
+      MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
+      if (next.sound && next.parts <= now.parts) {
+        after = pairs_after_edit(before.mesh, pairs, mesh, origin);
+        // The patches' own creases (where the voxel surface meets the cut one) are folds.
+        untangle_folds(after);
+        next.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0;
+        next.parts = components(mesh);
+        next.volume = signed_volume(mesh);
+        next.pairs = after.size();
+        next.thick_inside = thick_inside(mesh);
+      }
+      if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
+        st.problem = "volume patch: " + why;
+        r = std::move(before);
+      } else {
+        st.patched = vp.patched;
+        pairs = std::move(after);
+      }
+    }
+    for (const auto& [why, count] : vp.failures)
+      st.warnings.add_count("volume_patch_refused", "region of crossings not patched: " + why, count);
+    st.timings.add("volume_patch", clock.lap());
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();

@@ -69,6 +69,17 @@ struct RepairParams {
   std::uint32_t fold_rounds = 8;
   /// Largest vertex move of that fold repair, relative to the local skeleton radius.
   double fold_max_move = 0.25;
+  /// Step 6: replace the surface around pairs the union left by a patch drawn from a voxel
+  /// grid of the solid there (repair/volume_patch.h).
+  bool volume_patch = true;
+  /// Voxels per thinnest local radius of those patches.
+  double patch_voxels_per_radius = 4;
+  /// A patch's region: the pairs' box grown by this many local radii.
+  double patch_reach = 2.5;
+  /// Largest voxel grid of one patch (coarser voxels beyond, down to 2.5 per thinnest radius).
+  std::uint32_t patch_max_voxels = 1'500'000;
+  /// Voxels of all patches' grids together, smallest regions first (the rest are not patched).
+  std::uint32_t patch_budget_voxels = 40'000'000;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order
@@ -94,6 +105,10 @@ struct RepairStats {
   std::size_t inner_shells = 0;    ///< enclosed voids dropped
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
   std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
+  // Step 6:
+  std::size_t patch_clusters = 0;  ///< regions of pairs left by the union
+  std::size_t patched = 0;         ///< of those, replaced by a volume patch
+  std::size_t patch_voxels = 0;    ///< voxels of their grids
   std::string problem;             ///< why a round was refused (empty: none was)
   Warnings warnings;               ///< every step's
   Timings timings;                 ///< every step's

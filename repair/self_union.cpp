@@ -20,6 +20,7 @@
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
 
+#include "core/math.h"
 #include "core/union_find.h"
 #include "meshcheck/intersections.h"
 #include <tbb/blocked_range.h>
@@ -218,18 +219,6 @@ std::size_t split_pinches(Mesh& mesh, std::vector<NodeId>* node, std::vector<Str
   open.erase(std::unique(open.begin(), open.end()), open.end());
   return split;
 }
-
-/// Barycentric coordinates of p in triangle (a, b, c), by the projection onto its plane.
-glm::dvec3 barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
-  const glm::dvec3 v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = glm::dot(v0, v0), d01 = glm::dot(v0, v1), d11 = glm::dot(v1, v1);
-  const double d20 = glm::dot(v2, v0), d21 = glm::dot(v2, v1);
-  const double den = d00 * d11 - d01 * d01;
-  if (!(std::abs(den) > 0)) return {1.0, 0.0, 0.0};
-  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
-  return {1.0 - v - w, v, w};
-}
-
 
 /// The inradius of triangle (a, b, c) (0 where degenerate).
 double inradius(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {

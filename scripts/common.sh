@@ -10,7 +10,7 @@ BUILD_TYPE="${STRANDMESH_BUILD_TYPE:-Release}"
 STRANDMESH_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libglm-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev libtinygltf-dev
-  nlohmann-json3-dev libcli11-dev libtbb-dev libmeshoptimizer-dev libmatio-dev zlib1g-dev
+  nlohmann-json3-dev libcli11-dev libtbb-dev libmeshoptimizer-dev libmatio-dev zlib1g-dev libopenvdb-dev libboost-iostreams-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libimgui-dev libglfw3-dev libgl-dev libstb-dev
   xvfb xauth libgl1-mesa-dri

@@ -7,24 +7,9 @@
 #   PRESETS="oak conifer" SEEDS="1" scripts/quality_table.sh   # fewer grown trees (PRESETS="": none)
 #   CONFIG=configs/closeup.json scripts/quality_table.sh        # with a config
 set -euo pipefail
-ROOT="$(cd "$(dirname "$0")/.." && pwd)"
-SM="${1:-$ROOT/build}/strandmesh"
-SKELETONS="${2:-$ROOT/../shared/skeletons}"
 PRESETS="${PRESETS-broadleaf conifer oak bush}"
 SEEDS="${SEEDS-1 2 3}"
-CONFIG_ARGS=()
-[ -n "${CONFIG:-}" ] && CONFIG_ARGS=(--config "$CONFIG")
-OUT="$(mktemp -d)"
-trap 'rm -rf "$OUT"' EXIT
-
-inputs=()
-for f in "$SKELETONS"/*.json; do [ -e "$f" ] && inputs+=("$f"); done
-for p in $PRESETS; do
-  for s in $SEEDS; do
-    "$SM" -q grow --preset "$p" --seed "$s" -o "$OUT/${p}_$s.json"
-    inputs+=("$OUT/${p}_$s.json")
-  done
-done
+source "$(dirname "$0")/table_inputs.sh"
 
 echo "| tree | triangles | < 1° | < 5° | < 10° | aspect p95 | dihedral p99 / max | at junctions p99 / max | backward normals | self-int. pairs | fidelity p95 | mesh s | result |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"

@@ -8,25 +8,10 @@
 #   CONFIG=configs/closeup.json scripts/uv_table.sh      # with a config
 #   MESH_WITH=/path/to/other/strandmesh scripts/uv_table.sh  # mesh with another build (before/after)
 set -euo pipefail
-ROOT="$(cd "$(dirname "$0")/.." && pwd)"
-SM="${1:-$ROOT/build}/strandmesh"
-MESH_SM="${MESH_WITH:-$SM}"
-SKELETONS="${2:-$ROOT/../shared/skeletons}"
 PRESETS="${PRESETS-broadleaf conifer}"
 SEEDS="${SEEDS-1}"
-CONFIG_ARGS=()
-[ -n "${CONFIG:-}" ] && CONFIG_ARGS=(--config "$CONFIG")
-OUT="$(mktemp -d)"
-trap 'rm -rf "$OUT"' EXIT
-
-inputs=()
-for f in "$SKELETONS"/*.json; do [ -e "$f" ] && inputs+=("$f"); done
-for p in $PRESETS; do
-  for s in $SEEDS; do
-    "$SM" -q grow --preset "$p" --seed "$s" -o "$OUT/${p}_$s.json"
-    inputs+=("$OUT/${p}_$s.json")
-  done
-done
+source "$(dirname "$0")/table_inputs.sh"
+MESH_SM="${MESH_WITH:-$SM}"
 
 echo "| tree | triangles | seam edges: around / other | at junctions: around / other | anisotropy p95 (junctions) | density p95 x median (junctions) | flipped / collapsed |"
 echo "|---|---|---|---|---|---|---|"
