@@ -59,6 +59,10 @@ namespace {
 // 138 / 136 / 138 of 144 rather than 138 / 136 / 139.
 constexpr double kStubRadius = 0.3;
 
+// Turn (radians) beyond which a node of a child's chain ends the fused section above its fork
+// (see Walker::walk).
+constexpr double kFusedMaxTurn = 2.0943951023931957;  // 120 degrees
+
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
 /// How deep inside its cloud (in the cloud's own particle spacings below its angular sector's
@@ -1246,6 +1250,22 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       return stub ? fork_base + l : std::numeric_limits<double>::infinity();
     };
     const double stub_end = std::min(tip_end(a, b), tip_end(b, a));
+    // Where a child's chain first turns back on itself (a hairpin or zigzag node, turning by
+    // more than kFusedMaxTurn): a fused section carried round it folds, its loops around
+    // both bundles crossing; the bundles split before it, like below a stub's tip.
+    auto bend_end = [&](NodeId c) {
+      double l = len(c);
+      while (s_.child_count(c) == 1) {
+        const NodeId n = s_.children[c.idx()][0];
+        const dvec3 in = s_.position[c.idx()] - s_.position[s_.parent[c.idx()].idx()];
+        const dvec3 out = s_.position[n.idx()] - s_.position[c.idx()];
+        if (glm::dot(in, out) < std::cos(kFusedMaxTurn) * glm::length(in) * glm::length(out)) return fork_base + l;
+        c = n;
+        l += len(c);
+      }
+      return std::numeric_limits<double>::infinity();
+    };
+    const double turn_end = std::min(bend_end(a), bend_end(b));
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);
@@ -1274,7 +1294,7 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       // 135 / 133 / 135 -> 138 / 136 / 138 of 144; fidelity p95 0.186 / 0.186 / 0.189 ->
       // 0.189 / 0.179 / 0.186; self-intersecting pairs on the samples x seeds 1-3 272 -> 277.)
       const bool forced =
-          !separated && ((d >= shorter_end && g_ab > 0.5 * spacing_ && surfaces_clear()) || d + step >= stub_end);
+          !separated && ((d >= shorter_end && g_ab > 0.5 * spacing_ && surfaces_clear()) || d + step >= std::min(stub_end, turn_end));
       // A split at least a quarter of a step above the section's last loop; at a fork thinner
       // than the particles' neighbour distance, a quarter of the fine step. (A quarter of the
       // step along the edge, up to a quarter of the edge, held thin twigs' splits up to 9 mm

@@ -47,6 +47,11 @@ const ParamSpec<R> kFields[] = {
      .unit = "voxels", .help = "largest voxel grid of one patch (coarser voxels beyond)"},
     {.key = "patch_budget_voxels", .field = &R::patch_budget_voxels, .range = {.min = 0, .max = 4'000'000'000},
      .unit = "voxels", .help = "voxels of all patches' grids together, smallest regions first (the rest not patched)"},
+    {.key = "sliver_angle", .field = &R::sliver_angle, .range = {.min = 0, .max = 30}, .unit = "degrees",
+     .help = "triangles with an angle under this are flipped or collapsed away at the end (0 = none)",
+     .slider = {0, 10}},
+    {.key = "sliver_max_turn", .field = &R::sliver_max_turn, .range = {.min = 0, .max = 90}, .unit = "degrees",
+     .help = "largest turn of a triangle's normal by those flips and collapses", .slider = {0, 90}},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

@@ -24,11 +24,6 @@ constexpr std::uint32_t kNoTriangle = UINT32_MAX;
 }  // namespace
 
 
-namespace {
-
-/// Drops the triangles the fold repair removed (left as (u, u, u)) and the vertices no
-/// triangle uses any more, keeping the order of the rest; returns, per triangle left, its
-/// index before.
 std::vector<std::uint32_t> drop_degenerate(MeshResult& r) {
   Mesh& m = r.mesh;
   const bool kinds = r.triangle_kind.size() == m.triangles.size(), uvs = m.corner_uvs.size() == m.triangles.size(),
@@ -75,6 +70,8 @@ std::vector<std::uint32_t> drop_degenerate(MeshResult& r) {
   }
   return origin;
 }
+
+namespace {
 
 /// Connected parts of the mesh (through shared vertices).
 std::size_t components(const Mesh& m) {

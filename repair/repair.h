@@ -12,7 +12,9 @@
 ///  5. crossings anywhere (repair_crossings, repair.cpp): pairs over the whole mesh, folds
 ///     within two rings untangled and the rest replaced by the boundary of the union of the
 ///     solids the surface wraps (self_union.h). Where crossings close a loop the union has a
-///     handle: genus > 0 is then the truth, not a defect.
+///     handle: genus > 0 is then the truth, not a defect;
+///  7. slivers (slivers.h): triangles with an angle under `sliver_angle` flipped or collapsed
+///     away where no crossing results; then the normals of the finished surface.
 /// Each step keeps a change only when the mesh does better by the stage's one rule
 /// (verdict.h: the whole mesh in steps 4 and 5, the triangles around each change in steps 1
 /// and 3, each crotch in step 2) and otherwise leaves it as it was; a clean mesh passes
@@ -31,6 +33,7 @@
 #include "repair/junction_folds.h"
 #include "repair/near_misses.h"
 #include "repair/outer_surface.h"
+#include "repair/slivers.h"
 #include "skeleton/skeleton.h"
 
 namespace sm {
@@ -80,6 +83,10 @@ struct RepairParams {
   std::uint32_t patch_max_voxels = 1'500'000;
   /// Voxels of all patches' grids together, smallest regions first (the rest are not patched).
   std::uint32_t patch_budget_voxels = 40'000'000;
+  /// Step 7: triangles with an angle under this are flipped or collapsed away (degrees; 0 = none).
+  double sliver_angle = 1.0;
+  /// Largest turn of a triangle's normal by those flips and collapses (degrees).
+  double sliver_max_turn = 30.0;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order
@@ -109,6 +116,7 @@ struct RepairStats {
   std::size_t patch_clusters = 0;  ///< regions of pairs left by the union
   std::size_t patched = 0;         ///< of those, replaced by a volume patch
   std::size_t patch_voxels = 0;    ///< voxels of their grids
+  SliverStats slivers;             ///< step 7
   std::string problem;             ///< why a round was refused (empty: none was)
   Warnings warnings;               ///< every step's
   Timings timings;                 ///< every step's
@@ -127,6 +135,11 @@ struct RepairInputs {
   const ContourParams& contour_params;
   const MeshParams& mesh_params;
 };
+
+/// Drops the triangles left as (u, u, u) (fold repair, sliver removal) and the vertices no
+/// triangle uses any more, keeping the order of the rest; returns, per triangle left, its
+/// index before.
+std::vector<std::uint32_t> drop_degenerate(MeshResult& r);
 
 /// The repair stage: repairs `stitched` (stitch_mesh's result for `contours`) and finishes it
 /// (finish_mesh) into `mesh`. Where the fork retry keeps a mesh of re-sliced forks, `contours`

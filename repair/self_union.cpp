@@ -1107,7 +1107,9 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
     for (std::size_t k = 0; k < w.size(); ++k) held[k] = w[k] != 0;
   }
   Attempt attempt(mesh, vc);
-  constexpr int kAttempts = 12;
+  // (Each attempt finds one kind of failure; trees with thousands of crossings, the fir, need
+  // more than 12 before the union is kept.)
+  constexpr int kAttempts = 24;
   Mesh out;
   std::vector<std::uint32_t> origin_of;
   bool ready = false;

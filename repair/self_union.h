@@ -21,7 +21,7 @@
 /// hold none of the `anchors` (skeleton nodes): inner shells of voids and loose lumps.
 /// Crossings whose union cannot be judged, would cut a part holding an anchor off, or would
 /// leave outside an anchor the surface held are left out, each whole crossing curve through
-/// them, and the rest is tried again (at most 12 attempts; `left_out_pairs`).
+/// them, and the rest is tried again (at most 24 attempts; `left_out_pairs`).
 
 #include <array>
 #include <cstddef>

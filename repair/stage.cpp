@@ -72,6 +72,16 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   // 5. Crossings anywhere: folds and the self-union.
   report("repair");
   RepairStats st = repair_crossings(mesh, s, params);
+  // 7. Slivers; then the normals of the finished surface (the steps before moved vertices).
+  const std::vector<double> error = params.sliver_angle > 0 ? cone_error(mesh.mesh, s) : std::vector<double>{};
+  st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle, .max_turn = params.sliver_max_turn, .vertex_error = error});
+  if (st.slivers.collapses > 0) {
+    drop_degenerate(mesh);
+    mesh.stats.vertices = mesh.mesh.vertex_count();
+    mesh.stats.triangles = mesh.mesh.triangle_count();
+  }
+  if (!mesh.mesh.normals.empty()) mesh.mesh.normals = angle_weighted_normals(mesh.mesh);
+  timings.add("slivers", clock.lap());
   st.junction_folds = state.folds;
   st.fork_retry = fork_retry;
   st.near_misses = std::move(near_misses);

@@ -780,6 +780,14 @@ bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonRepor
       // r tan(turn / 2) > ratio x shorter edge, with tan(turn / 2) = sqrt((1 - cos) / (1 + cos)).
       const double limit = params.tight_bend_ratio * std::min(la, lb);
       if (t.radius[v] * t.radius[v] * (1 - cos_turn) <= limit * limit * (1 + cos_turn)) continue;
+      // Input as given (not `separate`): only where the straightened branch passes within
+      // max_node_move x radius of the node, a move the user cannot see.
+      if (!params.separate) {
+        const dvec3 pc = t.pos[c] - t.pos[p];
+        const double l2 = glm::dot(pc, pc);
+        const double u = l2 > 0 ? std::clamp(glm::dot(t.pos[v] - t.pos[p], pc) / l2, 0.0, 1.0) : 0.0;
+        if (glm::length(t.pos[p] + u * pc - t.pos[v]) > params.max_node_move * t.radius[v]) continue;
+      }
       if (!merge_follows &&
           !(glm::length(t.pos[c] - t.pos[p]) > params.merge_edge_ratio * std::max(t.radius[c], t.radius[p]))) {
         continue;

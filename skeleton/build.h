@@ -118,9 +118,9 @@ struct SkeletonParams {
   /// Tight bends: where a branch turns by t at a node with one child, its cross-sections
   /// need r tan(t/2) of straight edge on either side not to cross on the inner side of the
   /// bend (r the node's radius). A node needing more than this fraction of its shorter edge
-  /// is removed, its child joined straight to its parent (warning "tight_bend"): zigzag
-  /// twigs with edges of one or two radii and turns of 70-130 degrees, where the surface
-  /// folded. A repair, part of the refinements; 0 keeps every node.
+  /// is removed, its child joined straight to its parent (warning "tight_bend"), but only
+  /// where that chord passes within max_node_move x radius of it (any such node with
+  /// `separate`): the input's zigzags stay where the file put them. 0 keeps every node.
   double tight_bend_ratio = 0.5;
   /// Opt-in shape edits that move the user's branches: swing apart branches whose round cones
   /// intersect away from their common fork (branch_clearance), re-attach hairpins

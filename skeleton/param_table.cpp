@@ -45,7 +45,7 @@ const ParamSpec<S> kFields[] = {
     {.key = "max_turn_back", .field = &S::max_turn_back, .range = {.min = 0, .max = 180}, .unit = "degrees",
      .help = "a child turning back more than this from its node's incoming edge is re-attached below it (0 = off)"},
     {.key = "tight_bend_ratio", .field = &S::tight_bend_ratio, .range = {.min = 0}, .unit = "x shorter edge",
-     .help = "a one-child node is removed where r tan(turn/2) exceeds this (0 = off)", .slider = {0, 4}},
+     .help = "a one-child node is removed where r tan(turn/2) exceeds this and its chord passes within max_node_move (any with separate; 0 = off)", .slider = {0, 4}},
     {.key = "separate", .field = &S::separate,
      .help = "opt-in shape edits: swing crossing branches apart, re-attach hairpins, remove tight bends"},
     {.key = "max_node_move", .field = &S::max_node_move, .range = {.min = 0, .max = 1}, .unit = "x radius",

@@ -13,6 +13,10 @@
 #include "repair/outer_surface.h"
 #include "repair/outer_surface_cgal.h"
 #include "repair/repair.h"
+#include "repair/self_union.h"
+#include "repair/slivers.h"
+#include "pipeline/pipeline.h"
+#include "skeleton/io.h"
 #include "tests/separating.h"
 #include "skeleton/build.h"
 #include "tests/fixtures.h"
@@ -489,6 +493,79 @@ TEST(OuterSurfaceByWinding, KeepsTheUnionOfOverlappingParts) {
   const double one = check_mesh(test::icosphere(2)).signed_volume;
   EXPECT_GT(rw.signed_volume, one);
   EXPECT_LT(rw.signed_volume, one * (1 + 0.8 * 0.8 * 0.8));
+}
+
+// ---------------------------------------------------------------- slivers
+
+/// The smallest angle of any triangle of `m` (degrees).
+double smallest_angle_deg(const Mesh& m) {
+  double best = 180;
+  for (const auto& t : m.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3 a = m.positions[t[(k + 1) % 3]] - m.positions[t[k]], b = m.positions[t[(k + 2) % 3]] - m.positions[t[k]];
+      best = std::min(best, std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b)) * 180 / kPi);
+    }
+  }
+  return best;
+}
+
+/// The triangles whose UVs turn the other way from their corners.
+std::size_t mirrored_uvs(const Mesh& m) {
+  std::size_t n = 0;
+  for (const auto& uv : m.corner_uvs) {
+    const glm::vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
+    n += e1.x * e2.y - e1.y * e2.x < 0;
+  }
+  return n;
+}
+
+TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
+  // A tube with a needle (a ring vertex 0.2 % of a ring edge from its neighbour, beside the
+  // texture seam) and a cap (a vertex moved almost onto the diagonal of its quad): both are
+  // removed, the mesh stays closed and oriented with its volume, and the UVs stay continuous
+  // (no triangle stretched across the seam, a jump of 1 in u; none mirrored).
+  MeshResult r;
+  r.mesh = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8);
+  Mesh& m = r.mesh;
+  auto id = [](std::uint32_t i, std::uint32_t j) { return i * 16 + j % 16; };
+  m.positions[id(4, 1)] = m.positions[id(4, 0)] + 0.002 * (m.positions[id(4, 1)] - m.positions[id(4, 0)]);
+  const glm::dvec3 diagonal_mid = 0.5 * (m.positions[id(5, 8)] + m.positions[id(6, 9)]);
+  m.positions[id(6, 8)] = diagonal_mid + 0.002 * (m.positions[id(6, 8)] - diagonal_mid);
+  ASSERT_LT(smallest_angle_deg(m), 1.0);
+  const double volume = signed_volume(m);
+  const std::size_t triangles = m.triangle_count();
+
+  const SliverStats st = remove_slivers(r);
+  drop_degenerate(r);
+  EXPECT_GT(st.found, 0u);
+  EXPECT_GE(st.flips, 1u);
+  EXPECT_GE(st.collapses, 1u);
+  EXPECT_EQ(st.left, 0u);
+  EXPECT_GE(smallest_angle_deg(m), 1.0);
+  EXPECT_EQ(m.triangle_count(), triangles - 2 * st.collapses);
+  EXPECT_EQ(unpaired_half_edges(m, vertex_corners(m)), 0u);
+  EXPECT_NEAR(signed_volume(m), volume, 0.002 * volume);
+  ASSERT_EQ(m.corner_uvs.size(), m.triangle_count());
+  for (std::size_t f = 0; f < m.triangle_count(); ++f) {
+    const auto& uv = m.corner_uvs[f];
+    for (int k = 0; k < 3; ++k) EXPECT_LT(glm::length(uv[(k + 1) % 3] - uv[k]), 0.6f) << "triangle " << f;
+  }
+  EXPECT_EQ(mirrored_uvs(m), mirrored_uvs(test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8)));  // (one cap's)
+}
+
+TEST(Slivers, SampleTreeHasNoneLeftAndNormalsOfTheFinishedSurface) {
+  // A sample tree with 1,782 triangles under 1 degree before the step (mtg_boutdenoylum2):
+  // none left, the mesh closed, no crossing added, and the normals those of the finished
+  // surface (the fold repair moves vertices after the meshing stage made them).
+  const std::filesystem::path file = std::filesystem::path(STRANDMESH_SAMPLE_DIR) / "mtg_boutdenoylum2.json";
+  const PipelineResult r = run_pipeline(read_skeleton(file), PipelineParams{});
+  const Mesh& m = r.mesh.mesh;
+  EXPECT_GT(r.repair.slivers.found, 1000u);
+  EXPECT_EQ(r.repair.slivers.left, 0u);
+  EXPECT_GE(smallest_angle_deg(m), 1.0);
+  EXPECT_EQ(r.repair.pairs_left, 0u);
+  EXPECT_EQ(unpaired_half_edges(m, vertex_corners(m)), 0u);
+  EXPECT_EQ(m.normals, angle_weighted_normals(m));
 }
 }  // namespace
 }  // namespace sm

@@ -481,8 +481,24 @@ TEST(Skeleton, TightBendsAreStraightened) {
   raw.add(4, 3, dvec3(0.006 + 0.05 * std::cos(std::numbers::pi / 6), 0, 0.056 + 0.05 * std::sin(std::numbers::pi / 6)),
           0.003);
   auto ids = [](const Skeleton& s) { return std::vector<std::int64_t>(s.source_id.begin(), s.source_id.end()); };
+  // By default (the input as given) a node is removed only where the straightened branch passes
+  // within max_node_move x its radius of it: node 2 lies 1.4 radii off the line from 1 to 3.
+  const auto kept = build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .tight_bend_ratio = 0.01});
+  EXPECT_EQ(kept.report.tight_bends, 0u);
+  EXPECT_EQ(ids(kept.skeleton), (std::vector<std::int64_t>{0, 1, 2, 3, 4}));
+  {
+    // Node 2 half a millimetre above 1 (0.17 radii off the line from 1 to 3): removed.
+    RawSkeleton near = raw;
+    near.position[2] = dvec3(0, 0, 0.0505);
+    near.position[3] = dvec3(0.006, 0, 0.0505);
+    const auto r = build_skeleton(near, {.collar_ratio = 0, .max_lateral_angle = 0});
+    EXPECT_EQ(r.report.tight_bends, 1u);
+    EXPECT_EQ(ids(r.skeleton), (std::vector<std::int64_t>{0, 1, 3, 4}));
+    EXPECT_EQ(r.report.max_move, 0.0);
+  }
+  // With `separate` every tight bend goes, however far the branch then moves.
   auto with = [&](double ratio) {
-    return build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .tight_bend_ratio = ratio});
+    return build_skeleton(raw, {.collar_ratio = 0, .max_lateral_angle = 0, .tight_bend_ratio = ratio, .separate = true});
   };
   // 0.6 allows 3.6 mm: kept.
   const auto loose = with(0.6);

@@ -1,0 +1,58 @@
+#pragma once
+/// \file slivers.h
+/// The last step of the repair stage: slivers (triangles with an angle under a degree or so)
+/// removed by edge flips and edge collapses. The strips stitch loops whose strands crowd or
+/// whose vertices nearly line up, and the repairs cut and move triangles; both leave needles
+/// (one edge much shorter than the others) and caps (one angle near 180 degrees), which shade
+/// as streaks in a close-up and make vertex normals that face away from a triangle.
+///
+/// Each sliver, in triangle order, first tries a flip of its longest edge, then a collapse of
+/// its shortest edge (onto the end nearer the skeleton's surface, else the other, else the
+/// midpoint on the float grid). An edit is kept only when
+///  - the mesh stays a closed, oriented 2-manifold (the collapse's link condition: the edge's
+///    ends share exactly its two opposite vertices, each keeps at least three neighbours);
+///  - the smallest angle of the triangles it changes grows;
+///  - no triangle turns by more than `max_turn` (a flip: against the pair's area-weighted normal),
+///    so the surface stays where it was within the sliver's size;
+///  - no texture seam runs through the vertices it moves or rejoins (per-corner UVs kept);
+///  - its triangles take part in no more self-intersecting pairs than before (exact tests,
+///    sm_meshcheck's TriangleIntersections, against the whole mesh).
+/// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept.
+/// Deterministic: slivers are visited in triangle order, serially.
+
+#include <cstddef>
+#include <span>
+
+#include "meshing/meshing.h"
+#include "skeleton/skeleton.h"
+
+namespace sm {
+
+struct SliverOptions {
+  double angle = 1.0;         ///< a sliver has an angle under this (degrees; 0 = none removed)
+  double max_turn = 30.0;     ///< largest turn of a changed triangle's normal (degrees)
+  int max_rounds = 64;        ///< rounds of finding slivers and editing them (count)
+  /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
+  /// collapse keeps the edge's end with the smaller value where it can.
+  std::span<const double> vertex_error;
+};
+
+/// Per vertex of `mesh` (#V): its distance from the round cone of the skeleton edge that made
+/// it (Mesh::vertex_node and its parent) over the local radius; 0 without vertex_node.
+std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton);
+
+struct SliverStats {
+  std::size_t found = 0;      ///< slivers before the step
+  std::size_t flips = 0;      ///< edge flips kept
+  std::size_t collapses = 0;  ///< edge collapses kept (each removes a vertex and two triangles)
+  std::size_t undone = 0;     ///< edits undone because their triangles crossed others
+  std::size_t left = 0;       ///< slivers after the step
+  std::size_t rounds = 0;     ///< rounds run
+};
+
+/// Removes slivers from `mesh` in place (MeshResult::grid kept). The triangles collapses remove
+/// are left as (u, u, u) for the caller to drop; the vertices they remove are no longer used.
+/// Normals are not updated. Precondition: `mesh` is closed, edge-manifold and oriented.
+SliverStats remove_slivers(MeshResult& mesh, const SliverOptions& options = {});
+
+}  // namespace sm
