@@ -1,5 +1,5 @@
 // Sliver removal (see slivers.h): flips and collapses checked locally for shape, turn and
-// texture seams, then, per round, against the whole mesh for crossings (exact tests).
+// texture seams, then, per round, for crossings with the triangles near them (exact tests).
 
 #include "repair/slivers.h"
 
@@ -53,6 +53,124 @@ struct Edit {
   bool collapse = false;
 };
 
+/// The crossings an edit takes part in, found locally: each triangle binned once on a grid
+/// of the level whose cells are at least its size (cells double per level, from a typical
+/// triangle's size), and again where an edit moved it, so that a round costs the tests near
+/// its edits, not a pass over the whole mesh. Stale entries only add candidates, which the
+/// exact test settles.
+class LocalCrossings {
+ public:
+  LocalCrossings(const Mesh& m, const TriangleIntersections& exact) : m_(m), exact_(exact) {
+    std::vector<double> sizes;
+    sizes.reserve(m.triangles.size());
+    for (std::uint32_t f = 0; f < m.triangles.size(); ++f) sizes.push_back(extent(f));
+    if (!sizes.empty()) {
+      const auto mid = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
+      std::nth_element(sizes.begin(), mid, sizes.end());
+      cell_ = std::max(*mid, 1e-9);
+    }
+    for (std::uint32_t f = 0; f < m.triangles.size(); ++f) add(f);
+  }
+  /// Bins triangle f where it lies now (after an edit).
+  void add(std::uint32_t f) {
+    if (collapsed(m_.triangles[f])) return;
+    int level = 0;
+    while (level + 1 < kLevels && cell_ * std::ldexp(1.0, level) < extent(f)) ++level;
+    levels_[level].push_back(f);
+    const auto [lo, hi] = cells(f, level);
+    for (auto z = lo.z; z <= hi.z; ++z)
+      for (auto y = lo.y; y <= hi.y; ++y)
+        for (auto x = lo.x; x <= hi.x; ++x) bins_[key(level, x, y, z)].push_back(f);
+  }
+  /// The crossing pairs (i < j) with a triangle in `triangles`, sorted.
+  std::vector<std::array<std::uint32_t, 2>> touching(const std::vector<std::uint32_t>& triangles) const {
+    std::vector<std::array<std::uint32_t, 2>> out;
+    std::vector<std::uint32_t> candidates;
+    for (const std::uint32_t f : triangles) {
+      if (collapsed(m_.triangles[f])) continue;
+      candidates.clear();
+      for (int level = 0; level < kLevels; ++level) {
+        if (levels_[level].empty()) continue;
+        const auto [lo, hi] = cells(f, level);
+        const glm::i64vec3 span = hi - lo + glm::i64vec3(1);
+        if (span.x * span.y * span.z > static_cast<std::int64_t>(levels_[level].size())) {
+          // (More cells than triangles at this level: all of them.)
+          candidates.insert(candidates.end(), levels_[level].begin(), levels_[level].end());
+          continue;
+        }
+        for (auto z = lo.z; z <= hi.z; ++z)
+          for (auto y = lo.y; y <= hi.y; ++y)
+            for (auto x = lo.x; x <= hi.x; ++x) {
+              if (const auto it = bins_.find(key(level, x, y, z)); it != bins_.end()) {
+                candidates.insert(candidates.end(), it->second.begin(), it->second.end());
+              }
+            }
+      }
+      std::sort(candidates.begin(), candidates.end());
+      candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+      const auto [flo, fhi] = box(f);
+      for (const std::uint32_t g : candidates) {
+        if (g == f || collapsed(m_.triangles[g])) continue;
+        const auto [glo, ghi] = box(g);
+        if (glo.x > fhi.x || glo.y > fhi.y || glo.z > fhi.z || flo.x > ghi.x || flo.y > ghi.y || flo.z > ghi.z) continue;
+        if (exact_.intersect(f, g)) out.push_back({std::min(f, g), std::max(f, g)});
+      }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
+ private:
+  static constexpr int kLevels = 24;
+  std::pair<dvec3, dvec3> box(std::uint32_t f) const {
+    const Tri& t = m_.triangles[f];
+    const dvec3 &a = m_.positions[t[0]], &b = m_.positions[t[1]], &c = m_.positions[t[2]];
+    return {glm::min(a, glm::min(b, c)), glm::max(a, glm::max(b, c))};
+  }
+  double extent(std::uint32_t f) const {
+    const auto [lo, hi] = box(f);
+    return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  }
+  std::pair<glm::i64vec3, glm::i64vec3> cells(std::uint32_t f, int level) const {
+    const auto [lo, hi] = box(f);
+    const double c = cell_ * std::ldexp(1.0, level);
+    return {glm::i64vec3(glm::floor(lo / c)), glm::i64vec3(glm::floor(hi / c))};
+  }
+  static std::uint64_t key(int level, std::int64_t x, std::int64_t y, std::int64_t z) {
+    const auto h = [](std::int64_t v) { return static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ull; };
+    return h(x) ^ (h(y) >> 21 | h(y) << 43) ^ (h(z) >> 42 | h(z) << 22) ^ (static_cast<std::uint64_t>(level) << 58);
+  }
+  const Mesh& m_;
+  const TriangleIntersections& exact_;
+  double cell_ = 1;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins_;
+  std::array<std::vector<std::uint32_t>, kLevels> levels_;
+};
+
+/// Pairs per triangle, to count those an edit's triangles take part in.
+class PairsAt {
+ public:
+  explicit PairsAt(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+    for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+      for (const std::uint32_t f : pairs[k]) of_[f].push_back(k);
+    }
+  }
+  /// The pairs with a triangle the edit changed.
+  template <class Edit>
+  std::size_t count(const Edit& e) const {
+    std::vector<std::uint32_t> ks;
+    for (const auto& [g, old] : e.triangles) {
+      if (const auto it = of_.find(g); it != of_.end()) ks.insert(ks.end(), it->second.begin(), it->second.end());
+    }
+    std::sort(ks.begin(), ks.end());
+    return static_cast<std::size_t>(std::unique(ks.begin(), ks.end()) - ks.begin());
+  }
+
+ private:
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> of_;
+};
+
 class SliverRemover {
  public:
   SliverRemover(MeshResult& r, const SliverOptions& o)
@@ -63,68 +181,106 @@ class SliverRemover {
     SliverStats st;
     const double limit = o_.angle * kRadians;
     const TriangleIntersections intersections(m_);
+    LocalCrossings crossings(m_, intersections);
+    std::vector<std::uint32_t> all(m_.triangles.size());
+    for (std::uint32_t f = 0; f < all.size(); ++f) all[f] = f;
+    // The mesh's crossing pairs, found once and kept up to date: an edit may not take part in
+    // more of them than its triangles did before it.
+    std::vector<std::array<std::uint32_t, 2>> known = intersections.pairs(all);
+    // Round 0 looks at every triangle; later rounds only at the slivers left and the
+    // triangles the kept edits changed (nothing else moved).
+    std::vector<std::uint32_t> look = all;
+    std::vector<std::uint8_t> refused(m_.triangles.size(), 0);
     for (int round = 0; round < o_.max_rounds; ++round) {
-      std::vector<std::uint32_t> slivers = find(limit);
+      std::vector<std::uint32_t> slivers = find(look, limit);
       if (round == 0) st.found = slivers.size();
       if (slivers.empty()) break;
       ++st.rounds;
-      // Every triangle an edit of this round may change has a vertex of a sliver.
-      std::vector<std::uint32_t> around;
-      for (const std::uint32_t f : slivers) {
-        for (const std::uint32_t v : m_.triangles[f]) {
-          const std::vector<std::uint32_t> fs = faces(v);
-          around.insert(around.end(), fs.begin(), fs.end());
-        }
-      }
-      std::sort(around.begin(), around.end());
-      around.erase(std::unique(around.begin(), around.end()), around.end());
-      const std::vector<std::array<std::uint32_t, 2>> before = intersections.pairs_touching(around);
+      const PairsAt before(known);
 
       std::vector<std::uint8_t> locked(m_.positions.size(), 0);
       std::vector<Edit> edits;
+      std::vector<std::uint32_t> origin;  // the sliver each edit is for
       for (const std::uint32_t f : slivers) {
         const Tri t = m_.triangles[f];
-        if (collapsed(t) || locked[t[0]] || locked[t[1]] || locked[t[2]]) continue;
+        if (refused[f] || collapsed(t) || locked[t[0]] || locked[t[1]] || locked[t[2]]) continue;
         Edit e;
         if (!try_flip(f, e) && !try_collapse(f, e)) continue;
+        // Edits of one round touch disjoint vertices (so that any of them can be undone
+        // alone): one reaching a vertex an earlier edit of the round touched goes back.
+        bool clash = false;
+        for (const auto& [g, old] : e.triangles) {
+          for (const std::uint32_t v : old) clash = clash || locked[v];
+          for (const std::uint32_t v : m_.triangles[g]) clash = clash || locked[v];
+        }
+        if (clash) {
+          undo(e);
+          continue;
+        }
         for (const auto& [g, old] : e.triangles) {
           for (const std::uint32_t v : old) locked[v] = 1;
           for (const std::uint32_t v : m_.triangles[g]) locked[v] = 1;
         }
         edits.push_back(std::move(e));
+        origin.push_back(f);
       }
-      // Edits whose triangles cross more than before are undone, until none does.
+      // Edits whose triangles cross more than before are undone, until none does; their
+      // slivers are not tried again. `now` holds the pairs of the triangles `changed` as the
+      // mesh is now: after an undo only the restored triangles' pairs are found again.
       std::vector<std::uint8_t> active(edits.size(), 1);
-      std::vector<std::uint32_t> restored;
-      bool kept_any = false;
-      for (bool again = true; again;) {
-        again = false;
-        std::vector<std::uint32_t> changed = restored;
-        for (std::size_t i = 0; i < edits.size(); ++i) {
-          if (!active[i]) continue;
-          for (const auto& [g, old] : edits[i].triangles) changed.push_back(g);
-        }
-        std::sort(changed.begin(), changed.end());
-        changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
-        const std::vector<std::array<std::uint32_t, 2>> after = intersections.pairs_touching(changed);
+      std::vector<std::uint32_t> changed;
+      for (const Edit& e : edits) {
+        for (const auto& [g, old] : e.triangles) changed.push_back(g);
+      }
+      std::sort(changed.begin(), changed.end());
+      changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+      for (const std::uint32_t g : changed) crossings.add(g);
+      std::vector<std::array<std::uint32_t, 2>> now = crossings.touching(changed);
+      for (;;) {
+        const PairsAt after(now);
+        std::vector<std::uint32_t> restored;
         for (std::size_t i = edits.size(); i-- > 0;) {
-          if (!active[i]) continue;
-          if (count_touching(after, edits[i]) <= count_touching(before, edits[i])) continue;
+          if (!active[i] || after.count(edits[i]) <= before.count(edits[i])) continue;
           undo(edits[i]);
           active[i] = 0;
+          refused[origin[i]] = 1;
           ++st.undone;
           for (const auto& [g, old] : edits[i].triangles) restored.push_back(g);
-          again = true;
         }
+        if (restored.empty()) break;
+        std::sort(restored.begin(), restored.end());
+        restored.erase(std::unique(restored.begin(), restored.end()), restored.end());
+        for (const std::uint32_t g : restored) crossings.add(g);
+        std::erase_if(now, [&](const std::array<std::uint32_t, 2>& p) {
+          return std::binary_search(restored.begin(), restored.end(), p[0]) ||
+                 std::binary_search(restored.begin(), restored.end(), p[1]);
+        });
+        const std::vector<std::array<std::uint32_t, 2>> again = crossings.touching(restored);
+        now.insert(now.end(), again.begin(), again.end());
+        std::sort(now.begin(), now.end());
+        now.erase(std::unique(now.begin(), now.end()), now.end());
       }
+      bool kept_any = false;
+      {
+        std::vector<std::uint8_t> touched(m_.triangles.size(), 0);
+        for (const std::uint32_t g : changed) touched[g] = 1;
+        std::erase_if(known, [&](const std::array<std::uint32_t, 2>& p) { return touched[p[0]] || touched[p[1]]; });
+        known.insert(known.end(), now.begin(), now.end());
+        std::sort(known.begin(), known.end());
+        known.erase(std::unique(known.begin(), known.end()), known.end());
+      }
+      look = slivers;
       for (std::size_t i = 0; i < edits.size(); ++i) {
         if (!active[i]) continue;
         kept_any = true;
         ++(edits[i].collapse ? st.collapses : st.flips);
+        for (const auto& [g, old] : edits[i].triangles) look.push_back(g);
       }
+      std::sort(look.begin(), look.end());
+      look.erase(std::unique(look.begin(), look.end()), look.end());
       if (!kept_any) break;
     }
-    st.left = find(limit).size();
+    st.left = find(all, limit).size();
     return st;
   }
 
@@ -150,12 +306,23 @@ class SliverRemover {
     return out;
   }
 
-  /// The triangles with an angle under `limit` (radians), in increasing order.
-  std::vector<std::uint32_t> find(double limit) const {
+  /// The triangles of `among` (increasing) with an angle under `limit` (radians, under 90
+  /// degrees), in increasing order: an angle atan2(|cross|, dot) is under it where the dot is
+  /// positive and |cross| < tan(limit) dot, or where the triangle is degenerate.
+  std::vector<std::uint32_t> find(const std::vector<std::uint32_t>& among, double limit) const {
+    const double tan_limit = std::tan(limit);
+    auto sliver = [&](const Tri& t) {
+      for (int k = 0; k < 3; ++k) {
+        const dvec3 a = m_.positions[t[(k + 1) % 3]] - m_.positions[t[k]], b = m_.positions[t[(k + 2) % 3]] - m_.positions[t[k]];
+        const double c = glm::length(glm::cross(a, b)), d = glm::dot(a, b);
+        if (!(c > 0) || (d > 0 && c < tan_limit * d)) return true;
+      }
+      return false;
+    };
     std::vector<std::uint32_t> out;
-    for (std::uint32_t f = 0; f < m_.triangles.size(); ++f) {
+    for (const std::uint32_t f : among) {
       const Tri& t = m_.triangles[f];
-      if (!collapsed(t) && smallest_angle(m_, t) < limit) out.push_back(f);
+      if (!collapsed(t) && sliver(t)) out.push_back(f);
     }
     return out;
   }
@@ -209,20 +376,6 @@ class SliverRemover {
       }
     }
     if (e.position) m_.positions[e.position->first] = e.position->second;
-  }
-
-  /// The pairs of `pairs` with a triangle the edit changed.
-  static std::size_t count_touching(const std::vector<std::array<std::uint32_t, 2>>& pairs, const Edit& e) {
-    std::size_t n = 0;
-    for (const auto& p : pairs) {
-      for (const auto& [g, old] : e.triangles) {
-        if (p[0] == g || p[1] == g) {
-          ++n;
-          break;
-        }
-      }
-    }
-    return n;
   }
 
   /// Flips the longest edge of sliver f where that keeps the rules (slivers.h).

@@ -16,8 +16,11 @@
 ///    so the surface stays where it was within the sliver's size;
 ///  - no texture seam runs through the vertices it moves or rejoins (per-corner UVs kept);
 ///  - its triangles take part in no more self-intersecting pairs than before (exact tests,
-///    sm_meshcheck's TriangleIntersections, against the whole mesh).
-/// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept.
+///    sm_meshcheck's TriangleIntersections, against the triangles near them on a grid; the
+///    mesh's pairs are found once and kept up to date).
+/// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept, and a
+/// sliver whose edit was undone for its crossings is not tried again. A round costs the
+/// tests near its edits, not a pass over the mesh.
 /// Deterministic: slivers are visited in triangle order, serially.
 
 #include <cstddef>
