@@ -186,7 +186,8 @@ class SliverRemover {
     for (std::uint32_t f = 0; f < all.size(); ++f) all[f] = f;
     // The mesh's crossing pairs, found once and kept up to date: an edit may not take part in
     // more of them than its triangles did before it.
-    std::vector<std::array<std::uint32_t, 2>> known = intersections.pairs(all);
+    std::vector<std::array<std::uint32_t, 2>> known;
+    if (!o_.known_clean) known = intersections.pairs(all);
     // Round 0 looks at every triangle; later rounds only at the slivers left and the
     // triangles the kept edits changed (nothing else moved).
     std::vector<std::uint32_t> look = all;

@@ -35,6 +35,9 @@ struct SliverOptions {
   double angle = 1.0;         ///< a sliver has an angle under this (degrees; 0 = none removed)
   double max_turn = 30.0;     ///< largest turn of a changed triangle's normal (degrees)
   int max_rounds = 64;        ///< rounds of finding slivers and editing them (count)
+  /// The mesh is known to have no self-intersecting pair (the search for them is skipped; were
+  /// it wrong, edits near a pair would only be refused).
+  bool known_clean = false;
   /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
   /// collapse keeps the edge's end with the smaller value where it can.
   std::span<const double> vertex_error;

@@ -75,7 +75,10 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   // 7. Slivers; then the normals of the finished surface (the steps before moved vertices).
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
   const std::vector<double> error = params.sliver_angle > 0 ? cone_error(mesh.mesh, s) : std::vector<double>{};
-  st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle, .max_turn = params.sliver_max_turn, .vertex_error = error});
+  st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
+                                     .max_turn = params.sliver_max_turn,
+                                     .known_clean = st.counted && st.pairs_left == 0,
+                                     .vertex_error = error});
   if (st.slivers.collapses > 0) {
     drop_degenerate(mesh);
     mesh.stats.vertices = mesh.mesh.vertex_count();
