@@ -157,7 +157,6 @@ class PairsAt {
     }
   }
   /// The pairs with a triangle the edit changed.
-  template <class Edit>
   std::size_t count(const Edit& e) const {
     std::vector<std::uint32_t> ks;
     for (const auto& [g, old] : e.triangles) {
