@@ -63,6 +63,10 @@ constexpr double kStubRadius = 0.3;
 // (see Walker::walk).
 constexpr double kFusedMaxTurn = 2.0943951023931957;  // 120 degrees
 
+// The height of an equilateral triangle on a unit edge: slices this far apart (x the ring's
+// edge) make isotropic triangles.
+constexpr double kIsotropic = 0.8660254037844386;
+
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
 /// How deep inside its cloud (in the cloud's own particle spacings below its angular sector's
@@ -360,9 +364,6 @@ class Walker {
     const auto fewest = std::max<std::size_t>(3, static_cast<std::size_t>(std::lround(p_.min_ring_vertices * p_.resolution)));
     return std::max(fewest, static_cast<std::size_t>(std::ceil(perimeter / ring_edge())));
   }
-  /// The slice step: with ring_edge, the height of an equilateral triangle on the edge of a
-  /// round section of the local radius (times the node's local factor); else slice_step x the
-  /// local radius. At least min_slice_step x the neighbour distance (over the resolution).
   /// The mean and the shortest edge length of stored loop l (metres).
   [[nodiscard]] std::pair<double, double> loop_edges(std::uint32_t l) const {
     const ContourSet& c = *store_;
@@ -380,9 +381,12 @@ class Walker {
     const double circumference = 2.0 * std::numbers::pi * g.radius;
     return circumference / double(ring_vertices(circumference));
   }
+  /// The slice step: with ring_edge, the height of an equilateral triangle on the edge of a
+  /// round section of the local radius (times the node's local factor); else slice_step x the
+  /// local radius. At least min_slice_step x the neighbour distance (over the resolution).
   [[nodiscard]] double fine_step(const SliceGeometry& g) const {
     if (ring_edge() > 0) {
-      return std::max(local(g.node).slice_step * 0.8660254037844386 * ring_edge_at(g),
+      return std::max(local(g.node).slice_step * kIsotropic * ring_edge_at(g),
                       p_.min_slice_step * spacing_ / p_.resolution);
     }
     return std::max(slice_step(g.node) * g.radius, p_.min_slice_step * spacing_);
@@ -408,7 +412,6 @@ class Walker {
         if (ring_edge() > 0) {
           const auto [mean, shortest] = loop != UINT32_MAX ? loop_edges(loop) : std::pair{ring_edge_at(g), ring_edge_at(g)};
           const double w = std::clamp((0.9 - mean / ring_edge()) / 0.2, 0.0, 1.0);
-          constexpr double kIsotropic = 0.8660254037844386;  // an equilateral triangle's height
           const double aspect = kIsotropic + w * std::max(p_.max_slice_aspect - kIsotropic, 0.0);
           capped = std::min(capped, aspect * shortest);
         }
