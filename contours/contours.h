@@ -75,12 +75,12 @@ struct ContourParams {
   /// equilateral triangle on an edge of its round section (circumference / vertices), so
   /// triangles are close to isotropic: trunks get fine rings and close slices, thin twigs
   /// min_ring_vertices (or their strands, if fewer) and slices as max_slice_aspect allows.
-  /// 0 = every boundary strand and slice_step (needle triangles on thick branches and twigs;
-  /// the default for now: configs/even.json and configs/closeup.json set 6, docs/quality.md).
-  double ring_edge = 0.0;
+  /// 0 = the legacy rings: every boundary strand, slices slice_step apart (needle triangles on
+  /// thick branches and twigs; configs/legacy_rings.json, docs/quality.md).
+  double ring_edge = 6.0;
   /// Fewest vertices a loop keeps where its boundary has more (a count; 6-gons' chords pass
-  /// 13 % of the radius inside the round section, 7-gons' 10 %: configs/even.json sets 7).
-  std::uint32_t min_ring_vertices = 6;
+  /// 13 % of the radius inside the round section, 7-gons' 10 %).
+  std::uint32_t min_ring_vertices = 7;
   /// Scales the ring resolution and the slice spacing together (2 = edges half as long, twice
   /// min_ring_vertices, slices at least half of min_slice_step apart, twice max_slices_per_edge:
   /// about 4 times the triangles); with ring_edge > 0 only.

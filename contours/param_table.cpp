@@ -9,7 +9,7 @@ using C = ContourParams;
 
 const ParamSpec<C> kFields[] = {
     {.key = "ring_edge", .field = &C::ring_edge, .range = {.min = 0}, .unit = "x neighbour distance",
-     .help = "target loop edge length, slices matched to it (0 = every boundary strand, slice_step)",
+     .help = "target loop edge length, slices matched to it (0 = legacy: every boundary strand, slice_step)",
      .slider = {0, 20}},
     {.key = "min_ring_vertices", .field = &C::min_ring_vertices, .range = {.min = 3}, .unit = "count",
      .help = "fewest vertices a loop keeps with ring_edge", .slider = {3, 32}},
