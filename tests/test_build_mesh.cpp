@@ -19,8 +19,8 @@ struct Built {
   MeshResult mesh;
 };
 
-Built mesh_of(const RawSkeleton& raw, std::uint64_t seed = 1) {
-  Built b{test::up_to_contours(raw, seed), {}};
+Built mesh_of(const RawSkeleton& raw, std::uint64_t seed = 1, const ContourParams& params = {}) {
+  Built b{test::up_to_contours(raw, seed, params), {}};
   b.mesh = build_mesh(b.up.skeleton, b.up.contours);
   return b;
 }
@@ -220,9 +220,19 @@ TEST(BuildMesh, UvsFlowThroughForks) {
   // Around the fork the map stays close to square: the mismatch between the parent's last loop
   // and the children's first is spread up the children. (Before, each loop's u was its angle
   // around its own centre: junction anisotropy p95 17 and 67 at 35 and 60 degrees.)
+  // Measured on the legacy rings (ring_edge 0). With the default rings at 60 degrees the
+  // 8-strand loops keep 7 vertices and the crotch has two vertices where the seams meet, not
+  // one: 5 other seams and a junction density p95 of 2.42 (legacy 3 and 1.74; anisotropy
+  // 7.5 against 9.0), over 66 junction triangles.
+  for (const bool legacy : {true, false}) {
   for (const double angle : {35.0, 60.0}) {
-    SCOPED_TRACE(angle);
-    const Built b = mesh_of(test::y_fork(angle));
+    SCOPED_TRACE(std::string(legacy ? "legacy rings, " : "default rings, ") + std::to_string(angle));
+    ContourParams params;
+    if (legacy) {
+      params.ring_edge = 0;
+      params.min_ring_vertices = 6;
+    }
+    const Built b = mesh_of(test::y_fork(angle), 1, params);
     expect_sound(b);
     const ContourSet& c = b.up.contours;
     std::size_t strips = 0, tips = 0;
@@ -232,12 +242,13 @@ TEST(BuildMesh, UvsFlowThroughForks) {
     }
     const UvQuality q = measure_uv_quality(b.mesh.mesh, &b.up.skeleton);
     EXPECT_LE(q.around_seams, strips + 2 * tips + 1 + c.junctions.size());  // (a seam may cross a fusion strip askew)
-    EXPECT_LE(q.other_seams, 3u);
+    EXPECT_LE(q.other_seams, legacy || angle < 45 ? 3u : 5u);
     EXPECT_GT(q.junction_triangles, 50u);
     EXPECT_LT(q.junction_anisotropy_p95, angle < 45 ? 5.0 : 12.0);
-    EXPECT_LT(q.junction_density_p95, 2.0);
+    EXPECT_LT(q.junction_density_p95, legacy || angle < 45 ? 2.0 : 2.5);
     EXPECT_LT(q.anisotropy_p95, 3.5);
     EXPECT_LE(q.flipped, 3u);
+  }
   }
 }
 

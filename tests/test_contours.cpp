@@ -360,7 +360,7 @@ TEST(Contours, RingEdgeSetsTheLoopsAndMatchedSlices) {
   // With a target edge length, loops keep about perimeter / edge of their boundary strands (at
   // least min_ring_vertices) and slices follow at the height of an equilateral triangle on the
   // edge of the round section: distance to the next slice sqrt(3)/2 x 2 pi r / N(r), N(r) =
-  // max(6, ceil(2 pi r / edge)), at least min_slice_step neighbour distances.
+  // max(min_ring_vertices, ceil(2 pi r / edge)), at least min_slice_step neighbour distances.
   ContourParams p;
   p.ring_edge = 6;
   p.max_slices_per_edge = 0;
@@ -373,7 +373,7 @@ TEST(Contours, RingEdgeSetsTheLoopsAndMatchedSlices) {
   std::size_t kept = 0, marks = 0;
   for (std::uint32_t l = 0; l < c.loop_count(); ++l) {
     kept += c.loop_size(l);
-    EXPECT_GE(c.loop_size(l), 3u) << "loop " << l;  // fewer than 6 where the outline has fewer strands
+    EXPECT_GE(c.loop_size(l), 3u) << "loop " << l;  // fewer than min_ring_vertices where the outline has fewer strands
     // Evenly spaced marks, plus the few vertices of the particles' uneven outline farther than
     // the tolerance from their chord.
     double perimeter = 0;
@@ -381,12 +381,12 @@ TEST(Contours, RingEdgeSetsTheLoopsAndMatchedSlices) {
       const std::uint32_t a = c.loop_begin[l] + k, b = c.loop_begin[l] + (k + 1) % c.loop_size(l);
       perimeter += glm::length(c.point[b] - c.point[a]);
     }
-    marks += std::max<std::size_t>(6, std::size_t(std::ceil(perimeter / edge)));
+    marks += std::max<std::size_t>(p.min_ring_vertices, std::size_t(std::ceil(perimeter / edge)));
   }
   EXPECT_LE(kept, marks + marks / 4) << "kept " << kept << ", marks " << marks;
   for (std::uint32_t l = 1; l + 1 < c.loop_count(); ++l) {
     const double r = c.loop_radius[l - 1], circumference = 2 * std::numbers::pi * r;
-    const double n = std::max(6.0, std::ceil(circumference / edge));
+    const double n = std::max(double(p.min_ring_vertices), std::ceil(circumference / edge));
     const double step = std::max(std::sqrt(3.0) / 2 * circumference / n, p.min_slice_step * d);
     EXPECT_NEAR(c.loop_distance[l] - c.loop_distance[l - 1], step, 1e-9) << "loop " << l;
   }
@@ -428,11 +428,13 @@ TEST(Contours, SliceAspectStretchesThinBranchesWithinItsLimit) {
 }
 
 TEST(Contours, StraightBranchIsOneTubeOfEvenSlices) {
-  // Edges of 0.4 m at radii 0.1 to 0.05 m: the step (0.4 x radius) would give 5 to 10 slices
-  // per edge, capped at max_slices_per_edge; with the root's loop and the tip's, 2 + 5 x cap.
+  // The legacy rings (ring_edge 0): edges of 0.4 m at radii 0.1 to 0.05 m: the step (0.4 x
+  // radius) would give 5 to 10 slices per edge, capped at max_slices_per_edge; with the root's
+  // loop and the tip's, 2 + 5 x cap.
   for (const std::uint32_t cap : {4u, 2u, 1u}) {
     SCOPED_TRACE("max_slices_per_edge " + std::to_string(cap));
     ContourParams p;
+    p.ring_edge = 0;
     p.max_slices_per_edge = cap;
     const auto u = test::up_to_contours(test::straight_branch(6), 1, p);
     expect_well_formed(u);

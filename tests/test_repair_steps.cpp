@@ -32,9 +32,10 @@ constexpr double kPi = std::numbers::pi;
 
 // Six children from stacked forks (tests/fixtures.h), sliced with crossing loops kept (as
 // before contours.uncross_loops): the stitched crotches cross in 4 pairs.
-// (With the shape edits of configs/separate.json and crossing loops kept: the whorl folds.)
+// (With the shape edits of configs/separate.json, the legacy rings and crossing loops kept: the
+// whorl folds; with the default rings it does not.)
 test::UpToContours folded_whorl() {
-  return test::up_to_contours(test::six_children(), 1, ContourParams{.uncross_loops = false},
+  return test::up_to_contours(test::six_children(), 1, ContourParams{.ring_edge = 0, .min_ring_vertices = 6, .uncross_loops = false},
                               test::separating_skeleton());
 }
 
@@ -554,18 +555,27 @@ TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
 }
 
 TEST(Slivers, SampleTreeHasNoneLeftAndNormalsOfTheFinishedSurface) {
-  // A sample tree with 1,782 triangles under 1 degree before the step (mtg_boutdenoylum2):
-  // none left, the mesh closed, no crossing added, and the normals those of the finished
-  // surface (the fold repair moves vertices after the meshing stage made them).
+  // A sample tree with 1,782 triangles under 1 degree before the step with the legacy rings
+  // (mtg_boutdenoylum2; a few with the default rings): none left, the mesh closed, no crossing
+  // added, and the normals those of the finished surface (the fold repair moves vertices after
+  // the meshing stage made them).
   const std::filesystem::path file = std::filesystem::path(STRANDMESH_SAMPLE_DIR) / "mtg_boutdenoylum2.json";
-  const PipelineResult r = run_pipeline(read_skeleton(file), PipelineParams{});
-  const Mesh& m = r.mesh.mesh;
-  EXPECT_GT(r.repair.slivers.found, 1000u);
-  EXPECT_EQ(r.repair.slivers.left, 0u);
-  EXPECT_GE(smallest_angle_deg(m), 1.0);
-  EXPECT_EQ(r.repair.pairs_left, 0u);
-  EXPECT_EQ(unpaired_half_edges(m, vertex_corners(m)), 0u);
-  EXPECT_EQ(m.normals, angle_weighted_normals(m));
+  for (const bool legacy : {true, false}) {
+    SCOPED_TRACE(legacy ? "legacy rings" : "default rings");
+    PipelineParams params;
+    if (legacy) {
+      params.contours.ring_edge = 0;
+      params.contours.min_ring_vertices = 6;
+    }
+    const PipelineResult r = run_pipeline(read_skeleton(file), params);
+    const Mesh& m = r.mesh.mesh;
+    EXPECT_GT(r.repair.slivers.found, legacy ? 1000u : 0u);
+    EXPECT_EQ(r.repair.slivers.left, 0u);
+    EXPECT_GE(smallest_angle_deg(m), 1.0);
+    EXPECT_EQ(r.repair.pairs_left, 0u);
+    EXPECT_EQ(unpaired_half_edges(m, vertex_corners(m)), 0u);
+    EXPECT_EQ(m.normals, angle_weighted_normals(m));
+  }
 }
 }  // namespace
 }  // namespace sm

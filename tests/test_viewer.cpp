@@ -762,13 +762,13 @@ TEST_F(ViewerAppTest, LoadsRendersSelectsAndReruns) {
 
   // Editing a contour parameter re-runs from the contours stage on.
   const std::size_t loops = app.run()->result.contours.loop_count();
-  app.edited_params().contours.slice_step = 0.1;
+  app.edited_params().contours.resolution = 2;
   app.edited_params().contours.min_slice_step = 0.1;
   EXPECT_EQ(app.apply_changes(), Stage::contours);
   app.wait_idle();
   EXPECT_TRUE(app.error().empty()) << app.error();
   EXPECT_GT(app.run()->result.contours.loop_count(), loops);
-  EXPECT_EQ(app.applied_params().contours.slice_step, 0.1);
+  EXPECT_EQ(app.applied_params().contours.resolution, 2);
   EXPECT_FALSE(app.apply_changes());  // nothing left to apply
 
   // A failing re-run shows its error and keeps the previous run.
