@@ -82,9 +82,10 @@ for i, im in enumerate(ims):
     x, y = (i % 2) * w, (i // 2) * h
     canvas.paste(im, (x, y))
     label = ("before" if i % 2 == 0 else "after") + (", mesh + wireframe" if i < 2 else ", UV checker")
-    draw.text((x + 10, y + 8), label, fill="black", font=font)
-    if i == 0:
-        draw.text((x + 10, y + 30), title, fill="black", font=font)
+    for k, text in enumerate([label, title] if i == 0 else [label]):
+        box = draw.textbbox((x + 10, y + 8 + 22 * k), text, font=font)
+        draw.rectangle((box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3), fill="white")
+        draw.text((x + 10, y + 8 + 22 * k), text, fill="black", font=font)
 draw.line([(w, 0), (w, 2 * h)], fill="black", width=2)
 draw.line([(0, h), (2 * w, h)], fill="black", width=2)
 canvas.quantize(colors=128, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
@@ -105,4 +106,4 @@ fork agraf 293 5 35 12     # a twig fork (2.7 and 2.3 mm from 3.2 mm)
 fork agraf 15 3 125 12     # a crotch (1.0 and 0.9 cm from 1.4 cm)
 fork conifer 12 3 35 12    # a lateral leaving the trunk (1.2 cm from 4.1 cm)
 fork conifer 224 4 35 12   # a twig fork (2.1 and 2.1 mm from 3.0 mm)
-fork conifer 718 5 35 12   # a right-angled crotch on a branch (4.2 and 4.2 mm from 6.0 mm)
+fork conifer 718 3.5 35 12  # a right-angled crotch on a branch (4.2 and 4.2 mm from 6.0 mm)
