@@ -260,15 +260,16 @@ glm::vec3 unit_float(const glm::dvec3& n) {
 }
 
 /// One vertex's fan for split_vertex_normals: its corners' unit face normals (0 for zero
-/// area), angle weights, and the fan edges joining two corners with their dihedral angles.
+/// area), angle weights, and the fan edges joining two corners with their dihedral angles
+/// (as cosines: no trigonometry per edge, where most of the time went).
 struct Fan {
   struct Link {
     std::uint32_t i, j;  ///< positions of the two corners in the fan
-    double angle;        ///< between their triangles' normals (degrees; 0 with a zero-area triangle)
+    double cosine;       ///< of the angle between their triangles' normals (1 with a zero-area triangle)
     bool cut;            ///< a crease, or cut to split a group further
   };
   std::vector<glm::dvec3> unit;     ///< per corner
-  std::vector<glm::dvec3> weighted; ///< per corner: face normal times the corner's angle
+  std::vector<glm::dvec3> weighted; ///< per corner, where the fan splits: face normal times the corner's angle
   std::vector<std::uint32_t> next, prev, group, work, stack;
   std::vector<Link> links;
 };
@@ -286,7 +287,9 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
   // the same result for any number of threads.
   const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   const double max_cos = std::cos(max_angle * std::numbers::pi / 180.0);
-  constexpr double kDegrees = 180.0 / std::numbers::pi;
+  // An edge is a crease when its angle exceeds crease_angle beyond rounding (an exact right
+  // angle, dot 0, is no crease at 90 degrees, whose cosine is 6e-17).
+  const double crease_cos = std::cos(crease_angle * std::numbers::pi / 180.0) - 1e-12;
   SplitNormals out;
   std::vector<std::array<glm::vec3, 3>> corner(nf);
   constexpr std::size_t kRange = 1 << 14;
@@ -302,7 +305,6 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         corner[c / 3][c % 3] = n;
       };
       fan.unit.resize(d);
-      fan.weighted.resize(d);
       fan.next.resize(d);
       fan.prev.resize(d);
       bool serves = true;  // the vertex normal is within max_angle of every triangle
@@ -312,13 +314,11 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         const std::uint32_t k = c % 3;
         fan.next[i] = t[(k + 1) % 3];
         fan.prev[i] = t[(k + 2) % 3];
-        const glm::dvec3 &p0 = mesh.positions[t[k]], &p1 = mesh.positions[t[(k + 1) % 3]],
-                         &p2 = mesh.positions[t[(k + 2) % 3]];
-        const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
+        const glm::dvec3& p0 = mesh.positions[t[k]];
+        const glm::dvec3 fn = glm::cross(mesh.positions[fan.next[i]] - p0, mesh.positions[fan.prev[i]] - p0);
         const double l = glm::length(fn);
         const bool area = l > 0 && std::isfinite(l);
         fan.unit[i] = area ? fn / l : glm::dvec3(0);
-        fan.weighted[i] = area ? fn * corner_weights(p0, p1, p2, fn)[0] : glm::dvec3(0);
         if (area && glm::dot(normals[v], fan.unit[i]) < max_cos) serves = false;
       }
       // The fan's edges: corner i's edge to next[i] is corner j's from prev[j], where exactly
@@ -332,10 +332,8 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         }
         if (arriving != 1 || leaving != 1 || j == i) continue;
         const bool area = fan.unit[i] != glm::dvec3(0) && fan.unit[j] != glm::dvec3(0);
-        const double angle =
-            area ? std::atan2(glm::length(glm::cross(fan.unit[i], fan.unit[j])), glm::dot(fan.unit[i], fan.unit[j])) * kDegrees
-                 : 0.0;
-        fan.links.push_back({i, j, angle, angle > crease_angle});
+        const double cosine = area ? glm::dot(fan.unit[i], fan.unit[j]) : 1.0;
+        fan.links.push_back({i, j, cosine, cosine < crease_cos});
       }
       // The corners of group `g` joined by its edges not cut: each one's root (the least corner
       // of its piece) in fan.stack, in corner order.
@@ -364,6 +362,16 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         continue;
       }
       ++changed[r];
+      fan.weighted.resize(d);
+      for (std::uint32_t i = 0; i < d; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        const std::uint32_t k = c % 3;
+        const glm::dvec3 &p0 = mesh.positions[t[k]], &p1 = mesh.positions[t[(k + 1) % 3]],
+                         &p2 = mesh.positions[t[(k + 2) % 3]];
+        const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
+        fan.weighted[i] = fan.unit[i] != glm::dvec3(0) ? fn * corner_weights(p0, p1, p2, fn)[0] : glm::dvec3(0);
+      }
       // Split: groups named by their root corner; each one checked and cut further while a
       // triangle of it is more than max_angle from its normal.
       std::copy(fan.stack.begin(), fan.stack.end(), fan.group.begin());
@@ -383,15 +391,15 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         }
         const double l = glm::length(sum);
         const glm::dvec3 n = l > 0 && std::isfinite(l) ? sum / l : normals[v];
-        double sharpest = -1;  // the largest angle of an edge inside the group
+        double sharpest = 2;  // the cosine of the largest angle of an edge inside the group
         bool ok = true;
         for (std::uint32_t i = 0; i < d; ++i) {
           if (fan.group[i] == g && fan.unit[i] != glm::dvec3(0) && glm::dot(n, fan.unit[i]) < max_cos) ok = false;
         }
         for (const Fan::Link& e : fan.links) {
-          if (fan.group[e.i] == g && fan.group[e.j] == g && !e.cut) sharpest = std::max(sharpest, e.angle);
+          if (fan.group[e.i] == g && fan.group[e.j] == g && !e.cut) sharpest = std::min(sharpest, e.cosine);
         }
-        if (ok || sharpest < 0) {
+        if (ok || sharpest > 1.5) {
           ++groups;
           const glm::vec3 unit = unit_float(n);
           for (std::uint32_t i = 0; i < d; ++i) {
@@ -402,7 +410,7 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
         // Cut the group's sharpest edges (every edge of that angle): the pieces follow (a closed
         // fan cut once stays whole and comes back with one edge fewer).
         for (Fan::Link& e : fan.links) {
-          if (fan.group[e.i] == g && fan.group[e.j] == g && e.angle >= sharpest) e.cut = true;
+          if (fan.group[e.i] == g && fan.group[e.j] == g && e.cosine <= sharpest) e.cut = true;
         }
         fan.stack.clear();
         regroup(g);
