@@ -251,6 +251,193 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
   return sum;
 }
 
+namespace {
+
+/// A unit float normal, as the writers store it (0, 0, 1 for a zero vector).
+glm::vec3 unit_float(const glm::dvec3& n) {
+  const double l = glm::length(n);
+  return glm::vec3((l > 0 && std::isfinite(l)) ? n / l : glm::dvec3(0, 0, 1));
+}
+
+/// One vertex's fan for split_vertex_normals: its corners' unit face normals (0 for zero
+/// area), angle weights, and the fan edges joining two corners with their dihedral angles
+/// (as cosines: no trigonometry per edge, where most of the time went).
+struct Fan {
+  struct Link {
+    std::uint32_t i, j;  ///< positions of the two corners in the fan
+    double cosine;       ///< of the angle between their triangles' normals (1 with a zero-area triangle)
+    bool cut;            ///< a crease, or cut to split a group further
+  };
+  std::vector<glm::dvec3> unit;     ///< per corner
+  std::vector<glm::dvec3> weighted; ///< per corner, where the fan splits: face normal times the corner's angle
+  std::vector<std::uint32_t> next, prev, group, work, stack;
+  std::vector<Link> links;
+};
+
+std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
+  while (parent[x] != x) x = parent[x] = parent[parent[x]];
+  return x;
+}
+
+}  // namespace
+
+SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std::span<const glm::dvec3> normals,
+                                  double crease_angle, double max_angle) {
+  // Each vertex on its own (its corners are written by it alone), in fixed ranges in parallel:
+  // the same result for any number of threads.
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
+  const double max_cos = std::cos(max_angle * std::numbers::pi / 180.0);
+  // An edge is a crease when its angle exceeds crease_angle beyond rounding (an exact right
+  // angle, dot 0, is no crease at 90 degrees, whose cosine is 6e-17).
+  const double crease_cos = std::cos(crease_angle * std::numbers::pi / 180.0) - 1e-12;
+  SplitNormals out;
+  std::vector<std::array<glm::vec3, 3>> corner(nf);
+  constexpr std::size_t kRange = 1 << 14;
+  const std::size_t ranges = (nv + kRange - 1) / kRange;
+  std::vector<std::size_t> split(ranges, 0), extra(ranges, 0), changed(ranges, 0);
+  tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) {
+    Fan fan;
+    for (std::size_t v = r * kRange; v < std::min(nv, (r + 1) * kRange); ++v) {
+      const std::uint32_t b = vc.begin[v], d = vc.begin[v + 1] - b;
+      if (d == 0) continue;
+      auto set = [&](std::uint32_t i, const glm::vec3& n) {
+        const std::uint32_t c = vc.corner[b + i];
+        corner[c / 3][c % 3] = n;
+      };
+      fan.unit.resize(d);
+      fan.next.resize(d);
+      fan.prev.resize(d);
+      bool serves = true;  // the vertex normal is within max_angle of every triangle
+      for (std::uint32_t i = 0; i < d; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        const std::uint32_t k = c % 3;
+        fan.next[i] = t[(k + 1) % 3];
+        fan.prev[i] = t[(k + 2) % 3];
+        const glm::dvec3& p0 = mesh.positions[t[k]];
+        const glm::dvec3 fn = glm::cross(mesh.positions[fan.next[i]] - p0, mesh.positions[fan.prev[i]] - p0);
+        const double l = glm::length(fn);
+        const bool area = l > 0 && std::isfinite(l);
+        fan.unit[i] = area ? fn / l : glm::dvec3(0);
+        if (area && glm::dot(normals[v], fan.unit[i]) < max_cos) serves = false;
+      }
+      // The fan's edges: corner i's edge to next[i] is corner j's from prev[j], where exactly
+      // one corner each has it (boundary and non-manifold edges join nothing).
+      fan.links.clear();
+      for (std::uint32_t i = 0; i < d; ++i) {
+        std::uint32_t j = d, arriving = 0, leaving = 0;
+        for (std::uint32_t x = 0; x < d; ++x) {
+          if (fan.prev[x] == fan.next[i]) j = x, ++arriving;
+          leaving += fan.next[x] == fan.next[i];
+        }
+        if (arriving != 1 || leaving != 1 || j == i) continue;
+        const bool area = fan.unit[i] != glm::dvec3(0) && fan.unit[j] != glm::dvec3(0);
+        const double cosine = area ? glm::dot(fan.unit[i], fan.unit[j]) : 1.0;
+        fan.links.push_back({i, j, cosine, cosine < crease_cos});
+      }
+      // The corners of group `g` joined by its edges not cut: each one's root (the least corner
+      // of its piece) in fan.stack, in corner order.
+      auto regroup = [&](std::uint32_t g) {
+        for (std::uint32_t i = 0; i < d; ++i) {
+          if (fan.group[i] == g) fan.work[i] = i;
+        }
+        for (const Fan::Link& e : fan.links) {
+          if (fan.group[e.i] != g || fan.group[e.j] != g || e.cut) continue;
+          const std::uint32_t x = find_root(fan.work, e.i), y = find_root(fan.work, e.j);
+          if (x != y) fan.work[std::max(x, y)] = std::min(x, y);
+        }
+        for (std::uint32_t i = 0; i < d; ++i) {
+          if (fan.group[i] == g) fan.stack.push_back(find_root(fan.work, i));
+        }
+      };
+      fan.group.assign(d, 0);
+      fan.work.assign(d, 0);
+      fan.stack.clear();
+      regroup(0);
+      // fan.stack holds each corner's root; whole when every root is corner 0.
+      const bool whole = std::all_of(fan.stack.begin(), fan.stack.end(), [](std::uint32_t x) { return x == 0; });
+      if (whole && serves) {
+        const glm::vec3 n = unit_float(normals[v]);
+        for (std::uint32_t i = 0; i < d; ++i) set(i, n);
+        continue;
+      }
+      ++changed[r];
+      fan.weighted.resize(d);
+      for (std::uint32_t i = 0; i < d; ++i) {
+        const std::uint32_t c = vc.corner[b + i];
+        const auto& t = mesh.triangles[c / 3];
+        const std::uint32_t k = c % 3;
+        const glm::dvec3 &p0 = mesh.positions[t[k]], &p1 = mesh.positions[t[(k + 1) % 3]],
+                         &p2 = mesh.positions[t[(k + 2) % 3]];
+        const glm::dvec3 fn = glm::cross(p1 - p0, p2 - p0);
+        fan.weighted[i] = fan.unit[i] != glm::dvec3(0) ? fn * corner_weights(p0, p1, p2, fn)[0] : glm::dvec3(0);
+      }
+      // Split: groups named by their root corner; each one checked and cut further while a
+      // triangle of it is more than max_angle from its normal.
+      std::copy(fan.stack.begin(), fan.stack.end(), fan.group.begin());
+      fan.stack.clear();
+      std::vector<std::uint32_t>& todo = fan.next;  // (next and prev are no longer needed)
+      todo.clear();
+      for (std::uint32_t i = 0; i < d; ++i) {
+        if (fan.group[i] == i) todo.push_back(i);
+      }
+      std::uint32_t groups = 0;
+      while (!todo.empty()) {
+        const std::uint32_t g = todo.back();
+        todo.pop_back();
+        glm::dvec3 sum(0);
+        for (std::uint32_t i = 0; i < d; ++i) {
+          if (fan.group[i] == g) sum += fan.weighted[i];
+        }
+        const double l = glm::length(sum);
+        const glm::dvec3 n = l > 0 && std::isfinite(l) ? sum / l : normals[v];
+        double sharpest = 2;  // the cosine of the largest angle of an edge inside the group
+        bool ok = true;
+        for (std::uint32_t i = 0; i < d; ++i) {
+          if (fan.group[i] == g && fan.unit[i] != glm::dvec3(0) && glm::dot(n, fan.unit[i]) < max_cos) ok = false;
+        }
+        for (const Fan::Link& e : fan.links) {
+          if (fan.group[e.i] == g && fan.group[e.j] == g && !e.cut) sharpest = std::min(sharpest, e.cosine);
+        }
+        if (ok || sharpest > 1.5) {
+          ++groups;
+          const glm::vec3 unit = unit_float(n);
+          for (std::uint32_t i = 0; i < d; ++i) {
+            if (fan.group[i] == g) set(i, unit);
+          }
+          continue;
+        }
+        // Cut the group's sharpest edges (every edge of that angle): the pieces follow (a closed
+        // fan cut once stays whole and comes back with one edge fewer).
+        for (Fan::Link& e : fan.links) {
+          if (fan.group[e.i] == g && fan.group[e.j] == g && e.cosine <= sharpest) e.cut = true;
+        }
+        fan.stack.clear();
+        regroup(g);
+        std::uint32_t s = 0;
+        for (std::uint32_t i = 0; i < d; ++i) {
+          if (fan.group[i] != g) continue;
+          const std::uint32_t root = fan.stack[s++];
+          if (root == i) todo.push_back(i);
+          fan.group[i] = root;
+        }
+      }
+      if (groups > 1) {
+        ++split[r];
+        extra[r] += groups - 1;
+      }
+    }
+  });
+  std::size_t any = 0;
+  for (std::size_t r = 0; r < ranges; ++r) {
+    out.split_vertices += split[r];
+    out.extra_normals += extra[r];
+    any += changed[r];
+  }
+  if (any > 0) out.corner_normals = std::move(corner);
+  return out;
+}
+
 void update_normals(Mesh& mesh, std::span<const std::uint32_t> vertices, std::span<const std::uint32_t> triangles) {
   // Each vertex's corners summed in triangle order, as angle_weighted_normals does.
   std::vector<std::uint32_t> list(vertices.begin(), vertices.end());

@@ -16,8 +16,8 @@ namespace sm {
 ///
 /// Triangles are counter-clockwise seen from outside. Vertices are shared between all
 /// triangles that meet there (the mesh is welded, so topology checks work on it directly);
-/// attributes that are discontinuous (UV seams) are stored per corner and only split into
-/// separate vertices by the exporters.
+/// attributes that are discontinuous (UV seams, normals at creases) are stored per corner and
+/// only split into separate vertices by the exporters.
 struct Mesh {
   using Triangle = std::array<std::uint32_t, 3>;
 
@@ -26,6 +26,9 @@ struct Mesh {
 
   std::vector<glm::dvec3> normals;                   ///< #V unit normals, or empty
   std::vector<std::array<glm::vec2, 3>> corner_uvs;  ///< #F × 3 texture coordinates, or empty
+  /// #F × 3 unit normals where a vertex's fan is split at creases (split_vertex_normals), or
+  /// empty: then every corner takes its vertex's `normals` entry.
+  std::vector<std::array<glm::vec3, 3>> corner_normals;
   std::vector<StrandId> vertex_strand;               ///< #V strand the vertex lies on (invalid: cap centre), or empty
   std::vector<NodeId> vertex_node;             ///< #V skeleton node whose edge or section made the vertex, or empty
   std::vector<std::uint32_t> triangle_branch;  ///< #F branch id (see Skeleton::branch_id), or empty
@@ -61,6 +64,25 @@ std::size_t unpaired_half_edges(const Mesh& mesh, const VertexCorners& corners);
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh);
 /// The same, with the mesh's vertex_corners already at hand.
 std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCorners& corners);
+
+/// Per-corner normals with smoothing groups ("auto smooth"), so that no corner's normal faces
+/// away from its triangle (a renderer shades such a triangle black). Each vertex's fan is cut
+/// at its crease edges, those whose dihedral angle (between the two triangles' normals)
+/// exceeds `crease_angle`; the pieces it falls into are its groups (one crease alone does not
+/// cut a closed fan). A fan left whole whose vertex normal (`normals`, #V unit) is within
+/// `max_angle` of each of its triangles keeps that normal at all its corners: a smooth surface
+/// does not change. Every other group gets the angle-weighted normal of its triangles, and a
+/// group with a triangle more than `max_angle` from that is cut further at its sharpest edges
+/// until none is (at worst a triangle alone: its own normal). Triangles of zero area join
+/// their neighbours' group and are not measured. Angles in degrees, crease_angle in (0, 180].
+struct SplitNormals {
+  std::vector<std::array<glm::vec3, 3>> corner_normals;  ///< #F × 3 unit normals; empty when every corner keeps its vertex normal
+  std::size_t split_vertices = 0;  ///< vertices whose fan was split
+  std::size_t extra_normals = 0;   ///< groups beyond one per vertex: the vertices the writers add for them
+};
+/// Cost: one pass over the corners (each fan's edges matched among its own corners).
+SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& corners, std::span<const glm::dvec3> normals,
+                                  double crease_angle, double max_angle = 80.0);
 
 /// angle_weighted_normals recomputed at `vertices` only (any order, repeats allowed), after
 /// they or their neighbours moved: the same values as the whole, in one pass over the triangles.

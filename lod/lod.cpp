@@ -128,6 +128,7 @@ PipelineResult mesh_lod(const RawSkeleton& raw, const PipelineParams& params, st
     if (st.pairs_after < pairs) {
       PipelineResult s = *finer;
       s.mesh.mesh = std::move(simpler);
+      finish_normals(s.mesh.mesh, params.repair);
       s.mesh.triangle_kind.clear();
       s.mesh.stats.triangles = s.mesh.mesh.triangle_count();
       s.mesh.stats.vertices = s.mesh.mesh.vertex_count();

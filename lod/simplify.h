@@ -19,7 +19,8 @@
 /// Attributes: the kept vertex keeps its node, strand and normal; the moved corners take the
 /// kept vertex's UV in their own chart (its offset from the removed vertex, taken from a
 /// removed triangle in the same chart); triangles keep their branch id. Normals, when the mesh
-/// has them, are recomputed (angle-weighted). Deterministic, single-threaded.
+/// has them, are recomputed (angle-weighted, one per vertex: corner normals are dropped;
+/// repair/repair.h finish_normals makes them again). Deterministic, single-threaded.
 
 #include <cstddef>
 

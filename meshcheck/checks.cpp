@@ -503,8 +503,9 @@ std::string to_text(const MeshCheckReport& r) {
     std::string ex;
     for (const auto v : q.backward_normal_examples) ex += (ex.empty() ? " e.g. " : ", ") + std::to_string(v);
     line("backward normals", n(q.backward_normals) + " vertices" +
-                                 (q.normals_computed ? " (angle-weighted; the mesh has no normals)"
-                                                     : std::string()) +
+                                 (q.normals_computed     ? " (angle-weighted; the mesh has no normals)"
+                                  : q.normals_per_corner ? " (per corner: the mesh has smoothing groups)"
+                                                         : std::string()) +
                                  ex);
   }
   if (r.uv_checked) {
@@ -601,6 +602,7 @@ nlohmann::json to_json(const MeshCheckReport& r) {
                       {"dihedral_max", q.dihedral_max},
                       {"sharpest_edges", pairs(q.sharpest_edges)},
                       {"normals_computed", q.normals_computed},
+                      {"normals_per_corner", q.normals_per_corner},
                       {"backward_normals", q.backward_normals},
                       {"backward_normal_examples", q.backward_normal_examples}};
     if (q.caps_known) {

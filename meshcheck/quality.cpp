@@ -198,8 +198,10 @@ TriangleQuality measure_quality(const Mesh& mesh, const Skeleton* skeleton, cons
                     });
   for (std::size_t k = 0; k < shown; ++k) q.sharpest_edges.push_back({edges[k].a, edges[k].b});
 
-  // ---- normals: every vertex's against each of its triangles'
+  // ---- normals: each corner's (its vertex's, or its own where the mesh has corner normals)
+  // against its triangle's
   std::vector<dvec3> computed;
+  q.normals_per_corner = mesh.normals.size() == nv && mesh.corner_normals.size() == nf;
   if (mesh.normals.size() != nv) {
     q.normals_computed = true;
     computed = angle_weighted_normals(mesh, vc);
@@ -209,7 +211,9 @@ TriangleQuality measure_quality(const Mesh& mesh, const Skeleton* skeleton, cons
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v) {
       for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
-        if (glm::dot(vertex_normal[v], normal[vc.corner[i] / 3]) < 0) backward[v] = 1;
+        const std::uint32_t c = vc.corner[i];
+        const dvec3 n = q.normals_per_corner ? dvec3(mesh.corner_normals[c / 3][c % 3]) : vertex_normal[v];
+        if (glm::dot(n, normal[c / 3]) < 0) backward[v] = 1;
       }
     }
   });

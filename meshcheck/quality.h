@@ -19,9 +19,12 @@
 ///    triangles is. Without a skeleton nothing counts as a cap.
 ///  - junctions (with a skeleton): edges whose midpoint lies within `junction_radii` times the
 ///    fork's radius of a node with two or more children.
-///  - backward normal: a vertex normal more than 90 degrees from the normal of one of its
-///    triangles; counted per vertex. A mesh
-///    without normals is measured with its angle-weighted normals (normals_computed).
+///  - backward normal: a normal more than 90 degrees from the normal of a triangle it shades:
+///    the vertex's normal at each of its triangles or, where the mesh has corner normals
+///    (smoothing groups; a file whose copies of a vertex have different normals), each
+///    corner's at its own triangle (normals_per_corner), so that the count is what a renderer
+///    shows. Counted per vertex: the vertices with at least one such corner. A mesh without
+///    normals is measured with its angle-weighted normals (normals_computed).
 ///
 /// Cost: one pass over the triangles, a sort of the edges, and with a skeleton a nearest-edge
 /// query per vertex.
@@ -71,7 +74,8 @@ struct TriangleQuality {
   std::vector<std::array<std::uint32_t, 2>> sharpest_edges;  ///< vertex pairs of the largest dihedral angles, largest first
 
   bool normals_computed = false;      ///< the mesh had no normals: its angle-weighted ones were measured
-  std::size_t backward_normals = 0;   ///< vertices with a normal more than 90 degrees from one of its triangles
+  bool normals_per_corner = false;    ///< the mesh had corner normals: each corner's was measured
+  std::size_t backward_normals = 0;   ///< vertices with a normal more than 90 degrees from a triangle it shades
   std::vector<std::uint32_t> backward_normal_examples;  ///< vertex indices
 
   [[nodiscard]] double share_under_1() const { return triangles ? double(under_1) / double(triangles) : 0.0; }

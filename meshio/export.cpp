@@ -60,6 +60,7 @@ constexpr std::size_t kChunk = 1 << 14;
 // The key that decides whether two corners of one welded vertex may share an output vertex.
 struct CornerKey {
   std::uint32_t u_bits = 0, v_bits = 0, branch = 0;
+  std::array<std::uint32_t, 3> normal_bits{};
   friend bool operator==(const CornerKey&, const CornerKey&) = default;
 };
 
@@ -81,6 +82,17 @@ void validate_mesh(const Mesh& mesh) {
   };
   check_size(mesh.normals.size(), nv, "normals");
   check_size(mesh.corner_uvs.size(), mesh.triangles.size(), "corner_uvs");
+  check_size(mesh.corner_normals.size(), mesh.triangles.size(), "corner_normals");
+  if (!mesh.corner_normals.empty() && mesh.normals.empty()) {
+    throw InvalidInputError("mesh: corner_normals without (vertex) normals");
+  }
+  for (std::size_t f = 0; f < mesh.corner_normals.size(); ++f) {
+    for (const glm::vec3& n : mesh.corner_normals[f]) {
+      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+        throw InvalidInputError("mesh: triangle " + std::to_string(f) + " has a non-finite corner normal");
+      }
+    }
+  }
   // No file gets a non-finite number: a coordinate that is not finite, or that float32 (glTF)
   // cannot hold, is an error, as are non-finite normals and UVs.
   constexpr double kFloatSafe = 1e37;
@@ -1085,6 +1097,7 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
   const bool per_branch = params.branch_ids || params.branch_level || params.branch_pivot || params.branch_direction ||
                           params.branch_phase || params.color;
   const bool with_branch = per_branch && !mesh.triangle_branch.empty();
+  const bool corner_normals = params.normals && !mesh.corner_normals.empty();
 
   // Corners of each welded vertex, in triangle order.
   const VertexCorners vc = vertex_corners(mesh);
@@ -1098,6 +1111,11 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
       key.v_bits = std::bit_cast<std::uint32_t>(uv.y);
     }
     if (with_branch) key.branch = mesh.triangle_branch[c / 3];
+    if (corner_normals) {
+      const glm::vec3& n = mesh.corner_normals[c / 3][c % 3];
+      key.normal_bits = {std::bit_cast<std::uint32_t>(n.x), std::bit_cast<std::uint32_t>(n.y),
+                         std::bit_cast<std::uint32_t>(n.z)};
+    }
     return key;
   };
 
@@ -1156,7 +1174,7 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
   const std::vector<glm::dvec3>& normals = mesh.normals.empty() ? computed : mesh.normals;
 
   // The attributes of each copy, taken from its first corner: all its corners have the same
-  // key, hence bit-identical UVs and branch ids. Every copy belongs to one welded vertex, so
+  // key, hence bit-identical UVs, corner normals and branch ids. Every copy belongs to one welded vertex, so
   // the vertices are independent.
   b.positions.resize(out_count);
   b.source_vertex.resize(out_count);
@@ -1173,7 +1191,11 @@ ExportBuffers build_export_buffers(const Mesh& mesh, const ExportParams& params)
         const std::size_t out = remap.empty() ? copy : remap[copy];
         b.positions[out] = mesh.positions[v];
         b.source_vertex[out] = static_cast<std::uint32_t>(v);
-        if (params.normals) b.normals[out] = unit_float(normals[v]);
+        if (corner_normals) {
+          b.normals[out] = mesh.corner_normals[c / 3][c % 3];
+        } else if (params.normals) {
+          b.normals[out] = unit_float(normals[v]);
+        }
         if (with_uv) b.uvs[out] = mesh.corner_uvs[c / 3][c % 3];
         if (with_branch) b.branch[out] = mesh.triangle_branch[c / 3];
       }

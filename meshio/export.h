@@ -3,9 +3,10 @@
 ///
 /// All writers take the welded `Mesh` (core/mesh.h) and split a vertex only where its corners
 /// disagree on an attribute that is stored per vertex in the file: the UV (per-corner UVs
-/// at seams) and, when `_BRANCH_ID` is written, the branch id of the triangle. Positions and
-/// normals are per vertex in `Mesh` and never cause a split. Vertices no triangle uses are
-/// dropped. The output is deterministic: the same mesh and params give the same bytes.
+/// at seams), the normal (Mesh::corner_normals, where a fan is split into smoothing groups at
+/// creases) and, when `_BRANCH_ID` is written, the branch id of the triangle. Positions are
+/// per vertex and never cause a split, nor do normals of a mesh without corner normals.
+/// Vertices no triangle uses are dropped. The output is deterministic: the same mesh and params give the same bytes.
 ///
 /// Formats (chosen by the file extension, case-insensitive):
 ///  - `.glb`: binary glTF 2.0, one buffer in the BIN chunk.
@@ -79,7 +80,7 @@ struct ExportParams {
   std::optional<Pivot> pivot{};        ///< the file's origin (default: root for glTF and OBJ, origin for PLY)
   std::optional<glm::dvec3> root{};    ///< base of the trunk, mesh coordinates in metres (default: bottom centre of the bounds)
   double scale = 1.0;                  ///< file units per metre, > 0 (default 1; 100 writes centimetres)
-  bool normals = true;         ///< write normals: Mesh::normals, else angle-weighted ones (default true)
+  bool normals = true;         ///< write normals: Mesh::corner_normals, else Mesh::normals, else angle-weighted ones (default true)
   bool uvs = true;             ///< write texture coordinates when the mesh has corner UVs (default true)
   bool branch_ids = true;      ///< glTF: write `_BRANCH_ID` when the mesh has triangle branch ids (default true)
   bool optimize = true;        ///< meshoptimizer vertex-cache and vertex-fetch order (default true)

@@ -94,8 +94,15 @@ class MeshAssembler {
   }
   void corner_without_normal() { normals_complete_ = false; }
 
-  void add_triangle(const Mesh::Triangle& t, const std::array<glm::vec2, 3>* uvs, std::optional<std::uint32_t> branch) {
+  // `normals`: the file's normal at each corner (its vertex copy's), when it has normals.
+  void add_triangle(const Mesh::Triangle& t, const std::array<glm::vec2, 3>* uvs, std::optional<std::uint32_t> branch,
+                    const std::array<glm::dvec3, 3>* normals) {
     mesh_.triangles.push_back(t);
+    if (normals) {
+      corner_normal_.push_back(*normals);
+    } else {
+      corner_normals_complete_ = false;
+    }
     if (uvs) {
       uvs_.push_back(*uvs);
     } else {
@@ -122,11 +129,25 @@ class MeshAssembler {
       for (const std::uint32_t v : t) used[v] = 1;
     }
     for (std::size_t v = 0; v < m.positions.size() && all; ++v) all = !used[v] || has_normal_[v];
+    auto unit = [](const glm::dvec3& n) {
+      const double l = glm::length(n);
+      return (l > 0 && std::isfinite(l)) ? n / l : glm::dvec3(0, 0, 1);
+    };
     if (all) {
       m.normals.resize(m.positions.size());
-      for (std::size_t v = 0; v < m.positions.size(); ++v) {
-        const double l = glm::length(normal_[v]);
-        m.normals[v] = (has_normal_[v] && l > 0 && std::isfinite(l)) ? normal_[v] / l : glm::dvec3(0, 0, 1);
+      for (std::size_t v = 0; v < m.positions.size(); ++v) m.normals[v] = has_normal_[v] ? unit(normal_[v]) : glm::dvec3(0, 0, 1);
+    }
+    // Copies of a vertex with different normals (smoothing groups): per-corner normals.
+    bool split = false;
+    if (all && corner_normals_complete_ && corner_normal_.size() == m.triangles.size()) {
+      for (std::size_t f = 0; f < m.triangles.size() && !split; ++f) {
+        for (std::size_t k = 0; k < 3; ++k) split = split || corner_normal_[f][k] != normal_[m.triangles[f][k]];
+      }
+    }
+    if (split) {
+      m.corner_normals.resize(m.triangles.size());
+      for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+        for (std::size_t k = 0; k < 3; ++k) m.corner_normals[f][k] = glm::vec3(unit(corner_normal_[f][k]));
       }
     }
     return m;
@@ -139,8 +160,9 @@ class MeshAssembler {
   std::vector<glm::dvec3> normal_;
   std::vector<std::uint8_t> has_normal_;
   std::vector<std::array<glm::vec2, 3>> uvs_;
+  std::vector<std::array<glm::dvec3, 3>> corner_normal_;
   std::vector<std::uint32_t> branch_;
-  bool normals_complete_ = true, uvs_complete_ = true, branch_complete_ = true;
+  bool normals_complete_ = true, uvs_complete_ = true, branch_complete_ = true, corner_normals_complete_ = true;
 };
 
 // ---------------------------------------------------------------- text helpers
@@ -265,13 +287,17 @@ Mesh parse_obj(std::string_view text, const std::string& name) {
         }
       }
       const bool has_uv = std::all_of(poly_t.begin(), poly_t.end(), [](std::int64_t t) { return t >= 0; });
+      const bool has_n = std::all_of(poly_n.begin(), poly_n.end(), [](std::int64_t n) { return n >= 0; });
       for (std::size_t k = 1; k + 1 < poly_v.size(); ++k) {  // fan around the first corner
         const std::array<std::size_t, 3> c{0, k, k + 1};
         std::array<glm::vec2, 3> uv{};
-        if (has_uv) {
-          for (std::size_t j = 0; j < 3; ++j) uv[j] = texcoords[static_cast<std::size_t>(poly_t[c[j]])];
+        std::array<glm::dvec3, 3> nrm{};
+        for (std::size_t j = 0; j < 3; ++j) {
+          if (has_uv) uv[j] = texcoords[static_cast<std::size_t>(poly_t[c[j]])];
+          if (has_n) nrm[j] = normals[static_cast<std::size_t>(poly_n[c[j]])];
         }
-        out.add_triangle({poly_v[c[0]], poly_v[c[1]], poly_v[c[2]]}, has_uv ? &uv : nullptr, std::nullopt);
+        out.add_triangle({poly_v[c[0]], poly_v[c[1]], poly_v[c[2]]}, has_uv ? &uv : nullptr, std::nullopt,
+                         has_n ? &nrm : nullptr);
       }
     }
     // Anything else (o, g, s, usemtl, mtllib, l, p, vp, ...) carries nothing we keep.
@@ -478,6 +504,7 @@ Mesh parse_ply(std::string_view bytes, const std::string& name) {
   MeshAssembler out(name);
   std::vector<std::uint32_t> welded;  // PLY vertex index → welded vertex
   std::vector<glm::vec2> vertex_uv;
+  std::vector<glm::dvec3> vertex_normal;  // PLY vertex index → its normal
   bool saw_vertex = false;
   bool vertex_normals = false, vertex_uvs = false;
   std::vector<std::size_t> poly_file;  // the PLY vertex indices of one face
@@ -537,6 +564,7 @@ Mesh parse_ply(std::string_view bytes, const std::string& name) {
       vertex_uvs = has_uv;
       welded.reserve(static_cast<std::size_t>(el.count));
       if (has_uv) vertex_uv.reserve(static_cast<std::size_t>(el.count));
+      if (has_normal) vertex_normal.reserve(static_cast<std::size_t>(el.count));
     }
 
     std::array<double, 8> v{};
@@ -582,7 +610,10 @@ Mesh parse_ply(std::string_view bytes, const std::string& name) {
       if (is_vertex) {
         const std::uint32_t w = out.add_vertex({v[0], v[1], v[2]}, "vertex " + std::to_string(i));
         welded.push_back(w);
-        if (has_normal) out.offer_normal(w, {v[3], v[4], v[5]});
+        if (has_normal) {
+          out.offer_normal(w, {v[3], v[4], v[5]});
+          vertex_normal.emplace_back(v[3], v[4], v[5]);
+        }
         if (has_uv) vertex_uv.emplace_back(static_cast<float>(v[6]), static_cast<float>(v[7]));
       } else if (is_face) {
         if (poly_file.size() < 3) {
@@ -593,11 +624,13 @@ Mesh parse_ply(std::string_view bytes, const std::string& name) {
         for (std::size_t k = 1; k + 1 < poly_file.size(); ++k) {  // fan around the first corner
           const std::array<std::size_t, 3> c{0, k, k + 1};
           std::array<glm::vec2, 3> uv{};
+          std::array<glm::dvec3, 3> nrm{};
           for (std::size_t j = 0; j < 3; ++j) {
             uv[j] = corner_uv ? poly_uv[c[j]] : vertex_uvs ? vertex_uv[poly_file[c[j]]] : glm::vec2(0);
+            if (vertex_normals) nrm[j] = vertex_normal[poly_file[c[j]]];
           }
           out.add_triangle({welded[poly_file[0]], welded[poly_file[k]], welded[poly_file[k + 1]]},
-                           corner_uv || vertex_uvs ? &uv : nullptr, std::nullopt);
+                           corner_uv || vertex_uvs ? &uv : nullptr, std::nullopt, vertex_normals ? &nrm : nullptr);
         }
       }
     }
@@ -1129,11 +1162,14 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
                                 " is not a multiple of 3");
 
       std::vector<std::uint32_t> welded(nv);
+      std::vector<glm::dvec3> normal(nrm.empty() ? 0 : nv);
       for (std::size_t i = 0; i < nv; ++i) {
         const glm::dvec4 p = m * glm::dvec4(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
         welded[i] = out.add_vertex(axes(glm::dvec3(p) * inv_scale), what + " vertex " + std::to_string(i));
-        if (!nrm.empty())
-          out.offer_normal(welded[i], axes(normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2])));
+        if (!nrm.empty()) {
+          normal[i] = axes(normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]));
+          out.offer_normal(welded[i], normal[i]);
+        }
       }
       if (nrm.empty() && !idx.empty()) out.corner_without_normal();
       for (std::size_t t = 0; t < idx.size(); t += 3) {
@@ -1152,6 +1188,8 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
           for (std::size_t k = 0; k < 3; ++k)
             tuv[k] = glm::vec2(static_cast<float>(uv[2 * c[k]]), static_cast<float>(uv[2 * c[k] + 1]));
         }
+        const std::array<glm::dvec3, 3> tn =
+            normal.empty() ? std::array<glm::dvec3, 3>{} : std::array<glm::dvec3, 3>{normal[c[0]], normal[c[1]], normal[c[2]]};
         std::optional<std::uint32_t> b;
         if (!branch.empty()) {
           const double id = branch[c[0]];
@@ -1161,7 +1199,8 @@ Mesh parse_gltf(std::string_view bytes, bool binary, const std::filesystem::path
           }
           b = static_cast<std::uint32_t>(id);
         }
-        out.add_triangle({welded[c[0]], welded[c[1]], welded[c[2]]}, uv.empty() ? nullptr : &tuv, b);
+        out.add_triangle({welded[c[0]], welded[c[1]], welded[c[2]]}, uv.empty() ? nullptr : &tuv, b,
+                         normal.empty() ? nullptr : &tn);
       }
     }
   }
@@ -1175,6 +1214,9 @@ Mesh unplace(Mesh mesh, std::string_view bytes, const MeshReadParams& params) {
   if (!fp || params.file_coordinates) return mesh;
   for (glm::dvec3& p : mesh.positions) p = change_up_axis((p + fp->translation) / fp->scale, fp->up, params.up_axis);
   for (glm::dvec3& n : mesh.normals) n = change_up_axis(n, fp->up, params.up_axis);
+  for (auto& corners : mesh.corner_normals) {
+    for (glm::vec3& n : corners) n = glm::vec3(change_up_axis(glm::dvec3(n), fp->up, params.up_axis));
+  }
   return mesh;
 }
 

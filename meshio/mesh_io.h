@@ -26,7 +26,9 @@
 /// vertex, in order of first appearance in the file, so a file written with seams split comes
 /// back welded and the topology checks work on it. UVs are stored per corner; a welded vertex
 /// takes the normal of its first copy. `normals` is filled only when every vertex used by a
-/// triangle has one, `corner_uvs` only when every corner has one. `vertex_strand` and
+/// triangle has one, `corner_uvs` only when every corner has one; `corner_normals` (each
+/// corner's copy's normal) only when, besides, the copies of some vertex have different
+/// normals (smoothing groups split at creases). `vertex_strand` and
 /// `vertex_node` are left empty (no format stores them).
 ///
 /// Errors: IoError when the file cannot be read; InvalidInputError naming the file (and line

@@ -52,6 +52,11 @@ const ParamSpec<R> kFields[] = {
      .slider = {0, 10}},
     {.key = "sliver_max_turn", .field = &R::sliver_max_turn, .range = {.min = 0, .max = 90}, .unit = "degrees",
      .help = "largest turn of a triangle's normal by those flips and collapses", .slider = {0, 90}},
+    {.key = "split_normals", .field = &R::split_normals,
+     .help = "one normal per smoothing group where a vertex's fan has creases or would face away from a triangle "
+             "(false: one per vertex)"},
+    {.key = "crease_angle", .field = &R::crease_angle, .range = {.min = 1, .max = 180}, .unit = "degrees",
+     .help = "edges whose dihedral angle exceeds this are creases between smoothing groups", .slider = {1, 180}},
 };
 
 // The keys the meshing section had before the repair stage took over these steps.

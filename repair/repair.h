@@ -14,7 +14,9 @@
 ///     solids the surface wraps (self_union.h). Where crossings close a loop the union has a
 ///     handle: genus > 0 is then the truth, not a defect;
 ///  7. slivers (slivers.h): triangles with an angle under `sliver_angle` flipped or collapsed
-///     away where no crossing results; then the normals of the finished surface.
+///     away where no crossing results;
+///  8. the normals of the finished surface: angle-weighted per vertex, and per corner where a
+///     fan is split into smoothing groups (finish_normals).
 /// Each step keeps a change only when the mesh does better by the stage's one rule
 /// (verdict.h: the whole mesh in steps 4 and 5, the triangles around each change in steps 1
 /// and 3, each crotch in step 2) and otherwise leaves it as it was; a clean mesh passes
@@ -87,6 +89,12 @@ struct RepairParams {
   double sliver_angle = 1.0;
   /// Largest turn of a triangle's normal by those flips and collapses (degrees).
   double sliver_max_turn = 30.0;
+  /// Step 8: where a vertex's fan has creases or its normal faces (nearly) away from one of its
+  /// triangles, one normal per smoothing group at the corners (Mesh::corner_normals; the
+  /// writers split the vertex there). false: one normal per vertex, as in older versions.
+  bool split_normals = true;
+  /// Edges whose dihedral angle exceeds this are creases between smoothing groups (degrees).
+  double crease_angle = 90.0;
 };
 
 /// The config key, accepted range, unit and help of each field of RepairParams, in header order
@@ -117,6 +125,9 @@ struct RepairStats {
   std::size_t patched = 0;         ///< of those, replaced by a volume patch
   std::size_t patch_voxels = 0;    ///< voxels of their grids
   SliverStats slivers;             ///< step 7
+  // Step 8:
+  std::size_t split_normal_vertices = 0;  ///< vertices whose fan was split into smoothing groups
+  std::size_t extra_normals = 0;          ///< normals beyond one per vertex (vertices the writers add)
   std::string problem;             ///< why a round was refused (empty: none was)
   Warnings warnings;               ///< every step's
   Timings timings;                 ///< every step's
@@ -140,6 +151,13 @@ struct RepairInputs {
 /// triangle uses any more, keeping the order of the rest; returns, per triangle left, its
 /// index before.
 std::vector<std::uint32_t> drop_degenerate(MeshResult& r);
+
+/// Step 8 on a finished mesh (repair_mesh runs it last; levels of detail made by simplifying a
+/// mesh run it again): with `mesh.normals` non-empty, makes them the angle-weighted vertex
+/// normals and, with `params.split_normals`, the corner normals of the smoothing groups
+/// (core/mesh.h split_vertex_normals at `params.crease_angle`); otherwise clears the corner
+/// normals. Fills the step's figures of `stats`.
+void finish_normals(Mesh& mesh, const RepairParams& params, RepairStats* stats = nullptr);
 
 /// The repair stage: repairs `stitched` (stitch_mesh's result for `contours`) and finishes it
 /// (finish_mesh) into `mesh`. Where the fork retry keeps a mesh of re-sliced forks, `contours`

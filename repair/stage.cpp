@@ -36,6 +36,20 @@ void warn_thick_nodes_outside(const Mesh& mesh, const Skeleton& s, const RepairS
 
 }  // namespace
 
+void finish_normals(Mesh& mesh, const RepairParams& params, RepairStats* stats) {
+  mesh.corner_normals.clear();
+  if (mesh.normals.empty()) return;
+  const VertexCorners corners = vertex_corners(mesh);
+  mesh.normals = angle_weighted_normals(mesh, corners);
+  if (!params.split_normals) return;
+  SplitNormals split = split_vertex_normals(mesh, corners, mesh.normals, params.crease_angle);
+  mesh.corner_normals = std::move(split.corner_normals);
+  if (stats) {
+    stats->split_normal_vertices = split.split_vertices;
+    stats->extra_normals = split.extra_normals;
+  }
+}
+
 RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult& mesh, const RepairInputs& in,
                         const RepairParams& params, const ProgressFn& progress) {
   validate_params(params);
@@ -72,7 +86,7 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   // 5. Crossings anywhere: folds and the self-union.
   report("repair");
   RepairStats st = repair_crossings(mesh, s, params);
-  // 7. Slivers; then the normals of the finished surface (the steps before moved vertices).
+  // 7. Slivers.
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
   const std::vector<double> error = params.sliver_angle > 0 ? cone_error(mesh.mesh, s) : std::vector<double>{};
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
@@ -84,8 +98,10 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
     mesh.stats.vertices = mesh.mesh.vertex_count();
     mesh.stats.triangles = mesh.mesh.triangle_count();
   }
-  if (!mesh.mesh.normals.empty()) mesh.mesh.normals = angle_weighted_normals(mesh.mesh);
   timings.add("slivers", clock.lap());
+  // 8. The normals of the finished surface (the steps before moved vertices).
+  finish_normals(mesh.mesh, params, &st);
+  timings.add("normals", clock.lap());
   st.junction_folds = state.folds;
   st.fork_retry = fork_retry;
   st.near_misses = std::move(near_misses);

@@ -148,6 +148,14 @@ Mesh box(dvec3 lo, dvec3 hi) {
   return m;
 }
 
+Mesh wedge(double apex_degrees) {
+  const double w = std::tan(0.5 * apex_degrees * std::numbers::pi / 180.0);
+  Mesh m;
+  m.positions = {{-w, 0, 0}, {w, 0, 0}, {0, 1, 0}, {-w, 0, 1}, {w, 0, 1}, {0, 1, 1}};
+  m.triangles = {{0, 2, 1}, {3, 4, 5}, {0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4}, {2, 0, 3}, {2, 3, 5}};
+  return m;
+}
+
 Mesh merged(const Mesh& a, const Mesh& b) {
   Mesh m = a;
   const auto off = static_cast<std::uint32_t>(a.positions.size());
@@ -162,6 +170,7 @@ Mesh merged(const Mesh& a, const Mesh& b) {
   };
   both(m.normals, b.normals, a.positions.size(), b.positions.size());
   both(m.corner_uvs, b.corner_uvs, a.triangles.size(), b.triangles.size());
+  both(m.corner_normals, b.corner_normals, a.triangles.size(), b.triangles.size());
   both(m.triangle_branch, b.triangle_branch, a.triangles.size(), b.triangles.size());
   m.vertex_strand.clear();
   m.vertex_node.clear();

@@ -23,6 +23,11 @@ Mesh capped_tube(glm::dvec3 a = {0, 0, 0}, glm::dvec3 b = {0, 0, 1}, double radi
 Mesh torus(double major = 1.0, double minor = 0.25, int nu = 24, int nv = 12);
 /// The axis-aligned box [lo, hi] (8 vertices, 12 triangles).
 Mesh box(glm::dvec3 lo = glm::dvec3(0), glm::dvec3 hi = glm::dvec3(1));
+/// A sharp V: the prism over the isosceles triangle with apex angle `apex_degrees` at
+/// (0, 1, z), base from (-w, 0) to (w, 0), from z = 0 to 1 (6 vertices, 8 triangles). The two
+/// long sides meet at the apex edge (vertices 2 and 5) at a dihedral angle of 180 - apex, so
+/// the angle-weighted normals there are nearly 90 degrees from both sides.
+Mesh wedge(double apex_degrees);
 /// Two disjoint spheres in one mesh (2 components).
 Mesh two_spheres();
 /// The unit box with its first triangle reversed (not consistently oriented).

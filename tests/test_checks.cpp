@@ -906,6 +906,26 @@ TEST(Quality, BackwardNormalsAreCounted) {
   EXPECT_EQ(q.backward_normal_examples, std::vector<std::uint32_t>{3});
 }
 
+TEST(Quality, BackwardNormalsAreCountedPerCornerWithSmoothingGroups) {
+  // A 4-degree wedge: its vertex normals are nearly 90 degrees from the long sides, and turned
+  // around at vertex 2 they face away. With corner normals (smoothing groups) the check
+  // measures those instead, as a renderer shades them: each side's own normal, none backward.
+  Mesh m = test::wedge(4.0);
+  m.normals = angle_weighted_normals(m);
+  m.normals[2] = -m.normals[2];
+  EXPECT_EQ(measure_quality(m).backward_normals, 1u);
+  m.corner_normals = split_vertex_normals(m, vertex_corners(m), angle_weighted_normals(m), 90.0).corner_normals;
+  ASSERT_EQ(m.corner_normals.size(), m.triangles.size());
+  const TriangleQuality q = measure_quality(m);
+  EXPECT_TRUE(q.normals_per_corner);
+  EXPECT_EQ(q.backward_normals, 0u);
+  // One corner turned around: its vertex counts, once.
+  m.corner_normals[4][2] = -m.corner_normals[4][2];  // triangle (1, 2, 5), corner at vertex 5
+  const TriangleQuality back = measure_quality(m);
+  EXPECT_EQ(back.backward_normals, 1u);
+  EXPECT_EQ(back.backward_normal_examples, std::vector<std::uint32_t>{5});
+}
+
 TEST(Quality, LimitsFailAndReportsShowTheFigures) {
   // One ring of 64 segments along 1 m: every side triangle a needle under 1 degree, the cap
   // fans 5.6 degrees at the centre.

@@ -17,6 +17,7 @@
 #include "core/progress.h"
 #include "core/report.h"
 #include "core/rng.h"
+#include "tests/mesh_fixtures.h"
 
 namespace sm {
 namespace {
@@ -154,6 +155,106 @@ TEST(Normals, NoVertexNormalFacesAwayFromItsTriangles) {
   const std::vector<std::uint32_t> all{0, 1, 2, 3, 4, 5};
   update_normals(u, all);
   EXPECT_EQ(u.normals, n);
+}
+
+// The largest angle (degrees) between a corner's normal and its triangle's, over all corners
+// of triangles of non-zero area.
+double worst_corner_angle(const Mesh& m, const std::vector<std::array<glm::vec3, 3>>& corner) {
+  double worst = 0;
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    const glm::dvec3 fn = m.face_normal(m.triangles[f]);
+    if (!(glm::length(fn) > 0)) continue;
+    for (const glm::vec3& n : corner[f]) {
+      const double c = glm::dot(glm::dvec3(n), glm::normalize(fn));
+      worst = std::max(worst, std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi);
+    }
+  }
+  return worst;
+}
+
+TEST(SplitNormals, ASharpVSplitsIntoSmoothingGroupsWithNoneFacingAway) {
+  // A 4-degree wedge: at the apex edge the two long sides meet at 176 degrees, and the vertex
+  // normals there are about 88 degrees from both sides (a renderer shades them nearly black).
+  const Mesh m = test::wedge(4.0);
+  const std::vector<glm::dvec3> n = angle_weighted_normals(m);
+  const glm::dvec3 right = glm::normalize(m.face_normal(m.triangles[4])),
+                   left = glm::normalize(m.face_normal(m.triangles[6]));
+  EXPECT_LT(glm::dot(n[2], right), std::cos(85.0 * std::numbers::pi / 180.0));
+  const SplitNormals s = split_vertex_normals(m, vertex_corners(m), n, 91.0);
+  ASSERT_EQ(s.corner_normals.size(), m.triangles.size());
+  EXPECT_LE(worst_corner_angle(m, s.corner_normals), 80.0);
+  // Every side is flat: at the apex vertices (2 and 5) its corners take its own normal.
+  for (std::size_t f = 4; f < 8; ++f) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (m.triangles[f][k] != 2 && m.triangles[f][k] != 5) continue;
+      EXPECT_NEAR(glm::dot(glm::dvec3(s.corner_normals[f][k]), f < 6 ? right : left), 1.0, 1e-6) << f << " " << k;
+    }
+  }
+  // Creases at 91 degrees: the apex edge (176) and the base's long edges (92). A base vertex
+  // has one crease in its fan, which alone does not cut it, and its normal serves its three
+  // faces (about 55 degrees from each): it keeps it. The apex vertices split in three groups
+  // (an end, each side): 4 normals beyond one per vertex.
+  EXPECT_EQ(s.split_vertices, 2u);
+  EXPECT_EQ(s.extra_normals, 4u);
+  const VertexCorners vc = vertex_corners(m);
+  for (const std::uint32_t v : {0u, 1u, 3u, 4u}) {
+    for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
+      const std::uint32_t c = vc.corner[i];
+      EXPECT_NEAR(glm::length(glm::dvec3(s.corner_normals[c / 3][c % 3]) - n[v]), 0.0, 1e-7) << "vertex " << v;
+    }
+  }
+  // At 45 degrees every edge of the wedge is a crease: three groups at every vertex.
+  const SplitNormals hard = split_vertex_normals(m, vertex_corners(m), n, 45.0);
+  EXPECT_EQ(hard.split_vertices, 6u);
+  EXPECT_EQ(hard.extra_normals, 12u);
+  EXPECT_NEAR(worst_corner_angle(m, hard.corner_normals), 0.0, 1e-3);
+  // Without creases (crease angle 180) the apex still splits: no corner beyond 80 degrees.
+  const SplitNormals g = split_vertex_normals(m, vertex_corners(m), n, 180.0);
+  ASSERT_EQ(g.corner_normals.size(), m.triangles.size());
+  EXPECT_LE(worst_corner_angle(m, g.corner_normals), 80.0);
+  EXPECT_GE(g.split_vertices, 2u);
+}
+
+TEST(SplitNormals, AnyVertexNormalsComeOutServingEveryTriangle) {
+  // Whatever the vertex normals given (here all pointing down, backward for half the
+  // triangles), no corner ends more than max_angle from its triangle.
+  for (const double max_angle : {80.0, 60.0}) {
+    const Mesh m = test::wedge(20.0);
+    const std::vector<glm::dvec3> down(m.positions.size(), glm::dvec3(0, 0, -1));
+    const SplitNormals s = split_vertex_normals(m, vertex_corners(m), down, 180.0, max_angle);
+    ASSERT_EQ(s.corner_normals.size(), m.triangles.size());
+    EXPECT_LE(worst_corner_angle(m, s.corner_normals), max_angle + 1e-6);
+  }
+}
+
+TEST(SplitNormals, SmoothFansKeepTheirVertexNormal) {
+  // A cube's corners: three faces at 90 degrees, the normal 54.7 degrees from each; with a
+  // crease angle above 90 no fan is split and the result is empty (one normal per vertex).
+  const Mesh box = test::box();
+  const std::vector<glm::dvec3> n = angle_weighted_normals(box);
+  const SplitNormals s = split_vertex_normals(box, vertex_corners(box), n, 100.0);
+  EXPECT_TRUE(s.corner_normals.empty());
+  EXPECT_EQ(s.split_vertices, 0u);
+  // At 45 degrees every edge is a crease: each corner takes its face's normal.
+  const SplitNormals hard = split_vertex_normals(box, vertex_corners(box), n, 45.0);
+  ASSERT_EQ(hard.corner_normals.size(), box.triangles.size());
+  EXPECT_NEAR(worst_corner_angle(box, hard.corner_normals), 0.0, 1e-3);
+  EXPECT_EQ(hard.extra_normals, 16u);  // 8 vertices, 3 normals each
+  // Only the fans that need it split: a box and a sharp wedge in one mesh, at a crease angle
+  // of 100 degrees, split only the wedge's apex vertices; every other vertex keeps its normal.
+  const Mesh both = test::merged(box, test::translated(test::wedge(4.0), glm::dvec3(3, 0, 0)));
+  const std::vector<glm::dvec3> bn = angle_weighted_normals(both);
+  const SplitNormals some = split_vertex_normals(both, vertex_corners(both), bn, 100.0);
+  ASSERT_EQ(some.corner_normals.size(), both.triangles.size());
+  EXPECT_EQ(some.split_vertices, 2u);
+  const VertexCorners vc = vertex_corners(both);
+  for (std::uint32_t v = 0; v < both.positions.size(); ++v) {
+    if (v == 8 + 2 || v == 8 + 5) continue;
+    for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
+      const std::uint32_t c = vc.corner[i];
+      EXPECT_NEAR(glm::length(glm::dvec3(some.corner_normals[c / 3][c % 3]) - bn[v]), 0.0, 1e-7) << "vertex " << v;
+    }
+  }
 }
 
 TEST(FileIo, AtomicWriteLeavesNoPartialFile) {

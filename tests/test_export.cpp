@@ -16,6 +16,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "meshcheck/checks.h"
+#include "meshcheck/quality.h"
 #include "meshio/export.h"
 #include "meshio/export_text.h"
 #include "meshio/mesh_io.h"
@@ -150,6 +151,58 @@ TEST(Export, RoundTripEveryFormat) {
     EXPECT_TRUE(after.ok()) << to_text(after);
     EXPECT_EQ(after.edges, before.edges);
     EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
+  }
+}
+
+TEST(Export, SmoothingGroupsSplitVerticesAndReadBackWelded) {
+  // A sharp wedge with smoothing groups next to a smooth torus: the writers add a vertex per
+  // extra group at the wedge and none at the torus; every reader welds the file back to the
+  // same closed mesh and keeps the corner normals, so that the check measures them.
+  const Mesh wedge = test::wedge(4.0), torus = test::torus();
+  Mesh m = test::merged(torus, test::translated(wedge, {3, 0, 0}));
+  m.normals = angle_weighted_normals(m);
+  // (A crease angle of 45 degrees: every edge of the wedge, none of the torus, 30 at most.)
+  const SplitNormals split = split_vertex_normals(m, vertex_corners(m), m.normals, 45.0);
+  m.corner_normals = split.corner_normals;
+  ASSERT_EQ(m.corner_normals.size(), m.triangles.size());
+  EXPECT_EQ(split.split_vertices, 6u);  // the wedge's, in three groups each
+  EXPECT_EQ(split.extra_normals, 12u);
+
+  // A smooth surface alone gets no corner normals: its vertices are written once.
+  Mesh smooth = torus;
+  smooth.normals = angle_weighted_normals(smooth);
+  EXPECT_TRUE(split_vertex_normals(smooth, vertex_corners(smooth), smooth.normals, 90.0).corner_normals.empty());
+  EXPECT_EQ(build_export_buffers(smooth, {.optimize = false}).positions.size(), smooth.positions.size());
+
+  const ExportBuffers b = build_export_buffers(m, {.optimize = false});
+  EXPECT_EQ(b.positions.size(), m.positions.size() + split.extra_normals);
+  const MeshCheckReport before = check_mesh(m);  // (two components: not ok() as a tree)
+  ASSERT_TRUE(before.closed && before.oriented && before.vertex_manifold) << to_text(before);
+  ASSERT_EQ(before.genus, 1);
+  const fs::path dir = test::temp_dir("export_split_normals");
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    const fs::path path = dir / ("m." + ext);
+    write_mesh(m, path);
+    const Mesh back = read_mesh(path);
+    EXPECT_EQ(back.positions.size(), m.positions.size());
+    EXPECT_EQ(back.triangles.size(), m.triangles.size());
+    ASSERT_EQ(back.corner_normals.size(), back.triangles.size());
+    const MeshCheckReport after = check_mesh(back);
+    EXPECT_TRUE(after.closed && after.oriented && after.vertex_manifold) << to_text(after);
+    EXPECT_EQ(after.edges, before.edges);
+    EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
+    EXPECT_EQ(after.components, before.components);
+    EXPECT_EQ(after.genus, before.genus);
+    EXPECT_EQ(after.self_intersecting_pairs, 0u);
+    const TriangleQuality q = measure_quality(back);
+    EXPECT_TRUE(q.normals_per_corner);
+    EXPECT_EQ(q.backward_normals, 0u);
+    // Without split normals in the mesh the same file has one normal per vertex.
+    Mesh plain = m;
+    plain.corner_normals.clear();
+    write_mesh(plain, path);
+    EXPECT_TRUE(read_mesh(path).corner_normals.empty());
   }
 }
 

@@ -271,6 +271,7 @@ std::vector<Batch> mesh_batches(const Mesh& m, const glm::dvec3& origin) {
       m.normals.size() == nv ? std::vector<glm::dvec3>{} : angle_weighted_normals(m);
   const std::vector<glm::dvec3>& normals = m.normals.size() == nv ? m.normals : computed;
   const bool uvs = m.corner_uvs.size() == m.triangles.size();
+  const bool corner_normals = m.corner_normals.size() == m.triangles.size();  // smoothing groups
   b.positions.reserve(3 * m.triangles.size());
   b.normals.reserve(3 * m.triangles.size());
   b.colors.reserve(3 * m.triangles.size());
@@ -280,7 +281,7 @@ std::vector<Batch> mesh_batches(const Mesh& m, const glm::dvec3& origin) {
     if (tri[0] >= nv || tri[1] >= nv || tri[2] >= nv) continue;
     for (int k = 0; k < 3; ++k) {
       b.positions.push_back(local(m.positions[tri[k]], origin));
-      b.normals.push_back(glm::vec3(normals[tri[k]]));
+      b.normals.push_back(corner_normals ? m.corner_normals[t][k] : glm::vec3(normals[tri[k]]));
       b.colors.push_back(palette::bark);
       if (uvs) b.uvs.push_back(m.corner_uvs[t][k]);
     }
