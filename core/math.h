@@ -1,6 +1,7 @@
 #pragma once
 /// Small geometric helpers shared by the stages (GLM, double precision).
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -44,6 +45,14 @@ inline dvec3 normalize_or(const dvec3& v, const dvec3& fallback) {
 /// [0, 1] (clamped, Ericson, Real-Time Collision Detection §5.1.9; degenerate segments are
 /// points).
 void closest_segment_params(const dvec3& p0, const dvec3& p1, const dvec3& q0, const dvec3& q1, double& s, double& t);
+
+/// The parameter t in [0, 1] of the point a + t (b - a) of segment [a, b] nearest to p (0 for
+/// a degenerate segment).
+inline double segment_param(const dvec3& p, const dvec3& a, const dvec3& b) {
+  const dvec3 ab = b - a;
+  const double l2 = glm::dot(ab, ab);
+  return l2 > 0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
+}
 
 /// The point of triangle (a, b, c) nearest to p (Ericson, Real-Time Collision Detection §5.1.5).
 dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c);

@@ -122,9 +122,8 @@ JunctionFoldStats repair_junction_folds(StitchedMesh& stitched, const Skeleton& 
         axis[v] = n.valid() ? s.position[n.idx()] : p;
         continue;
       }
-      const glm::dvec3 a = s.position[par.idx()], ab = s.position[n.idx()] - a;
-      const double l2 = glm::dot(ab, ab);
-      axis[v] = l2 > 0 ? a + std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) * ab : a;
+      const glm::dvec3 a = s.position[par.idx()], b = s.position[n.idx()];
+      axis[v] = a + segment_param(p, a, b) * (b - a);
     }
     // `undo` holds the stitched values while the mesh holds the best run's (applied), and the
     // best run's values while the mesh is back to the stitched one.

@@ -554,11 +554,9 @@ std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton) {
     const NodeId up = skeleton.parent[n.idx()];
     const dvec3 a = skeleton.position[n.idx()], b = up.valid() ? skeleton.position[up.idx()] : a;
     const double ra = skeleton.radius[n.idx()], rb = up.valid() ? skeleton.radius[up.idx()] : ra;
-    const dvec3 ab = b - a;
-    const double l2 = glm::dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(glm::dot(mesh.positions[v] - a, ab) / l2, 0.0, 1.0) : 0.0;
+    const double t = segment_param(mesh.positions[v], a, b);
     const double r = ra + t * (rb - ra);
-    if (r > 0) error[v] = std::abs(glm::length(mesh.positions[v] - (a + t * ab)) - r) / r;
+    if (r > 0) error[v] = std::abs(glm::length(mesh.positions[v] - (a + t * (b - a))) - r) / r;
   }
   return error;
 }

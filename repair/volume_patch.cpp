@@ -336,14 +336,12 @@ class Builder {
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((cb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((cb.hi - origin) / h)), n - glm::ivec3(1));
       if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) continue;
-      const dvec3 ab = c.b - c.a;
-      const double len2 = glm::dot(ab, ab);
       tbb::parallel_for(lo.z, hi.z + 1, [&](int k) {
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) {
             const dvec3 p = centre(i, j, k);
-            const double t = len2 > 0 ? std::clamp(glm::dot(p - c.a, ab) / len2, 0.0, 1.0) : 0.0;
-            const auto d = static_cast<float>(glm::distance(p, c.a + t * ab) - (c.ra + t * (c.rb - c.ra)));
+            const double t = segment_param(p, c.a, c.b);
+            const auto d = static_cast<float>(glm::distance(p, c.a + t * (c.b - c.a)) - (c.ra + t * (c.rb - c.ra)));
             float& f = cone_field[at(i, j, k)];
             f = std::min(f, d);
           }
@@ -589,8 +587,7 @@ class Builder {
         double best = std::numeric_limits<double>::max(), param = 0;
         for (std::size_t i = 0; i < nh; ++i) {
           const dvec3 u = at_pos(hole[i]), w = at_pos(hole[(i + 1) % nh]);
-          const double len2 = glm::dot(w - u, w - u);
-          const double t = len2 > 0 ? std::clamp(glm::dot(q - u, w - u) / len2, 0.0, 1.0) : 0.0;
+          const double t = segment_param(q, u, w);
           const double d = glm::distance(q, u + t * (w - u));
           if (d < best) {
             best = d;

@@ -783,10 +783,8 @@ bool smooth_tight_bends(WorkTree& t, const SkeletonParams& params, SkeletonRepor
       // Input as given (not `separate`): only where the straightened branch passes within
       // max_node_move x radius of the node, a move the user cannot see.
       if (!params.separate) {
-        const dvec3 pc = t.pos[c] - t.pos[p];
-        const double l2 = glm::dot(pc, pc);
-        const double u = l2 > 0 ? std::clamp(glm::dot(t.pos[v] - t.pos[p], pc) / l2, 0.0, 1.0) : 0.0;
-        if (glm::length(t.pos[p] + u * pc - t.pos[v]) > params.max_node_move * t.radius[v]) continue;
+        const double u = segment_param(t.pos[v], t.pos[p], t.pos[c]);
+        if (glm::length(t.pos[p] + u * (t.pos[c] - t.pos[p]) - t.pos[v]) > params.max_node_move * t.radius[v]) continue;
       }
       if (!merge_follows &&
           !(glm::length(t.pos[c] - t.pos[p]) > params.merge_edge_ratio * std::max(t.radius[c], t.radius[p]))) {
