@@ -15,8 +15,8 @@
 // Junction and two child tubes start (anchored at F). Forks deeper in a child's subtree that
 // were passed while fused are handled by the child tube, which tests them first. A bundle
 // whose strands all end (tips) before separating is absorbed into its sibling's tube (counted
-// warning), unless its tip is a stub (thick, or outside the sibling's cones: it then splits
-// below its tip); bundles still touching where the shorter child edge ends are split there if they
+// warning), unless its tip is a stub (thick, or a thick node outside the sibling's cones: it
+// then splits below its tip); bundles still touching where the shorter child edge ends are split there if they
 // are at least loosely apart and clear of each other's cones (counted warning), otherwise
 // they stay fused.
 //
@@ -51,10 +51,12 @@ namespace {
 
 // Tips at least this fraction of their fork's radius thick are stubs: when their bundle has
 // not separated by the last slice below the tip, it splits there (see Walker). Thinner tips
-// are absorbed, unless they lie outside the other child's round cones: absorbed, the twig
-// would be missing from the mesh (the input is the truth; docs/repair.md has the figures).
-// Every tip a stub gave more self-intersecting pairs on the samples (293 against 277 at
-// particle seeds 1-3).
+// are absorbed, unless they are thick nodes (the skeleton's median radius) lying outside the
+// other child's round cones: absorbed, they would lie outside the mesh (grown broadleaf at
+// grow seeds 3 and 6: one pruned twig each, 2 and 9 mm outside the trunk; the samples at
+// particle seeds 1-10 are unchanged, their absorbed tips being thin). Every tip a stub: 293 self-intersecting pairs on
+// the samples x seeds 1-3 (agraf 116); from 0.3 of the fork's radius: 277 (agraf 100), boutdenoylum2 thick nodes inside
+// 138 / 136 / 138 of 144 rather than 138 / 136 / 139.
 constexpr double kStubRadius = 0.3;
 
 // Turn (radians) beyond which a node of a child's chain ends the fused section above its fork
@@ -193,6 +195,7 @@ struct Tables {
   const ContourParams& p;
   std::span<const LocalContourScale> local;     // #N factors, or empty (compute_contours)
   double spacing;                               // distance between neighbouring particles (metres)
+  double median_radius;                         // the skeleton's median radius: thick nodes reach it
   std::vector<double> root_distance;            // #N distance from the root along the tree (for UV distances)
   std::vector<std::uint32_t> branch;            // #N first node of each node's branch
   std::vector<double> node_offset;              // #N surface offset of each node's cloud (metres)
@@ -211,7 +214,8 @@ Tables::Tables(const Skeleton& s_, const ParticleField& f_, const StrandSet& st_
       st(st_),
       p(p_),
       local(local_),
-      spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)) {
+      spacing(f_.neighbour_distance > 0 ? f_.neighbour_distance : (f_.spacing > 0 ? 1.9 * f_.spacing : 1e-3)),
+      median_radius(s_.median_radius()) {
   const std::size_t n = s.size();
   root_distance.assign(n, 0.0);
   for (std::size_t i = 1; i < n; ++i) root_distance[i] = root_distance[s.parent[i].idx()] + s.edge_length(NodeId(i));
@@ -1227,8 +1231,9 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
     const double shorter_end =
         fork_base + std::max(std::min(segment(a), segment(b)), p_.min_fused_length * s_.radius[fork.idx()]);
     // Where a child whose segment ends in a tip that is a stub ends; infinity if neither
-    // does. A stub is at least kStubRadius x the fork's radius thick, or has its tip outside
-    // the other child's round cones, where an absorbed twig would be missing from the mesh.
+    // does. A stub is at least kStubRadius x the fork's radius thick, or thick (the median
+    // radius: the mesh must contain it) with its tip outside the other child's round cones,
+    // where an absorbed tip would lie outside the mesh.
     auto tip_end = [&](NodeId c, NodeId other) {
       double l = len(c);
       while (s_.child_count(c) == 1) {
@@ -1238,7 +1243,7 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       if (s_.child_count(c) != 0) return std::numeric_limits<double>::infinity();
       const double r = s_.radius[c.idx()];
       bool stub = r >= kStubRadius * s_.radius[fork.idx()];
-      if (!stub) {
+      if (!stub && r >= tables_.median_radius) {
         SlicePoints& tip = scratch_.tip;
         tip.clear();
         tip.point.push_back(s_.position[c.idx()]);
