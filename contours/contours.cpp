@@ -15,8 +15,8 @@
 // Junction and two child tubes start (anchored at F). Forks deeper in a child's subtree that
 // were passed while fused are handled by the child tube, which tests them first. A bundle
 // whose strands all end (tips) before separating is absorbed into its sibling's tube (counted
-// warning), unless its tip is a stub (thick, or a thick node outside the sibling's cones: it
-// then splits below its tip); bundles still touching where the shorter child edge ends are split there if they
+// warning), unless its tip is a stub (thick, or outside the sibling's cones: it then splits
+// below its tip; ContourParams::split_outside_tips); bundles still touching where the shorter child edge ends are split there if they
 // are at least loosely apart and clear of each other's cones (counted warning), otherwise
 // they stay fused.
 //
@@ -51,12 +51,10 @@ namespace {
 
 // Tips at least this fraction of their fork's radius thick are stubs: when their bundle has
 // not separated by the last slice below the tip, it splits there (see Walker). Thinner tips
-// are absorbed, unless they are thick nodes (the skeleton's median radius) lying outside the
-// other child's round cones: absorbed, they would lie outside the mesh (grown broadleaf at
-// grow seeds 3 and 6: one pruned twig each, 2 and 9 mm outside the trunk; the samples at
-// particle seeds 1-10 are unchanged, their absorbed tips being thin). Every tip a stub: 293 self-intersecting pairs on
-// the samples x seeds 1-3 (agraf 116); from 0.3 of the fork's radius: 277 (agraf 100), boutdenoylum2 thick nodes inside
-// 138 / 136 / 138 of 144 rather than 138 / 136 / 139.
+// are absorbed, unless they lie outside the other child's round cones (only thick ones, at
+// least the median radius, with split_outside_tips off): absorbed, the twig would be missing
+// from the mesh. Every tip a stub gave more self-intersecting pairs on the samples (293
+// against 277 at particle seeds 1-3).
 constexpr double kStubRadius = 0.3;
 
 // Turn (radians) beyond which a node of a child's chain ends the fused section above its fork
@@ -1231,9 +1229,9 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
     const double shorter_end =
         fork_base + std::max(std::min(segment(a), segment(b)), p_.min_fused_length * s_.radius[fork.idx()]);
     // Where a child whose segment ends in a tip that is a stub ends; infinity if neither
-    // does. A stub is at least kStubRadius x the fork's radius thick, or thick (the median
-    // radius: the mesh must contain it) with its tip outside the other child's round cones,
-    // where an absorbed tip would lie outside the mesh.
+    // does. A stub is at least kStubRadius x the fork's radius thick, or has its tip outside
+    // the other child's round cones, where an absorbed twig would be missing from the mesh
+    // (with split_outside_tips off, only a tip at least the median radius thick).
     auto tip_end = [&](NodeId c, NodeId other) {
       double l = len(c);
       while (s_.child_count(c) == 1) {
@@ -1243,7 +1241,7 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       if (s_.child_count(c) != 0) return std::numeric_limits<double>::infinity();
       const double r = s_.radius[c.idx()];
       bool stub = r >= kStubRadius * s_.radius[fork.idx()];
-      if (!stub && r >= tables_.median_radius) {
+      if (!stub && (p_.split_outside_tips || r >= tables_.median_radius)) {
         SlicePoints& tip = scratch_.tip;
         tip.clear();
         tip.point.push_back(s_.position[c.idx()]);

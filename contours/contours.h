@@ -130,6 +130,12 @@ struct ContourParams {
   /// there, with its own junction; otherwise it stays in the section's loops until the
   /// fork's own split, however far it has gone by then (a web across the whorl).
   bool split_nested_laterals = true;
+  /// A thin tip (under 0.3 of its fork's radius) whose bundle has not come apart from its
+  /// sibling's by the last slice below it splits off there when the tip lies outside the
+  /// sibling's round cones, instead of ending inside the sibling's loops: absorbed, the twig
+  /// would be missing from the mesh. false = only tips at least the skeleton's median radius
+  /// (before 0.2; configs/separate.json).
+  bool split_outside_tips = true;
   /// A tube's consecutive loops must not cross (one reaching behind the other's plane, where a
   /// branch bends within its own radius: zigzags, kinks of a fraction of a radius): the strip
   /// between them would turn inside out. Interior loops are left out of the tube until its

@@ -35,6 +35,8 @@ const ParamSpec<C> kFields[] = {
      .help = "above a fork, a bundle reaches its own round section within this distance", .slider = {0.1, 5}},
     {.key = "min_fused_length", .field = &C::min_fused_length, .range = {.min = 0}, .unit = "x fork radius",
      .help = "unseparated bundles are forced apart no nearer the fork than this", .slider = {0, 10}},
+    {.key = "split_outside_tips", .field = &C::split_outside_tips,
+     .help = "a thin tip outside its sibling's round cones splits off below the tip instead of being absorbed"},
     {.key = "split_nested_laterals", .field = &C::split_nested_laterals,
      .help = "a lateral inside a fused section (whorls) splits off as soon as it is apart from the rest"},
     {.key = "uncross_loops", .field = &C::uncross_loops,

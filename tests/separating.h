@@ -24,6 +24,7 @@ inline PipelineParams separating() {
   p.skeleton = separating_skeleton();
   p.contours.ring_edge = 0.0;  // the rings of before 0.2 too (configs/separate.json)
   p.contours.min_ring_vertices = 6;
+  p.contours.split_outside_tips = false;  // thin tips absorbed as before 0.2
   p.repair.count_pairs_up_to = 300'000;
   p.repair.fork_retry = true;
   p.repair.outer_surface = true;

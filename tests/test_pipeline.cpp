@@ -533,6 +533,35 @@ TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
   EXPECT_GE(r.contours.stats.forced_splits, 2u);
 }
 
+TEST(Pipeline, ThinTwigsBesideTheTrunkAreNotAbsorbed) {
+  // The same pruned twigs, now thinner than the tree's median radius (a thicker limb carries
+  // most of the nodes), with the input as given: a thin tip outside the trunk's round cones
+  // splits off below its tip instead of ending inside the trunk's loops, so every node of the
+  // input is inside the mesh. Absorbed as before 0.2 (split_outside_tips off), tips are left
+  // outside (the control: the check can fail).
+  RawSkeleton raw;
+  raw.source = "thin_twigs_beside_trunk";
+  for (int i = 0; i < 5; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.5 * i), 0.075);
+  const double outside[] = {0.002, 0.005, 0.009};
+  for (int k = 0; k < 3; ++k) {
+    const double a = 2.0 * k;  // radians around the trunk
+    const double h = 0.075 + outside[k];
+    raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
+  }
+  for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), 0.01);
+  PipelineResult r;
+  const MeshCheckReport rep = run_and_check(raw, &r, PipelineParams{});
+  expect_sound(rep);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  ASSERT_GT(r.skeleton.skeleton.median_radius(), 0.002);  // the twigs are thin
+  EXPECT_EQ(rep.nodes_inside, rep.nodes);
+  EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
+  PipelineParams absorbed;
+  absorbed.contours.split_outside_tips = false;
+  const MeshCheckReport control = run_and_check(raw, nullptr, absorbed);
+  EXPECT_LT(control.nodes_inside, control.nodes);
+}
+
 /// Moves `nodes` of a copy of r's skeleton 1.3 radii sideways (along the first one's frame
 /// normal), so that they lie a little outside r's mesh, and covers them: the near misses'
 /// figures, and the mesh check against the moved skeleton after.
