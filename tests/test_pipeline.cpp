@@ -503,6 +503,22 @@ TEST(Pipeline, ShortStubsReachTheirTips) {
   EXPECT_GE(forced, 4u);
 }
 
+/// A trunk of radius 0.075 with three pruned twigs (tip radius 0.002) whose tips end 2, 5 and 9
+/// mm outside it, and a limb of 12 nodes of `limb_radius` (which sets the tree's median radius).
+RawSkeleton twigs_beside_trunk(const std::string& source, double limb_radius) {
+  RawSkeleton raw;
+  raw.source = source;
+  for (int i = 0; i < 5; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.5 * i), 0.075);
+  const double outside[] = {0.002, 0.005, 0.009};
+  for (int k = 0; k < 3; ++k) {
+    const double a = 2.0 * k;  // radians around the trunk
+    const double h = 0.075 + outside[k];
+    raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
+  }
+  for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), limb_radius);
+  return raw;
+}
+
 TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
   // Thin pruned twigs (tip r 0.002, most of the tree's nodes are as thin, so the tips are
   // thick nodes) whose tips end a few millimetres outside a trunk of radius 0.075, as on the
@@ -511,16 +527,7 @@ TEST(Pipeline, ThinStubsJustOutsideTheTrunkReachTheirTips) {
   // 3 outside with the fork retry and the outer surface off). A thin tip outside the other
   // child's cones splits off below its tip like a thick stub (2 of the 3 here; the third
   // parts from the trunk by itself).
-  RawSkeleton raw;
-  raw.source = "thin_stubs_beside_trunk";
-  for (int i = 0; i < 5; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.5 * i), 0.075);
-  const double outside[] = {0.002, 0.005, 0.009};
-  for (int k = 0; k < 3; ++k) {
-    const double a = 2.0 * k;  // radians around the trunk
-    const double h = 0.075 + outside[k];
-    raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
-  }
-  for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), 0.002);
+  const RawSkeleton raw = twigs_beside_trunk("thin_stubs_beside_trunk", 0.002);
   PipelineParams params = test::separating();
   params.repair.fork_retry = false;
   params.repair.outer_surface = false;
@@ -539,16 +546,7 @@ TEST(Pipeline, ThinTwigsBesideTheTrunkAreNotAbsorbed) {
   // splits off below its tip instead of ending inside the trunk's loops, so every node of the
   // input is inside the mesh. Absorbed as before 0.2 (split_outside_tips off), tips are left
   // outside (the control: the check can fail).
-  RawSkeleton raw;
-  raw.source = "thin_twigs_beside_trunk";
-  for (int i = 0; i < 5; ++i) raw.add(i, i - 1, dvec3(0, 0, 0.5 * i), 0.075);
-  const double outside[] = {0.002, 0.005, 0.009};
-  for (int k = 0; k < 3; ++k) {
-    const double a = 2.0 * k;  // radians around the trunk
-    const double h = 0.075 + outside[k];
-    raw.add(10 + k, 1 + k, dvec3(h * std::cos(a), h * std::sin(a), 0.5 * (1 + k) + 0.08), 0.002);
-  }
-  for (int i = 0; i < 12; ++i) raw.add(20 + i, i == 0 ? 4 : 19 + i, dvec3(0.1 * (i + 1), 0, 2.0 + 0.03 * i), 0.01);
+  const RawSkeleton raw = twigs_beside_trunk("thin_twigs_beside_trunk", 0.01);
   PipelineResult r;
   const MeshCheckReport rep = run_and_check(raw, &r, PipelineParams{});
   expect_sound(rep);
