@@ -17,6 +17,7 @@
 #include <tbb/task_arena.h>
 
 #include "core/math.h"
+#include "core/union_find.h"
 
 namespace sm {
 
@@ -254,10 +255,7 @@ std::vector<glm::dvec3> angle_weighted_normals(const Mesh& mesh, const VertexCor
 namespace {
 
 /// A unit float normal, as the writers store it (0, 0, 1 for a zero vector).
-glm::vec3 unit_float(const glm::dvec3& n) {
-  const double l = glm::length(n);
-  return glm::vec3((l > 0 && std::isfinite(l)) ? n / l : glm::dvec3(0, 0, 1));
-}
+glm::vec3 unit_float(const glm::dvec3& n) { return glm::vec3(normalize_or(n, glm::dvec3(0, 0, 1))); }
 
 /// One vertex's fan for split_vertex_normals: its corners' unit face normals (0 for zero
 /// area), angle weights, and the fan edges joining two corners with their dihedral angles
@@ -270,14 +268,10 @@ struct Fan {
   };
   std::vector<glm::dvec3> unit;     ///< per corner
   std::vector<glm::dvec3> weighted; ///< per corner, where the fan splits: face normal times the corner's angle
-  std::vector<std::uint32_t> next, prev, group, work, stack;
+  std::vector<std::uint32_t> next, prev, group, stack;
   std::vector<Link> links;
+  UnionFind pieces{0};  ///< the corners of one group joined by its uncut edges
 };
-
-std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
-  while (parent[x] != x) x = parent[x] = parent[parent[x]];
-  return x;
-}
 
 }  // namespace
 
@@ -338,20 +332,15 @@ SplitNormals split_vertex_normals(const Mesh& mesh, const VertexCorners& vc, std
       // The corners of group `g` joined by its edges not cut: each one's root (the least corner
       // of its piece) in fan.stack, in corner order.
       auto regroup = [&](std::uint32_t g) {
-        for (std::uint32_t i = 0; i < d; ++i) {
-          if (fan.group[i] == g) fan.work[i] = i;
-        }
+        fan.pieces.reset(d);
         for (const Fan::Link& e : fan.links) {
-          if (fan.group[e.i] != g || fan.group[e.j] != g || e.cut) continue;
-          const std::uint32_t x = find_root(fan.work, e.i), y = find_root(fan.work, e.j);
-          if (x != y) fan.work[std::max(x, y)] = std::min(x, y);
+          if (fan.group[e.i] == g && fan.group[e.j] == g && !e.cut) fan.pieces.unite(e.i, e.j);
         }
         for (std::uint32_t i = 0; i < d; ++i) {
-          if (fan.group[i] == g) fan.stack.push_back(find_root(fan.work, i));
+          if (fan.group[i] == g) fan.stack.push_back(fan.pieces.find(i));
         }
       };
       fan.group.assign(d, 0);
-      fan.work.assign(d, 0);
       fan.stack.clear();
       regroup(0);
       // fan.stack holds each corner's root; whole when every root is corner 0.

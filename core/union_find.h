@@ -12,6 +12,11 @@ namespace sm {
 class UnionFind {
  public:
   explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
+  /// Back to n singletons, keeping the storage (for many small sets in a loop).
+  void reset(std::size_t n) {
+    parent_.resize(n);
+    std::iota(parent_.begin(), parent_.end(), 0u);
+  }
   /// The root of x's set: the smallest element ever united into it.
   std::uint32_t find(std::uint32_t x) {
     while (parent_[x] != x) {

@@ -29,6 +29,7 @@
 #include "core/errors.h"
 #include "core/file_io.h"
 #include "core/input_limits.h"
+#include "core/math.h"
 #include "meshio/placement.h"
 
 namespace sm {
@@ -129,10 +130,7 @@ class MeshAssembler {
       for (const std::uint32_t v : t) used[v] = 1;
     }
     for (std::size_t v = 0; v < m.positions.size() && all; ++v) all = !used[v] || has_normal_[v];
-    auto unit = [](const glm::dvec3& n) {
-      const double l = glm::length(n);
-      return (l > 0 && std::isfinite(l)) ? n / l : glm::dvec3(0, 0, 1);
-    };
+    auto unit = [](const glm::dvec3& n) { return normalize_or(n, glm::dvec3(0, 0, 1)); };
     if (all) {
       m.normals.resize(m.positions.size());
       for (std::size_t v = 0; v < m.positions.size(); ++v) m.normals[v] = has_normal_[v] ? unit(normal_[v]) : glm::dvec3(0, 0, 1);
