@@ -7,7 +7,13 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <map>
+#include <string>
+#include <cstdio>
+#include <cstdlib>
+#include <tuple>
 #include <unordered_map>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -15,6 +21,7 @@
 
 namespace sm {
 namespace {
+std::string g_why; inline bool DBG(const char* w){ g_why += w; g_why += " "; return false; }
 
 using glm::dvec3;
 using Tri = Mesh::Triangle;
@@ -51,6 +58,7 @@ struct Edit {
   std::vector<std::pair<std::uint32_t, std::optional<std::vector<std::uint32_t>>>> faces;
   std::optional<std::pair<std::uint32_t, dvec3>> position;
   bool collapse = false;
+  std::array<std::uint32_t, 3> key{};  ///< which edit (kind, vertices), not to try again once undone
 };
 
 /// The crossings an edit takes part in, found locally: each triangle binned once on a grid
@@ -174,7 +182,7 @@ class SliverRemover {
  public:
   SliverRemover(MeshResult& r, const SliverOptions& o)
       : r_(r), m_(r.mesh), o_(o), vc_(vertex_corners(m_)), cos_turn_(std::cos(o.max_turn * kRadians)),
-        uvs_(m_.corner_uvs.size() == m_.triangles.size()) {}
+        uvs_(m_.corner_uvs.size() == m_.triangles.size()), limit_(o.angle * kRadians) {}
 
   SliverStats run() {
     SliverStats st;
@@ -196,6 +204,7 @@ class SliverRemover {
       if (round == 0) st.found = slivers.size();
       if (slivers.empty()) break;
       ++st.rounds;
+      const std::size_t undone_before = st.undone;
       const PairsAt before(known);
 
       std::vector<std::uint8_t> locked(m_.positions.size(), 0);
@@ -243,7 +252,7 @@ class SliverRemover {
           if (!active[i] || after.count(edits[i]) <= before.count(edits[i])) continue;
           undo(edits[i]);
           active[i] = 0;
-          refused[origin[i]] = 1;
+          forbidden_.insert(edits[i].key);
           ++st.undone;
           for (const auto& [g, old] : edits[i].triangles) restored.push_back(g);
         }
@@ -278,9 +287,10 @@ class SliverRemover {
       }
       std::sort(look.begin(), look.end());
       look.erase(std::unique(look.begin(), look.end()), look.end());
-      if (!kept_any) break;
+      if (!kept_any && st.undone == undone_before) break;
     }
     st.left = find(all, limit).size();
+    if (std::getenv("SM_SLIVER_DEBUG")) diagnose(refused);
     return st;
   }
 
@@ -378,45 +388,175 @@ class SliverRemover {
     if (e.position) m_.positions[e.position->first] = e.position->second;
   }
 
-  /// Flips the longest edge of sliver f where that keeps the rules (slivers.h).
-  bool try_flip(std::uint32_t f, Edit& e) {
-    const Tri t = m_.triangles[f];
-    int k = 0;  // the corner of the largest angle, opposite the longest edge
-    double longest = -1;
-    for (int i = 0; i < 3; ++i) {
-      const double l = glm::length(m_.positions[t[(i + 2) % 3]] - m_.positions[t[(i + 1) % 3]]);
-      if (l > longest) {
-        longest = l;
-        k = i;
-      }
+  /// Twice the signed area of a triangle's corner UVs, or 0 where it is too thin to tell (its
+  /// sign then; under 1e-9 of its longest edge squared: a triangle collapsed in UV).
+  static int uv_sign(const CornerUvs& u) {
+    const glm::dvec2 p(u[0]), q(u[1]), r(u[2]);
+    const double area = (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+    const double l2 = std::max({glm::dot(q - p, q - p), glm::dot(r - q, r - q), glm::dot(p - r, p - r)});
+    return std::abs(area) > 1e-9 * l2 ? (area > 0 ? 1 : -1) : 0;
+  }
+  /// Whether new corner UVs keep a triangle's orientation in UV (any, where it had none).
+  bool keeps_uv_side(const CornerUvs& was, const CornerUvs& now) const {
+    if (!uvs_) return true;
+    const int s = uv_sign(was);
+    return s == 0 || uv_sign(now) == s;
+  }
+
+  /// The corner of vertex v in triangle h (0, 1 or 2).
+  int corner_of(std::uint32_t h, std::uint32_t v) const {
+    const Tri& t = m_.triangles[h];
+    return t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+  }
+  /// The triangle next to h around vertex v: across h's edge (v, q) where h = (v, p, q)
+  /// (`forward`), else across (v, p); with the shared vertex.
+  std::optional<std::pair<std::uint32_t, std::uint32_t>> turn_around(std::uint32_t v, std::uint32_t h, bool forward) const {
+    const int k = corner_of(h, v);
+    const std::uint32_t z = m_.triangles[h][(k + (forward ? 2 : 1)) % 3];
+    for (const std::uint32_t n : faces(v)) {
+      if (n == h) continue;
+      const int j = corner_of(n, v);
+      if (m_.triangles[n][(j + (forward ? 1 : 2)) % 3] == z) return std::pair(n, z);
     }
+    return std::nullopt;
+  }
+
+  /// The UV that triangle h's own linear map (its corners' positions to their UVs) gives the
+  /// point p projected onto its plane; empty where h is degenerate.
+  std::optional<glm::vec2> extrapolate(std::uint32_t h, const dvec3& p) const {
+    const Tri& t = m_.triangles[h];
+    const dvec3 o = m_.positions[t[0]], e1 = m_.positions[t[1]] - o, e2 = m_.positions[t[2]] - o, q = p - o;
+    const double a = glm::dot(e1, e1), b = glm::dot(e1, e2), c = glm::dot(e2, e2);
+    const double det = a * c - b * b;
+    if (!(det > 1e-12 * a * c)) return std::nullopt;
+    const double s = (c * glm::dot(e1, q) - b * glm::dot(e2, q)) / det, r = (a * glm::dot(e2, q) - b * glm::dot(e1, q)) / det;
+    const CornerUvs& u = m_.corner_uvs[h];
+    const glm::dvec2 out = glm::dvec2(u[0]) + s * glm::dvec2(u[1] - u[0]) + r * glm::dvec2(u[2] - u[0]);
+    if (!std::isfinite(out.x) || !std::isfinite(out.y)) return std::nullopt;
+    return glm::vec2(out);
+  }
+
+  /// The UV that vertex v, moved to point p whose UV is `uv1` in triangle s1 and `uv2` in
+  /// triangle s2 (both at v), takes in each triangle at v. The UVs are carried around v from
+  /// s1 one way and from s2 the other, through edges where the two triangles' UVs differ by
+  /// one translation at both ends (none, or u's wrap), so the texture stays continuous where it
+  /// was. Past another seam (charts that meet at a fork or a cut line) the triangles in between
+  /// take the UV their best-shaped one's own map gives p (extrapolate), carried on from there.
+  /// Empty where a triangle cannot be given one.
+  std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> carry(std::uint32_t v, const dvec3& p, std::uint32_t s1,
+                                                                         std::uint32_t s2, glm::vec2 uv1, glm::vec2 uv2) const {
+    const std::vector<std::uint32_t> fan = faces(v);
+    std::vector<std::pair<std::uint32_t, glm::vec2>> out;
+    if (!uvs_) {
+      for (const std::uint32_t h : fan) out.emplace_back(h, glm::vec2(0));
+      return out;
+    }
+    auto assigned = [&](std::uint32_t h) {
+      return std::any_of(out.begin(), out.end(), [&](const auto& q) { return q.first == h; });
+    };
+    auto walk = [&](std::uint32_t h, glm::vec2 at, bool forward) {
+      for (std::size_t steps = 0; steps < fan.size(); ++steps) {
+        const auto next = turn_around(v, h, forward);
+        if (!next || assigned(next->first)) return;
+        const auto [n, z] = *next;
+        const glm::vec2 shift = uv(n, v) - uv(h, v), other = uv(n, z) - uv(h, z);
+        if (std::abs(shift.x - other.x) > kUvTolerance || std::abs(shift.y - other.y) > kUvTolerance) return;
+        at += shift;
+        out.emplace_back(n, at);
+        h = n;
+      }
+    };
+    auto start = [&](std::uint32_t h, glm::vec2 at) {
+      out.emplace_back(h, at);
+      walk(h, at, true);
+      walk(h, at, false);
+    };
+    start(s1, uv1);
+    if (!assigned(s2)) start(s2, uv2);
+    while (out.size() < fan.size()) {
+      std::optional<std::uint32_t> best;
+      double best_angle = 0;
+      for (const std::uint32_t h : fan) {
+        if (assigned(h)) continue;
+        const double angle = smallest_angle(m_, m_.triangles[h]);
+        if (!best || angle > best_angle) best = h, best_angle = angle;
+      }
+      const std::optional<glm::vec2> at = extrapolate(*best, p);
+      if (!at) return std::nullopt;
+      start(*best, *at);
+    }
+    return out;
+  }
+
+  /// A flip of edge (a, b) of sliver f = (c, a, b) with g = (d, b, a): the new triangles and
+  /// the pair's smallest angle after.
+  struct Flip {
+    std::uint32_t g;
+    Tri t1, t2;
+    CornerUvs u1, u2;
+    double angle;
+    std::array<std::uint32_t, 3> key;
+  };
+  /// The key of flipping the edge opposite corner k of triangle f (Edit::key).
+  std::array<std::uint32_t, 3> flip_key(std::uint32_t f, int k) const {
+    const Tri& t = m_.triangles[f];
+    return {0, std::min(t[(k + 1) % 3], t[(k + 2) % 3]), std::max(t[(k + 1) % 3], t[(k + 2) % 3])};
+  }
+  std::optional<Flip> plan_flip(std::uint32_t f, int k) const {
+    const Tri t = m_.triangles[f];
     const std::uint32_t c = t[k], a = t[(k + 1) % 3], b = t[(k + 2) % 3];
     const std::optional<std::uint32_t> og = across(f, a, b);
-    if (!og) return false;
+    if (!og) { DBG("F:nm"); return std::nullopt; }
     const std::uint32_t g = *og;
     const Tri tg = m_.triangles[g];
     std::uint32_t d = tg[0];
     for (const std::uint32_t v : tg) {
       if (v != a && v != b) d = v;
     }
-    if (d == c) return false;
+    if (d == c) { DBG("F:dc"); return std::nullopt; }
     const std::vector<std::uint32_t> nc = neighbours(c);
-    if (std::binary_search(nc.begin(), nc.end(), d)) return false;  // the edge c-d exists already
-    // Across a texture seam the new triangles take f's side, where the two sides differ by a
-    // translation (u's wrap): the seam then runs along g's other two edges.
-    glm::vec2 shift(0);
-    if (uvs_) {
-      shift = uv(g, a) - uv(f, a);
-      const glm::vec2 other = uv(g, b) - uv(f, b);
-      if (std::abs(shift.x - other.x) > kUvTolerance || std::abs(shift.y - other.y) > kUvTolerance) return false;
-    }
-    const Tri t1{a, d, c}, t2{d, b, c};
+    if (std::binary_search(nc.begin(), nc.end(), d)) { DBG("F:exists"); return std::nullopt; }
+    Flip p{.g = g, .t1 = {a, d, c}, .t2 = {d, b, c}, .u1 = {}, .u2 = {}, .angle = 0, .key = flip_key(f, k)};
     const dvec3 was = m_.face_normal(t) + m_.face_normal(tg);
-    if (!within(m_.face_normal(t1), was, cos_turn_) || !within(m_.face_normal(t2), was, cos_turn_)) return false;
-    if (std::min(smallest_angle(m_, t1), smallest_angle(m_, t2)) <= std::min(smallest_angle(m_, t), smallest_angle(m_, tg)))
-      return false;
-    const CornerUvs u1{uvs_ ? uv(f, a) : glm::vec2(0), uvs_ ? uv(g, d) - shift : glm::vec2(0), uvs_ ? uv(f, c) : glm::vec2(0)};
-    const CornerUvs u2{u1[1], uvs_ ? uv(f, b) : glm::vec2(0), u1[2]};
+    if (!within(m_.face_normal(p.t1), was, cos_turn_) || !within(m_.face_normal(p.t2), was, cos_turn_)) { DBG("F:turn"); return std::nullopt; }
+    p.angle = std::min(smallest_angle(m_, p.t1), smallest_angle(m_, p.t2));
+    if (p.angle <= std::min(smallest_angle(m_, t), smallest_angle(m_, tg))) { DBG("F:angle"); return std::nullopt; }
+    if (uvs_) {
+      // Across a seam where the two sides differ by a translation (u's wrap), the new
+      // triangles take f's side and the seam runs along g's other two edges. Across another
+      // seam they take the side of the better-shaped triangle, the far vertex's UV given by
+      // its map (extrapolate), and the seam runs along the other triangle's two edges.
+      const glm::vec2 shift = uv(g, a) - uv(f, a), other = uv(g, b) - uv(f, b);
+      std::uint32_t side = f;
+      if (std::abs(shift.x - other.x) <= kUvTolerance && std::abs(shift.y - other.y) <= kUvTolerance) {
+        p.u1 = {uv(f, a), uv(g, d) - shift, uv(f, c)};
+      } else if (smallest_angle(m_, tg) >= smallest_angle(m_, t)) {
+        side = g;
+        const std::optional<glm::vec2> at_c = extrapolate(g, m_.positions[c]);
+        if (!at_c) { DBG("F:seam"); return std::nullopt; }
+        p.u1 = {uv(g, a), uv(g, d), *at_c};
+      } else {
+        const std::optional<glm::vec2> at_d = extrapolate(f, m_.positions[d]);
+        if (!at_d) { DBG("F:seam"); return std::nullopt; }
+        p.u1 = {uv(f, a), *at_d, uv(f, c)};
+      }
+      p.u2 = {p.u1[1], uv(side, b), p.u1[2]};
+      if (!keeps_uv_side(m_.corner_uvs[side], p.u1) || !keeps_uv_side(m_.corner_uvs[side], p.u2)) { DBG("F:uv"); return std::nullopt; }
+    }
+    return p;
+  }
+
+  /// Flips the edge of sliver f that leaves the larger smallest angle, where that keeps the
+  /// rules (slivers.h).
+  bool try_flip(std::uint32_t f, Edit& e) {
+    std::optional<Flip> best;
+    for (int k = 0; k < 3; ++k) {
+      if (forbidden_.contains(flip_key(f, k))) continue;
+      if (std::optional<Flip> p = plan_flip(f, k); p && (!best || p->angle > best->angle)) best = std::move(p);
+    }
+    if (!best) return false;
+    e.key = best->key;
+    const std::uint32_t a = best->t1[0], d = best->t1[1], c = best->t1[2], b = best->t2[1];
     auto without = [](std::vector<std::uint32_t> l, std::uint32_t x) {
       l.erase(std::remove(l.begin(), l.end(), x), l.end());
       return l;
@@ -425,122 +565,200 @@ class SliverRemover {
       l.push_back(x);
       return l;
     };
-    set_faces(e, a, without(faces(a), g));
+    set_faces(e, a, without(faces(a), best->g));
     set_faces(e, b, without(faces(b), f));
-    set_faces(e, c, with(faces(c), g));
+    set_faces(e, c, with(faces(c), best->g));
     set_faces(e, d, with(faces(d), f));
-    set_triangle(e, f, t1, &u1);
-    set_triangle(e, g, t2, &u2);
+    set_triangle(e, f, best->t1, &best->u1);
+    set_triangle(e, best->g, best->t2, &best->u2);
     return true;
   }
 
-  /// Collapses the shortest edge of sliver f where that keeps the rules (slivers.h).
+  /// A collapse of edge (v, w): v removed and its triangles joined to w, which stays or (with
+  /// `midpoint`) moves to the edge's midpoint. The triangles it changes as they become, the
+  /// smallest angle among them and the removed vertex's distance from its surface.
+  struct Collapse {
+    std::uint32_t v, w, t1, t2, x, y;
+    dvec3 at;
+    std::vector<std::tuple<std::uint32_t, Tri, CornerUvs>> changes;
+    double angle = 0;
+    double error = 0;
+  };
+  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint) const {
+    Collapse p{.v = v, .w = w, .t1 = 0, .t2 = 0, .x = 0, .y = 0, .at = m_.positions[w], .changes = {}};
+    // The edge's two triangles t1 = (v, w, x) and t2 = (w, v, y), and no other.
+    int on_edge = 0, found = 0;
+    for (const std::uint32_t h : faces(v)) {
+      const Tri& t = m_.triangles[h];
+      const int k = corner_of(h, v);
+      if (t[(k + 1) % 3] == w) {
+        p.t1 = h, p.x = t[(k + 2) % 3], found |= 1, ++on_edge;
+      } else if (t[(k + 2) % 3] == w) {
+        p.t2 = h, p.y = t[(k + 1) % 3], found |= 2, ++on_edge;
+      }
+    }
+    if (found != 3 || on_edge != 2 || p.x == p.y) { DBG("C:edge"); return std::nullopt; }
+    // Link condition: v and w share exactly the neighbours x and y; both keep three or more.
+    const std::vector<std::uint32_t> nv = neighbours(v), nw = neighbours(w);
+    std::vector<std::uint32_t> common;
+    std::set_intersection(nv.begin(), nv.end(), nw.begin(), nw.end(), std::back_inserter(common));
+    if (common.size() != 2 || neighbours(p.x).size() < 4 || neighbours(p.y).size() < 4) { DBG("C:link"); return std::nullopt; }
+    std::vector<std::uint32_t> changed = faces(v);
+    if (midpoint) {
+      const dvec3 mid = 0.5 * (m_.positions[v] + m_.positions[w]);
+      p.at = r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid;
+      std::vector<std::uint32_t> near;  // for coincidence: every neighbour of either
+      std::set_union(nv.begin(), nv.end(), nw.begin(), nw.end(), std::back_inserter(near));
+      for (const std::uint32_t n : near) {
+        if (m_.positions[n] == p.at) return std::nullopt;
+      }
+      const std::vector<std::uint32_t> fw = faces(w);
+      std::vector<std::uint32_t> both;
+      std::set_union(changed.begin(), changed.end(), fw.begin(), fw.end(), std::back_inserter(both));
+      changed = std::move(both);
+    }
+    double before = std::numbers::pi;
+    for (const std::uint32_t h : changed) before = std::min(before, smallest_angle(m_, m_.triangles[h]));
+    // The UVs of the moved corners, carried around each moved vertex from the edge's triangles.
+    auto target = [&](std::uint32_t h) { return midpoint ? 0.5f * (uv(h, v) + uv(h, w)) : uv(h, w); };
+    const auto at_v = carry(v, p.at, p.t1, p.t2, uvs_ ? target(p.t1) : glm::vec2(0), uvs_ ? target(p.t2) : glm::vec2(0));
+    if (!at_v) { DBG("C:carry"); return std::nullopt; }
+    std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> at_w;
+    if (midpoint) {
+      at_w = carry(w, p.at, p.t2, p.t1, uvs_ ? target(p.t2) : glm::vec2(0), uvs_ ? target(p.t1) : glm::vec2(0));
+      if (!at_w) return std::nullopt;
+    }
+    auto lookup = [](const std::vector<std::pair<std::uint32_t, glm::vec2>>& l, std::uint32_t h) {
+      for (const auto& [g, u] : l) {
+        if (g == h) return u;
+      }
+      return glm::vec2(0);
+    };
+    // The changed triangles after: none turned too far, none flipped in UV, the smallest angle
+    // larger than before.
+    Mesh& m = const_cast<Mesh&>(m_);  // (w's position tried and put back)
+    const dvec3 w_was = m.positions[w];
+    m.positions[w] = p.at;
+    p.angle = std::numbers::pi;
+    bool ok = true;
+    for (const std::uint32_t h : changed) {
+      if (h == p.t1 || h == p.t2) continue;
+      const Tri was = m_.triangles[h];
+      Tri n = was;
+      CornerUvs u = uvs_ ? m_.corner_uvs[h] : CornerUvs{};
+      for (int i = 0; i < 3; ++i) {
+        if (n[i] == v) {
+          n[i] = w;
+          u[i] = lookup(*at_v, h);
+        } else if (n[i] == w && midpoint) {
+          u[i] = lookup(*at_w, h);
+        }
+      }
+      m.positions[w] = w_was;
+      const dvec3 normal_was = m_.face_normal(was);
+      const bool uv_ok = !uvs_ || keeps_uv_side(m_.corner_uvs[h], u);
+      m.positions[w] = p.at;
+      ok = uv_ok && within(m_.face_normal(n), normal_was, cos_turn_);
+      if (!uv_ok) DBG("C:uv"); else if (!ok) DBG("C:turn");
+      if (!ok) break;
+      p.angle = std::min(p.angle, smallest_angle(m_, n));
+      p.changes.emplace_back(h, n, u);
+    }
+    m.positions[w] = w_was;
+    if (ok && p.angle <= before) DBG("C:angle");
+    if (!ok || p.angle <= before) return std::nullopt;
+    p.error = o_.vertex_error.size() == m_.positions.size() ? o_.vertex_error[v] : 0.0;
+    return p;
+  }
+
+  /// Removes a vertex of sliver f by the collapse that keeps the rules (slivers.h) and leaves
+  /// the largest smallest angle: each of f's vertices onto each neighbour no farther than f's
+  /// longest edge (the neighbour stays where it is), else f's shortest edge onto its midpoint.
+  /// Where several leave no sliver, the one removing the vertex farthest from its surface.
   bool try_collapse(std::uint32_t f, Edit& e) {
     const Tri t = m_.triangles[f];
+    double longest = 0, shortest = INFINITY;
     int k = 0;  // edge (t[k], t[k + 1]) is the shortest
-    double shortest = INFINITY;
     for (int i = 0; i < 3; ++i) {
       const double l = glm::length(m_.positions[t[(i + 1) % 3]] - m_.positions[t[i]]);
+      longest = std::max(longest, l);
       if (l < shortest) {
         shortest = l;
         k = i;
       }
     }
-    const std::uint32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
-    const std::optional<std::uint32_t> og = across(f, a, b);
-    if (!og) return false;
-    const std::uint32_t g = *og;
-    std::uint32_t d = c;
-    for (const std::uint32_t v : m_.triangles[g]) {
-      if (v != a && v != b) d = v;
-    }
-    if (d == c) return false;
-    // Link condition: a and b share exactly the neighbours c and d; both keep three or more.
-    const std::vector<std::uint32_t> na = neighbours(a), nb = neighbours(b);
-    std::vector<std::uint32_t> common;
-    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
-    if (common.size() != 2 || neighbours(c).size() < 4 || neighbours(d).size() < 4) return false;
-    const std::vector<std::uint32_t> fa = faces(a), fb = faces(b);
-    std::vector<std::uint32_t> fan;  // the triangles left at the merged vertex
-    std::set_union(fa.begin(), fa.end(), fb.begin(), fb.end(), std::back_inserter(fan));
-    double worst_before = std::numbers::pi;
-    for (const std::uint32_t h : fan) worst_before = std::min(worst_before, smallest_angle(m_, m_.triangles[h]));
-    fan.erase(std::remove_if(fan.begin(), fan.end(), [&](std::uint32_t h) { return h == f || h == g; }), fan.end());
-    std::vector<dvec3> was;  // the fan's normals before
-    for (const std::uint32_t h : fan) was.push_back(m_.face_normal(m_.triangles[h]));
-    const glm::vec2 ua = uvs_ ? uv(f, a) : glm::vec2(0), ub = uvs_ ? uv(f, b) : glm::vec2(0);
-    const dvec3 pa = m_.positions[a], pb = m_.positions[b];
-    const dvec3 mid = r_.grid > 0 ? snap_to_grid(0.5 * (pa + pb), r_.grid) : 0.5 * (pa + pb);
-    struct Target {
-      std::uint32_t keep, drop;
-      dvec3 at;
-      glm::vec2 uv;
+    auto better = [&](const Collapse& p, const Collapse& q) {  // p before q
+      const double sp = std::min(p.angle, limit_), sq = std::min(q.angle, limit_);
+      if (sp != sq) return sp > sq;
+      if (p.error != q.error) return p.error > q.error;
+      return p.angle > q.angle;
     };
-    // The ends first (the vertex that stays is where it was), the one nearer the surface first.
-    const bool b_first = o_.vertex_error.size() == m_.positions.size() && o_.vertex_error[b] < o_.vertex_error[a];
-    const Target targets[] = {b_first ? Target{b, a, pb, ub} : Target{a, b, pa, ua},
-                              b_first ? Target{a, b, pa, ua} : Target{b, a, pb, ub}, {a, b, mid, 0.5f * (ua + ub)}};
-    std::vector<std::uint32_t> near;  // for coincidence: every neighbour of either
-    std::set_union(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(near));
-    for (const Target& x : targets) {
-      if (x.at != pa && x.at != pb) {
-        bool coincident = false;
-        for (const std::uint32_t w : near) coincident = coincident || m_.positions[w] == x.at;
-        if (coincident) continue;
+    std::optional<Collapse> best;
+    for (const std::uint32_t v : t) {
+      for (const std::uint32_t w : neighbours(v)) {
+        if (glm::length(m_.positions[w] - m_.positions[v]) > longest) continue;
+        if (forbidden_.contains({1, v, w})) continue;
+        if (std::optional<Collapse> p = plan_collapse(v, w, false); p && (!best || better(*p, *best))) best = std::move(p);
       }
-      // The fan's triangles after the collapse: none turned too far, none worse than before.
-      bool ok = true;
-      double worst_after = std::numbers::pi;
-      const dvec3 keep_at = m_.positions[x.keep];
-      m_.positions[x.keep] = x.at;
-      for (std::size_t i = 0; i < fan.size() && ok; ++i) {
-        Tri n = m_.triangles[fan[i]];
-        for (std::uint32_t& v : n) {
-          if (v == x.drop) v = x.keep;
-        }
-        ok = within(m_.face_normal(n), was[i], cos_turn_);
-        worst_after = std::min(worst_after, smallest_angle(m_, n));
-      }
-      m_.positions[x.keep] = keep_at;
-      if (!ok || worst_after <= worst_before) continue;
-      // Apply.
-      e.collapse = true;
-      e.position = std::pair(x.keep, keep_at);
-      m_.positions[x.keep] = x.at;
-      for (const std::uint32_t h : fan) {
-        Tri n = m_.triangles[h];
-        CornerUvs u = uvs_ ? m_.corner_uvs[h] : CornerUvs{};
-        for (int i = 0; i < 3; ++i) {
-          // Each corner moves in UV as its vertex does on f (across a seam of u's wrap, the
-          // same translation); the vertex that stays keeps its UVs where it does not move.
-          if (uvs_ && n[i] == x.drop) u[i] += x.uv - uv(f, x.drop);
-          if (uvs_ && n[i] == x.keep && x.at != keep_at) u[i] += x.uv - uv(f, x.keep);
-          if (n[i] == x.drop) n[i] = x.keep;
-        }
-        set_triangle(e, h, n, &u);
-      }
-      set_triangle(e, f, {x.keep, x.keep, x.keep}, nullptr);  // (after the fan: uv(f, .) read above)
-      set_triangle(e, g, {x.keep, x.keep, x.keep}, nullptr);
-      set_faces(e, x.keep, fan);
-      set_faces(e, x.drop, {});
-      auto without = [](std::vector<std::uint32_t> l, std::uint32_t y) {
-        l.erase(std::remove(l.begin(), l.end(), y), l.end());
-        return l;
-      };
-      set_faces(e, c, without(faces(c), f));
-      set_faces(e, d, without(faces(d), g));
-      return true;
     }
-    return false;
+    if (!best && !forbidden_.contains({2, t[k], t[(k + 1) % 3]})) best = plan_collapse(t[k], t[(k + 1) % 3], true);
+    if (!best) return false;
+    const Collapse& p = *best;
+    e.collapse = true;
+    e.key = {p.at != m_.positions[p.w] ? 2u : 1u, p.v, p.w};
+    if (p.at != m_.positions[p.w]) {
+      e.position = std::pair(p.w, m_.positions[p.w]);
+      m_.positions[p.w] = p.at;
+    }
+    std::vector<std::uint32_t> fan;  // the triangles left at w
+    {
+      const std::vector<std::uint32_t> fv = faces(p.v), fw = faces(p.w);
+      std::set_union(fv.begin(), fv.end(), fw.begin(), fw.end(), std::back_inserter(fan));
+      std::erase_if(fan, [&](std::uint32_t h) { return h == p.t1 || h == p.t2; });
+    }
+    auto without = [](std::vector<std::uint32_t> l, std::uint32_t y) {
+      l.erase(std::remove(l.begin(), l.end(), y), l.end());
+      return l;
+    };
+    set_faces(e, p.x, without(faces(p.x), p.t1));
+    set_faces(e, p.y, without(faces(p.y), p.t2));
+    set_faces(e, p.w, fan);
+    set_faces(e, p.v, {});
+    for (const auto& [h, n, u] : p.changes) set_triangle(e, h, n, &u);
+    set_triangle(e, p.t1, {p.w, p.w, p.w}, nullptr);
+    set_triangle(e, p.t2, {p.w, p.w, p.w}, nullptr);
+    return true;
   }
 
+  void diagnose(const std::vector<std::uint8_t>& refused) {
+    std::vector<std::uint32_t> all(m_.triangles.size());
+    for (std::uint32_t f = 0; f < all.size(); ++f) all[f] = f;
+    for (const std::uint32_t f : find(all, limit_)) {
+      g_why.clear();
+      Edit e;
+      const Tri t = m_.triangles[f];
+      bool ok = try_flip(f, e) || try_collapse(f, e);
+      if (ok) undo(e);
+      std::map<std::string,int> cnt; { std::string w; for (char ch : g_why) { if (ch==' ') { cnt[w]++; w.clear(); } else w += ch; } }
+      std::string sum; for (auto& [k,v] : cnt) sum += k + "=" + std::to_string(v) + " ";
+      const dvec3 p = m_.positions[t[0]];
+      std::fprintf(stderr, "SLIVER f=%u ang=%.3f v=%u,%u,%u val=%zu,%zu,%zu strand=%d%d%d refused=%d ok=%d at=(%.3f %.3f %.3f) %s\n", f,
+                   smallest_angle(m_, t) / kRadians, t[0], t[1], t[2], neighbours(t[0]).size(), neighbours(t[1]).size(), neighbours(t[2]).size(),
+                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[0]].valid(),
+                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[1]].valid(),
+                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[2]].valid(),
+                   (int)refused[f], (int)ok, p.x, p.y, p.z, sum.c_str());
+    }
+  }
   MeshResult& r_;
   Mesh& m_;
   const SliverOptions& o_;
   const VertexCorners vc_;
   const double cos_turn_;
   const bool uvs_;
+  const double limit_;  // the sliver angle (radians)
   std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> faces_;  // lists changed by edits
+  std::set<std::array<std::uint32_t, 3>> forbidden_;  // edits undone for their crossings (Edit::key)
 };
 
 }  // namespace
