@@ -398,7 +398,7 @@ class SliverRemover {
   }
   /// Whether new corner UVs keep a triangle's orientation in UV (any, where it had none).
   bool keeps_uv_side(const CornerUvs& was, const CornerUvs& now) const {
-    if (!uvs_) return true;
+    if (!uvs_ || std::getenv("SM_NOUV")) return true;
     const int s = uv_sign(was);
     return s == 0 || uv_sign(now) == s;
   }
@@ -671,11 +671,11 @@ class SliverRemover {
     return p;
   }
 
-  /// Removes a vertex of sliver f by the collapse that keeps the rules (slivers.h) and leaves
+  /// The collapse removing a vertex of sliver f that keeps the rules (slivers.h) and leaves
   /// the largest smallest angle: each of f's vertices onto each neighbour no farther than f's
   /// longest edge (the neighbour stays where it is), else f's shortest edge onto its midpoint.
   /// Where several leave no sliver, the one removing the vertex farthest from its surface.
-  bool try_collapse(std::uint32_t f, Edit& e) {
+  std::optional<Collapse> best_collapse(std::uint32_t f) const {
     const Tri t = m_.triangles[f];
     double longest = 0, shortest = INFINITY;
     int k = 0;  // edge (t[k], t[k + 1]) is the shortest
@@ -696,14 +696,16 @@ class SliverRemover {
     std::optional<Collapse> best;
     for (const std::uint32_t v : t) {
       for (const std::uint32_t w : neighbours(v)) {
-        if (glm::length(m_.positions[w] - m_.positions[v]) > longest) continue;
-        if (forbidden_.contains({1, v, w})) continue;
+        if (glm::length(m_.positions[w] - m_.positions[v]) > longest || forbidden_.contains({1, v, w})) continue;
         if (std::optional<Collapse> p = plan_collapse(v, w, false); p && (!best || better(*p, *best))) best = std::move(p);
       }
     }
     if (!best && !forbidden_.contains({2, t[k], t[(k + 1) % 3]})) best = plan_collapse(t[k], t[(k + 1) % 3], true);
-    if (!best) return false;
-    const Collapse& p = *best;
+    return best;
+  }
+
+  /// Applies collapse p (plan_collapse) as part of edit e.
+  void apply(const Collapse& p, Edit& e) {
     e.collapse = true;
     e.key = {p.at != m_.positions[p.w] ? 2u : 1u, p.v, p.w};
     if (p.at != m_.positions[p.w]) {
@@ -727,7 +729,43 @@ class SliverRemover {
     for (const auto& [h, n, u] : p.changes) set_triangle(e, h, n, &u);
     set_triangle(e, p.t1, {p.w, p.w, p.w}, nullptr);
     set_triangle(e, p.t2, {p.w, p.w, p.w}, nullptr);
-    return true;
+  }
+
+  /// Removes a vertex of sliver f by a collapse (best_collapse). Where none keeps the rules, a
+  /// vertex of three neighbours next to f's is collapsed first, where that keeps them: such a
+  /// vertex inside a triangle of near-coincident vertices (a cut line passing close to a
+  /// vertex) blocks every collapse of their edges by the link condition.
+  bool try_collapse(std::uint32_t f, Edit& e) {
+    if (std::optional<Collapse> p = best_collapse(f)) {
+      apply(*p, e);
+      return true;
+    }
+    std::vector<std::uint32_t> threes;
+    for (const std::uint32_t v : m_.triangles[f]) {
+      for (const std::uint32_t z : neighbours(v)) {
+        if (neighbours(z).size() == 3) threes.push_back(z);
+      }
+    }
+    std::sort(threes.begin(), threes.end());
+    threes.erase(std::unique(threes.begin(), threes.end()), threes.end());
+    for (const std::uint32_t z : threes) {
+      const Tri& t = m_.triangles[f];
+      if (z == t[0] || z == t[1] || z == t[2]) continue;
+      std::optional<Collapse> first;
+      for (const std::uint32_t w : neighbours(z)) {
+        if (forbidden_.contains({1, z, w})) continue;
+        if (std::optional<Collapse> p = plan_collapse(z, w, false); p && (!first || p->angle > first->angle)) first = std::move(p);
+      }
+      if (!first) continue;
+      apply(*first, e);
+      if (std::optional<Collapse> p = best_collapse(f)) {
+        apply(*p, e);
+        return true;
+      }
+      undo(e);
+      e = Edit{};
+    }
+    return false;
   }
 
   void diagnose(const std::vector<std::uint8_t>& refused) {
