@@ -29,6 +29,9 @@ using CornerUvs = std::array<glm::vec2, 3>;
 constexpr double kRadians = std::numbers::pi / 180.0;
 /// Two sides of a seam differ by one translation where their shifts agree within this (UV units).
 constexpr float kUvTolerance = 1e-5f;
+/// An edge shorter than this share of the longest edge around it joins two vertices that stand
+/// for one point.
+constexpr double kDuplicateEdge = 0.01;
 
 /// The smallest angle of triangle t (radians; 0 where it is degenerate).
 double smallest_angle(const Mesh& m, const Tri& t) {
@@ -444,7 +447,8 @@ class SliverRemover {
   /// take the UV their best-shaped one's own map gives p (extrapolate), carried on from there.
   /// Empty where a triangle cannot be given one.
   std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> carry(std::uint32_t v, const dvec3& p, std::uint32_t s1,
-                                                                         std::uint32_t s2, glm::vec2 uv1, glm::vec2 uv2) const {
+                                                                         std::uint32_t s2, glm::vec2 uv1, glm::vec2 uv2,
+                                                                         bool* extrapolated = nullptr) const {
     const std::vector<std::uint32_t> fan = faces(v);
     std::vector<std::pair<std::uint32_t, glm::vec2>> out;
     if (!uvs_) {
@@ -483,6 +487,7 @@ class SliverRemover {
       }
       const std::optional<glm::vec2> at = extrapolate(*best, p);
       if (!at) return std::nullopt;
+      if (extrapolated) *extrapolated = true;
       start(*best, *at);
     }
     return out;
@@ -584,7 +589,7 @@ class SliverRemover {
     double angle = 0;
     double error = 0;
   };
-  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint) const {
+  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint, bool better = true) const {
     Collapse p{.v = v, .w = w, .t1 = 0, .t2 = 0, .x = 0, .y = 0, .at = m_.positions[w], .changes = {}};
     // The edge's two triangles t1 = (v, w, x) and t2 = (w, v, y), and no other.
     int on_edge = 0, found = 0;
@@ -621,11 +626,12 @@ class SliverRemover {
     for (const std::uint32_t h : changed) before = std::min(before, smallest_angle(m_, m_.triangles[h]));
     // The UVs of the moved corners, carried around each moved vertex from the edge's triangles.
     auto target = [&](std::uint32_t h) { return midpoint ? 0.5f * (uv(h, v) + uv(h, w)) : uv(h, w); };
-    const auto at_v = carry(v, p.at, p.t1, p.t2, uvs_ ? target(p.t1) : glm::vec2(0), uvs_ ? target(p.t2) : glm::vec2(0));
+    bool mixed = false;  // charts that differ by more than a translation meet at v or w
+    const auto at_v = carry(v, p.at, p.t1, p.t2, uvs_ ? target(p.t1) : glm::vec2(0), uvs_ ? target(p.t2) : glm::vec2(0), &mixed);
     if (!at_v) { DBG("C:carry"); return std::nullopt; }
     std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> at_w;
     if (midpoint) {
-      at_w = carry(w, p.at, p.t2, p.t1, uvs_ ? target(p.t2) : glm::vec2(0), uvs_ ? target(p.t1) : glm::vec2(0));
+      at_w = carry(w, p.at, p.t2, p.t1, uvs_ ? target(p.t2) : glm::vec2(0), uvs_ ? target(p.t1) : glm::vec2(0), &mixed);
       if (!at_w) return std::nullopt;
     }
     auto lookup = [](const std::vector<std::pair<std::uint32_t, glm::vec2>>& l, std::uint32_t h) {
@@ -634,8 +640,31 @@ class SliverRemover {
       }
       return glm::vec2(0);
     };
-    // The changed triangles after: none turned too far, none flipped in UV, the smallest angle
-    // larger than before.
+    // The normals before of the changed triangles that are no slivers (all where each is), and
+    // whether their texture had one side (it is kept only where it had).
+    std::vector<dvec3> normals;
+    int sides = 0;
+    for (const bool all : {false, true}) {
+      for (const std::uint32_t h : changed) {
+        if (all || smallest_angle(m_, m_.triangles[h]) >= limit_) normals.push_back(m_.face_normal(m_.triangles[h]));
+      }
+      if (!normals.empty()) break;
+    }
+    if (uvs_) {
+      for (const std::uint32_t h : changed) sides |= uv_sign(m_.corner_uvs[h]) > 0 ? 1 : (uv_sign(m_.corner_uvs[h]) < 0 ? 2 : 0);
+    }
+    const bool keep_side = !mixed && sides != 3;
+    // An edge under a hundredth of the longest around v joins vertices that stand for one
+    // point (a cut line through a vertex): the normals of the triangles it changes, at that
+    // scale, are no measure of the surface, which moves by less than the edge.
+    double around = 0;
+    for (const std::uint32_t h : changed) {
+      const Tri& t = m_.triangles[h];
+      for (int i = 0; i < 3; ++i) around = std::max(around, glm::length(m_.positions[t[(i + 1) % 3]] - m_.positions[t[i]]));
+    }
+    const bool duplicate = glm::length(m_.positions[v] - m_.positions[w]) < kDuplicateEdge * around;
+    // The changed triangles after: none turned over, each within max_turn of a normal before,
+    // none flipped in UV where the texture had one side, the smallest angle larger than before.
     Mesh& m = const_cast<Mesh&>(m_);  // (w's position tried and put back)
     const dvec3 w_was = m.positions[w];
     m.positions[w] = p.at;
@@ -656,9 +685,11 @@ class SliverRemover {
       }
       m.positions[w] = w_was;
       const dvec3 normal_was = m_.face_normal(was);
-      const bool uv_ok = !uvs_ || keeps_uv_side(m_.corner_uvs[h], u);
+      const bool uv_ok = !uvs_ || !keep_side || keeps_uv_side(m_.corner_uvs[h], u);
       m.positions[w] = p.at;
-      ok = uv_ok && within(m_.face_normal(n), normal_was, cos_turn_);
+      const dvec3 normal = m_.face_normal(n);
+      ok = uv_ok && (duplicate || (within(normal, normal_was, 0.0) &&
+           std::any_of(normals.begin(), normals.end(), [&](const dvec3& o) { return within(normal, o, cos_turn_); })));
       if (!uv_ok) DBG("C:uv"); else if (!ok) DBG("C:turn");
       if (!ok) break;
       p.angle = std::min(p.angle, smallest_angle(m_, n));
@@ -666,7 +697,7 @@ class SliverRemover {
     }
     m.positions[w] = w_was;
     if (ok && p.angle <= before) DBG("C:angle");
-    if (!ok || p.angle <= before) return std::nullopt;
+    if (!ok || (better && p.angle <= before)) return std::nullopt;
     p.error = o_.vertex_error.size() == m_.positions.size() ? o_.vertex_error[v] : 0.0;
     return p;
   }
@@ -732,9 +763,11 @@ class SliverRemover {
   }
 
   /// Removes a vertex of sliver f by a collapse (best_collapse). Where none keeps the rules, a
-  /// vertex of three neighbours next to f's is collapsed first, where that keeps them: such a
-  /// vertex inside a triangle of near-coincident vertices (a cut line passing close to a
-  /// vertex) blocks every collapse of their edges by the link condition.
+  /// vertex of three neighbours at or next to f's vertices is collapsed first (whatever its
+  /// angles), and then the slivers that step left are flipped or collapsed, where the two
+  /// together make the smallest angle of the triangles they change larger: such a vertex
+  /// inside a triangle of near-coincident or collinear vertices (a cut line passing close to a
+  /// vertex) blocks every flip and collapse of their edges.
   bool try_collapse(std::uint32_t f, Edit& e) {
     if (std::optional<Collapse> p = best_collapse(f)) {
       apply(*p, e);
@@ -742,6 +775,7 @@ class SliverRemover {
     }
     std::vector<std::uint32_t> threes;
     for (const std::uint32_t v : m_.triangles[f]) {
+      if (neighbours(v).size() == 3) threes.push_back(v);
       for (const std::uint32_t z : neighbours(v)) {
         if (neighbours(z).size() == 3) threes.push_back(z);
       }
@@ -749,23 +783,64 @@ class SliverRemover {
     std::sort(threes.begin(), threes.end());
     threes.erase(std::unique(threes.begin(), threes.end()), threes.end());
     for (const std::uint32_t z : threes) {
-      const Tri& t = m_.triangles[f];
-      if (z == t[0] || z == t[1] || z == t[2]) continue;
       std::optional<Collapse> first;
       for (const std::uint32_t w : neighbours(z)) {
         if (forbidden_.contains({1, z, w})) continue;
-        if (std::optional<Collapse> p = plan_collapse(z, w, false); p && (!first || p->angle > first->angle)) first = std::move(p);
+        if (std::optional<Collapse> p = plan_collapse(z, w, false, false); p && (!first || p->angle > first->angle)) first = std::move(p);
       }
       if (!first) continue;
       apply(*first, e);
-      if (std::optional<Collapse> p = best_collapse(f)) {
-        apply(*p, e);
+      // The slivers the first step left among the triangles it changed, each flipped or
+      // collapsed where it can be.
+      std::vector<std::uint32_t> left;
+      for (const auto& [g, old] : e.triangles) {
+        if (!collapsed(m_.triangles[g]) && smallest_angle(m_, m_.triangles[g]) < limit_) left.push_back(g);
+      }
+      for (const std::uint32_t g : left) {
+        if (collapsed(m_.triangles[g]) || smallest_angle(m_, m_.triangles[g]) >= limit_) continue;
+        Edit next;
+        if (try_flip(g, next)) {
+        } else if (std::optional<Collapse> p = best_collapse(g)) {
+          apply(*p, next);
+        } else {
+          continue;
+        }
+        if (next.position && e.position) {  // (an edit restores one position)
+          undo(next);
+          continue;
+        }
+        e.triangles.insert(e.triangles.end(), next.triangles.begin(), next.triangles.end());
+        e.uvs.insert(e.uvs.end(), next.uvs.begin(), next.uvs.end());
+        e.faces.insert(e.faces.end(), next.faces.begin(), next.faces.end());
+        if (next.position) e.position = next.position;
+      }
+      double before = std::numbers::pi, after = std::numbers::pi;
+      std::vector<std::uint32_t> seen;
+      for (const auto& [g, old] : e.triangles) {
+        if (std::find(seen.begin(), seen.end(), g) != seen.end()) continue;
+        seen.push_back(g);
+        if (!collapsed(old)) before = std::min(before, smallest_angle_was(e, g, old));
+        if (!collapsed(m_.triangles[g])) after = std::min(after, smallest_angle(m_, m_.triangles[g]));
+      }
+      if (after > before) {
+        e.key = {3, z, f};
         return true;
       }
       undo(e);
       e = Edit{};
     }
     return false;
+  }
+  /// The smallest angle triangle g had before edit e (its first recorded value `old`; the
+  /// edit moved at most e.position's vertex).
+  double smallest_angle_was(const Edit& e, std::uint32_t g, const Tri& old) {
+    (void)g;
+    if (!e.position) return smallest_angle(m_, old);
+    const dvec3 now = m_.positions[e.position->first];
+    m_.positions[e.position->first] = e.position->second;
+    const double a = smallest_angle(m_, old);
+    m_.positions[e.position->first] = now;
+    return a;
   }
 
   void diagnose(const std::vector<std::uint8_t>& refused) {
