@@ -7,10 +7,6 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
-#include <map>
-#include <string>
-#include <cstdio>
-#include <cstdlib>
 #include <tuple>
 #include <unordered_map>
 #include <set>
@@ -21,7 +17,6 @@
 
 namespace sm {
 namespace {
-std::string g_why; inline bool DBG(const char* w){ g_why += w; g_why += " "; return false; }
 
 using glm::dvec3;
 using Tri = Mesh::Triangle;
@@ -201,7 +196,6 @@ class SliverRemover {
     // Round 0 looks at every triangle; later rounds only at the slivers left and the
     // triangles the kept edits changed (nothing else moved).
     std::vector<std::uint32_t> look = all;
-    std::vector<std::uint8_t> refused(m_.triangles.size(), 0);
     for (int round = 0; round < o_.max_rounds; ++round) {
       std::vector<std::uint32_t> slivers = find(look, limit);
       if (round == 0) st.found = slivers.size();
@@ -212,10 +206,9 @@ class SliverRemover {
 
       std::vector<std::uint8_t> locked(m_.positions.size(), 0);
       std::vector<Edit> edits;
-      std::vector<std::uint32_t> origin;  // the sliver each edit is for
       for (const std::uint32_t f : slivers) {
         const Tri t = m_.triangles[f];
-        if (refused[f] || collapsed(t) || locked[t[0]] || locked[t[1]] || locked[t[2]]) continue;
+        if (collapsed(t) || locked[t[0]] || locked[t[1]] || locked[t[2]]) continue;
         Edit e;
         if (!try_flip(f, e) && !try_collapse(f, e)) continue;
         // Edits of one round touch disjoint vertices (so that any of them can be undone
@@ -234,10 +227,9 @@ class SliverRemover {
           for (const std::uint32_t v : m_.triangles[g]) locked[v] = 1;
         }
         edits.push_back(std::move(e));
-        origin.push_back(f);
       }
-      // Edits whose triangles cross more than before are undone, until none does; their
-      // slivers are not tried again. `now` holds the pairs of the triangles `changed` as the
+      // Edits whose triangles cross more than before are undone, until none does; such an
+      // edit is not tried again (its sliver tries its next best in the next round). `now` holds the pairs of the triangles `changed` as the
       // mesh is now: after an undo only the restored triangles' pairs are found again.
       std::vector<std::uint8_t> active(edits.size(), 1);
       std::vector<std::uint32_t> changed;
@@ -293,7 +285,6 @@ class SliverRemover {
       if (!kept_any && st.undone == undone_before) break;
     }
     st.left = find(all, limit).size();
-    if (std::getenv("SM_SLIVER_DEBUG")) diagnose(refused);
     return st;
   }
 
@@ -401,7 +392,7 @@ class SliverRemover {
   }
   /// Whether new corner UVs keep a triangle's orientation in UV (any, where it had none).
   bool keeps_uv_side(const CornerUvs& was, const CornerUvs& now) const {
-    if (!uvs_ || std::getenv("SM_NOUV")) return true;
+    if (!uvs_) return true;
     const int s = uv_sign(was);
     return s == 0 || uv_sign(now) == s;
   }
@@ -511,21 +502,21 @@ class SliverRemover {
     const Tri t = m_.triangles[f];
     const std::uint32_t c = t[k], a = t[(k + 1) % 3], b = t[(k + 2) % 3];
     const std::optional<std::uint32_t> og = across(f, a, b);
-    if (!og) { DBG("F:nm"); return std::nullopt; }
+    if (!og) return std::nullopt;
     const std::uint32_t g = *og;
     const Tri tg = m_.triangles[g];
     std::uint32_t d = tg[0];
     for (const std::uint32_t v : tg) {
       if (v != a && v != b) d = v;
     }
-    if (d == c) { DBG("F:dc"); return std::nullopt; }
+    if (d == c) return std::nullopt;
     const std::vector<std::uint32_t> nc = neighbours(c);
-    if (std::binary_search(nc.begin(), nc.end(), d)) { DBG("F:exists"); return std::nullopt; }
+    if (std::binary_search(nc.begin(), nc.end(), d)) return std::nullopt;
     Flip p{.g = g, .t1 = {a, d, c}, .t2 = {d, b, c}, .u1 = {}, .u2 = {}, .angle = 0, .key = flip_key(f, k)};
     const dvec3 was = m_.face_normal(t) + m_.face_normal(tg);
-    if (!within(m_.face_normal(p.t1), was, cos_turn_) || !within(m_.face_normal(p.t2), was, cos_turn_)) { DBG("F:turn"); return std::nullopt; }
+    if (!within(m_.face_normal(p.t1), was, cos_turn_) || !within(m_.face_normal(p.t2), was, cos_turn_)) return std::nullopt;
     p.angle = std::min(smallest_angle(m_, p.t1), smallest_angle(m_, p.t2));
-    if (p.angle <= std::min(smallest_angle(m_, t), smallest_angle(m_, tg))) { DBG("F:angle"); return std::nullopt; }
+    if (p.angle <= std::min(smallest_angle(m_, t), smallest_angle(m_, tg))) return std::nullopt;
     if (uvs_) {
       // Across a seam where the two sides differ by a translation (u's wrap), the new
       // triangles take f's side and the seam runs along g's other two edges. Across another
@@ -538,15 +529,15 @@ class SliverRemover {
       } else if (smallest_angle(m_, tg) >= smallest_angle(m_, t)) {
         side = g;
         const std::optional<glm::vec2> at_c = extrapolate(g, m_.positions[c]);
-        if (!at_c) { DBG("F:seam"); return std::nullopt; }
+        if (!at_c) return std::nullopt;
         p.u1 = {uv(g, a), uv(g, d), *at_c};
       } else {
         const std::optional<glm::vec2> at_d = extrapolate(f, m_.positions[d]);
-        if (!at_d) { DBG("F:seam"); return std::nullopt; }
+        if (!at_d) return std::nullopt;
         p.u1 = {uv(f, a), *at_d, uv(f, c)};
       }
       p.u2 = {p.u1[1], uv(side, b), p.u1[2]};
-      if (!keeps_uv_side(m_.corner_uvs[side], p.u1) || !keeps_uv_side(m_.corner_uvs[side], p.u2)) { DBG("F:uv"); return std::nullopt; }
+      if (!keeps_uv_side(m_.corner_uvs[side], p.u1) || !keeps_uv_side(m_.corner_uvs[side], p.u2)) return std::nullopt;
     }
     return p;
   }
@@ -589,7 +580,7 @@ class SliverRemover {
     double angle = 0;
     double error = 0;
   };
-  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint, bool better = true) const {
+  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint, bool better = true) {
     Collapse p{.v = v, .w = w, .t1 = 0, .t2 = 0, .x = 0, .y = 0, .at = m_.positions[w], .changes = {}};
     // The edge's two triangles t1 = (v, w, x) and t2 = (w, v, y), and no other.
     int on_edge = 0, found = 0;
@@ -602,12 +593,12 @@ class SliverRemover {
         p.t2 = h, p.y = t[(k + 1) % 3], found |= 2, ++on_edge;
       }
     }
-    if (found != 3 || on_edge != 2 || p.x == p.y) { DBG("C:edge"); return std::nullopt; }
+    if (found != 3 || on_edge != 2 || p.x == p.y) return std::nullopt;
     // Link condition: v and w share exactly the neighbours x and y; both keep three or more.
     const std::vector<std::uint32_t> nv = neighbours(v), nw = neighbours(w);
     std::vector<std::uint32_t> common;
     std::set_intersection(nv.begin(), nv.end(), nw.begin(), nw.end(), std::back_inserter(common));
-    if (common.size() != 2 || neighbours(p.x).size() < 4 || neighbours(p.y).size() < 4) { DBG("C:link"); return std::nullopt; }
+    if (common.size() != 2 || neighbours(p.x).size() < 4 || neighbours(p.y).size() < 4) return std::nullopt;
     std::vector<std::uint32_t> changed = faces(v);
     if (midpoint) {
       const dvec3 mid = 0.5 * (m_.positions[v] + m_.positions[w]);
@@ -628,7 +619,7 @@ class SliverRemover {
     auto target = [&](std::uint32_t h) { return midpoint ? 0.5f * (uv(h, v) + uv(h, w)) : uv(h, w); };
     bool mixed = false;  // charts that differ by more than a translation meet at v or w
     const auto at_v = carry(v, p.at, p.t1, p.t2, uvs_ ? target(p.t1) : glm::vec2(0), uvs_ ? target(p.t2) : glm::vec2(0), &mixed);
-    if (!at_v) { DBG("C:carry"); return std::nullopt; }
+    if (!at_v) return std::nullopt;
     std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> at_w;
     if (midpoint) {
       at_w = carry(w, p.at, p.t2, p.t1, uvs_ ? target(p.t2) : glm::vec2(0), uvs_ ? target(p.t1) : glm::vec2(0), &mixed);
@@ -665,7 +656,7 @@ class SliverRemover {
     const bool duplicate = glm::length(m_.positions[v] - m_.positions[w]) < kDuplicateEdge * around;
     // The changed triangles after: none turned over, each within max_turn of a normal before,
     // none flipped in UV where the texture had one side, the smallest angle larger than before.
-    Mesh& m = const_cast<Mesh&>(m_);  // (w's position tried and put back)
+    Mesh& m = m_;  // (w's position tried and put back)
     const dvec3 w_was = m.positions[w];
     m.positions[w] = p.at;
     p.angle = std::numbers::pi;
@@ -690,29 +681,26 @@ class SliverRemover {
       const dvec3 normal = m_.face_normal(n);
       ok = uv_ok && (duplicate || (within(normal, normal_was, 0.0) &&
            std::any_of(normals.begin(), normals.end(), [&](const dvec3& o) { return within(normal, o, cos_turn_); })));
-      if (!uv_ok) DBG("C:uv"); else if (!ok) DBG("C:turn");
       if (!ok) break;
       p.angle = std::min(p.angle, smallest_angle(m_, n));
       p.changes.emplace_back(h, n, u);
     }
     m.positions[w] = w_was;
-    if (ok && p.angle <= before) DBG("C:angle");
     if (!ok || (better && p.angle <= before)) return std::nullopt;
     p.error = o_.vertex_error.size() == m_.positions.size() ? o_.vertex_error[v] : 0.0;
     return p;
   }
 
   /// The collapse removing a vertex of sliver f that keeps the rules (slivers.h) and leaves
-  /// the largest smallest angle: each of f's vertices onto each neighbour no farther than f's
-  /// longest edge (the neighbour stays where it is), else f's shortest edge onto its midpoint.
+  /// the largest smallest angle: each of f's edges either way (the vertex kept stays where it
+  /// is), else f's shortest edge onto its midpoint.
   /// Where several leave no sliver, the one removing the vertex farthest from its surface.
-  std::optional<Collapse> best_collapse(std::uint32_t f) const {
+  std::optional<Collapse> best_collapse(std::uint32_t f) {
     const Tri t = m_.triangles[f];
-    double longest = 0, shortest = INFINITY;
+    double shortest = INFINITY;
     int k = 0;  // edge (t[k], t[k + 1]) is the shortest
     for (int i = 0; i < 3; ++i) {
       const double l = glm::length(m_.positions[t[(i + 1) % 3]] - m_.positions[t[i]]);
-      longest = std::max(longest, l);
       if (l < shortest) {
         shortest = l;
         k = i;
@@ -726,8 +714,8 @@ class SliverRemover {
     };
     std::optional<Collapse> best;
     for (const std::uint32_t v : t) {
-      for (const std::uint32_t w : neighbours(v)) {
-        if (glm::length(m_.positions[w] - m_.positions[v]) > longest || forbidden_.contains({1, v, w})) continue;
+      for (const std::uint32_t w : t) {
+        if (w == v || forbidden_.contains({1, v, w})) continue;
         if (std::optional<Collapse> p = plan_collapse(v, w, false); p && (!best || better(*p, *best))) best = std::move(p);
       }
     }
@@ -819,7 +807,7 @@ class SliverRemover {
       for (const auto& [g, old] : e.triangles) {
         if (std::find(seen.begin(), seen.end(), g) != seen.end()) continue;
         seen.push_back(g);
-        if (!collapsed(old)) before = std::min(before, smallest_angle_was(e, g, old));
+        if (!collapsed(old)) before = std::min(before, smallest_angle_was(e, old));
         if (!collapsed(m_.triangles[g])) after = std::min(after, smallest_angle(m_, m_.triangles[g]));
       }
       if (after > before) {
@@ -833,8 +821,7 @@ class SliverRemover {
   }
   /// The smallest angle triangle g had before edit e (its first recorded value `old`; the
   /// edit moved at most e.position's vertex).
-  double smallest_angle_was(const Edit& e, std::uint32_t g, const Tri& old) {
-    (void)g;
+  double smallest_angle_was(const Edit& e, const Tri& old) {
     if (!e.position) return smallest_angle(m_, old);
     const dvec3 now = m_.positions[e.position->first];
     m_.positions[e.position->first] = e.position->second;
@@ -843,26 +830,6 @@ class SliverRemover {
     return a;
   }
 
-  void diagnose(const std::vector<std::uint8_t>& refused) {
-    std::vector<std::uint32_t> all(m_.triangles.size());
-    for (std::uint32_t f = 0; f < all.size(); ++f) all[f] = f;
-    for (const std::uint32_t f : find(all, limit_)) {
-      g_why.clear();
-      Edit e;
-      const Tri t = m_.triangles[f];
-      bool ok = try_flip(f, e) || try_collapse(f, e);
-      if (ok) undo(e);
-      std::map<std::string,int> cnt; { std::string w; for (char ch : g_why) { if (ch==' ') { cnt[w]++; w.clear(); } else w += ch; } }
-      std::string sum; for (auto& [k,v] : cnt) sum += k + "=" + std::to_string(v) + " ";
-      const dvec3 p = m_.positions[t[0]];
-      std::fprintf(stderr, "SLIVER f=%u ang=%.3f v=%u,%u,%u val=%zu,%zu,%zu strand=%d%d%d refused=%d ok=%d at=(%.3f %.3f %.3f) %s\n", f,
-                   smallest_angle(m_, t) / kRadians, t[0], t[1], t[2], neighbours(t[0]).size(), neighbours(t[1]).size(), neighbours(t[2]).size(),
-                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[0]].valid(),
-                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[1]].valid(),
-                   m_.vertex_strand.empty() ? 2 : (int)m_.vertex_strand[t[2]].valid(),
-                   (int)refused[f], (int)ok, p.x, p.y, p.z, sum.c_str());
-    }
-  }
   MeshResult& r_;
   Mesh& m_;
   const SliverOptions& o_;

@@ -6,21 +6,32 @@
 /// (one edge much shorter than the others) and caps (one angle near 180 degrees), which shade
 /// as streaks in a close-up and make vertex normals that face away from a triangle.
 ///
-/// Each sliver, in triangle order, first tries a flip of its longest edge, then a collapse of
-/// its shortest edge (onto the end nearer the skeleton's surface, else the other, else the
-/// midpoint on the float grid). An edit is kept only when
+/// Each sliver, in triangle order, first tries a flip of one of its edges (the one leaving the
+/// larger smallest angle), then a collapse of one of its edges either way (the end kept stays;
+/// among those leaving no sliver, the end farther from the skeleton's surface goes), else of
+/// its shortest edge onto the midpoint on the float grid. (Collapses onto any near neighbour
+/// removed more slivers but lost thick nodes from inside the willow.) Where none keeps the rules, a vertex of three neighbours at or next to
+/// its vertices is collapsed first (a cut line passing a vertex leaves such near-coincident
+/// vertices, which block every one-edge edit by the link condition) and the slivers that
+/// leaves are flipped or collapsed in the same edit. An edit is kept only when
 ///  - the mesh stays a closed, oriented 2-manifold (the collapse's link condition: the edge's
 ///    ends share exactly its two opposite vertices, each keeps at least three neighbours);
 ///  - the smallest angle of the triangles it changes grows;
-///  - no triangle turns by more than `max_turn` (a flip: against the pair's area-weighted normal),
-///    so the surface stays where it was within the sliver's size;
-///  - no texture seam runs through the vertices it moves or rejoins (per-corner UVs kept);
+///  - no triangle turns by more than `max_turn` (a flip: against the pair's area-weighted
+///    normal; a collapse: no triangle turns over and each is within `max_turn` of a normal of
+///    the well-shaped triangles it changes, except across an edge under a hundredth of those
+///    around it, which joins two vertices standing for one point), so the surface stays
+///    where it was within the sliver's size;
+///  - the corner UVs follow: carried around the moved vertex through seams where the two
+///    sides differ by a translation (u's wrap), and past other seams (charts meeting at a
+///    fork or a cut line) given by the map of the best-shaped triangle of that side; no
+///    triangle's texture turns over where it had one side;
 ///  - its triangles take part in no more self-intersecting pairs than before (exact tests,
 ///    sm_meshcheck's TriangleIntersections, against the triangles near them on a grid; the
 ///    mesh's pairs are found once and kept up to date).
-/// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept, and a
-/// sliver whose edit was undone for its crossings is not tried again. A round costs the
-/// tests near its edits, not a pass over the mesh.
+/// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept or undone,
+/// and an edit undone for its crossings is not tried again (its sliver tries the next best).
+/// A round costs the tests near its edits, not a pass over the mesh.
 /// Deterministic: slivers are visited in triangle order, serially.
 
 #include <cstddef>
@@ -50,7 +61,7 @@ std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton);
 struct SliverStats {
   std::size_t found = 0;      ///< slivers before the step
   std::size_t flips = 0;      ///< edge flips kept
-  std::size_t collapses = 0;  ///< edge collapses kept (each removes a vertex and two triangles)
+  std::size_t collapses = 0;  ///< collapse edits kept (each removes a vertex and two triangles; one after a vertex of three neighbours, two of each)
   std::size_t undone = 0;     ///< edits undone because their triangles crossed others
   std::size_t left = 0;       ///< slivers after the step
   std::size_t rounds = 0;     ///< rounds run
