@@ -156,6 +156,7 @@ std::string stats_to_json(const PipelineResult& r, double export_seconds, double
                  {"flips", r.repair.slivers.flips},
                  {"collapses", r.repair.slivers.collapses},
                  {"undone", r.repair.slivers.undone},
+                 {"kept_out", r.repair.slivers.kept_out},
                  {"left", r.repair.slivers.left}}},
                {"normals",
                 {{"split_vertices", r.repair.split_normal_vertices},

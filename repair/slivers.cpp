@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/math.h"
 #include "meshcheck/intersections.h"
 
 namespace sm {
@@ -57,6 +58,133 @@ struct Edit {
   std::optional<std::pair<std::uint32_t, dvec3>> position;
   bool collapse = false;
   std::array<std::uint32_t, 3> key{};  ///< which edit (kind, vertices), not to try again once undone
+  std::vector<std::pair<std::uint32_t, int>> winding;  ///< kept points' winding number changes (InsideGuard)
+};
+
+/// The points that must stay inside the mesh (SliverOptions::keep_inside) and their winding
+/// numbers, kept up to date edit by edit. An edit replaces a patch of triangles by another
+/// with the same boundary, so the winding number about a point changes by that of the closed
+/// surface the new patch and the old one reversed make: the signed count of the ray crossings
+/// with the triangles the edit changed (as inside_closed_mesh counts them; by their solid
+/// angles where the ray passes within rounding of an edge), and none outside their bounding box.
+/// Each point inside at the start is checked against a lower bound of its winding number
+/// (what the kept edits left, less what the edits pending in the round take away), so that no
+/// edit undone later for its crossings can leave one outside.
+class InsideGuard {
+ public:
+  InsideGuard(const Mesh& m, std::span<const dvec3> points, double cell) : m_(m), cell_(std::max(cell, 1e-9)) {
+    if (points.empty()) return;
+    const std::vector<int> w = winding_numbers(m, points);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (w[i] < 1) continue;  // (only those inside are kept inside)
+      const auto id = static_cast<std::uint32_t>(points_.size());
+      points_.push_back(points[i]);
+      floor_.push_back(w[i]);
+      const glm::i64vec3 c = cell_of(points[i]);
+      bins_[key(c.x, c.y, c.z)].push_back(id);
+    }
+  }
+  bool empty() const { return points_.empty(); }
+  /// The winding number changes edit e (applied) makes about the kept points near it, or
+  /// nothing where one of them would leave the mesh (or where a change cannot be told).
+  std::optional<std::vector<std::pair<std::uint32_t, int>>> change(const Edit& e) const {
+    std::vector<std::pair<std::uint32_t, int>> out;
+    if (points_.empty()) return out;
+    // The old triangles (first recorded values, the moved vertex where it was) and the new.
+    std::vector<std::array<dvec3, 3>> before, after;
+    std::vector<std::uint32_t> seen;
+    auto was = [&](std::uint32_t v) {
+      return e.position && e.position->first == v ? e.position->second : m_.positions[v];
+    };
+    dvec3 lo(INFINITY), hi(-INFINITY);
+    auto grow = [&](const std::array<dvec3, 3>& t) {
+      for (const dvec3& p : t) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    };
+    for (const auto& [g, old] : e.triangles) {
+      if (std::find(seen.begin(), seen.end(), g) != seen.end()) continue;
+      seen.push_back(g);
+      if (!collapsed(old)) before.push_back({was(old[0]), was(old[1]), was(old[2])});
+      const Tri& t = m_.triangles[g];
+      if (!collapsed(t)) after.push_back({m_.positions[t[0]], m_.positions[t[1]], m_.positions[t[2]]});
+    }
+    for (const auto& t : before) grow(t);
+    for (const auto& t : after) grow(t);
+    if (!(lo.x <= hi.x)) return out;
+    for (const std::uint32_t i : near(lo, hi)) {
+      const dvec3& p = points_[i];
+      int delta = 0;
+      bool ambiguous = false;
+      for (const auto* list : {&after, &before}) {
+        for (const auto& t : *list) {
+          const int c = ray_crossing(t[0], t[1], t[2], p);
+          if (c == kRayAmbiguous) ambiguous = true;
+          delta += list == &after ? c : -c;
+        }
+      }
+      if (ambiguous) {
+        double w = 0;
+        for (const auto& t : after) w += solid_angle(t[0] - p, t[1] - p, t[2] - p);
+        for (const auto& t : before) w -= solid_angle(t[0] - p, t[1] - p, t[2] - p);
+        w /= 4 * std::numbers::pi;
+        // (A point on the changed triangles: its side cannot be told.)
+        if (!std::isfinite(w) || std::abs(w - std::round(w)) > 0.25) return std::nullopt;
+        delta = static_cast<int>(std::lround(w));
+      }
+      if (delta == 0) continue;
+      if (floor_[i] + std::min(delta, 0) < 1) return std::nullopt;
+      out.emplace_back(i, delta);
+    }
+    return out;
+  }
+  /// An edit applied (its losses counted at once), undone, or kept at the end of its round.
+  void apply(const std::vector<std::pair<std::uint32_t, int>>& c) {
+    for (const auto& [i, d] : c) floor_[i] += std::min(d, 0);
+  }
+  void undo(const std::vector<std::pair<std::uint32_t, int>>& c) {
+    for (const auto& [i, d] : c) floor_[i] -= std::min(d, 0);
+  }
+  void keep(const std::vector<std::pair<std::uint32_t, int>>& c) {
+    for (const auto& [i, d] : c) floor_[i] += std::max(d, 0);
+  }
+
+ private:
+  glm::i64vec3 cell_of(const dvec3& p) const { return glm::i64vec3(glm::floor(p / cell_)); }
+  static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
+    const auto h = [](std::int64_t v) { return static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ull; };
+    return h(x) ^ (h(y) >> 21 | h(y) << 43) ^ (h(z) >> 42 | h(z) << 22);
+  }
+  /// The kept points in the box [lo, hi], in increasing order.
+  std::vector<std::uint32_t> near(const dvec3& lo, const dvec3& hi) const {
+    std::vector<std::uint32_t> out;
+    auto inside = [&](std::uint32_t i) {
+      const dvec3& p = points_[i];
+      return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z;
+    };
+    const glm::i64vec3 a = cell_of(lo), b = cell_of(hi), span = b - a + glm::i64vec3(1);
+    if (span.x * span.y * span.z > static_cast<std::int64_t>(points_.size())) {
+      for (std::uint32_t i = 0; i < points_.size(); ++i) {
+        if (inside(i)) out.push_back(i);
+      }
+      return out;
+    }
+    for (auto z = a.z; z <= b.z; ++z)
+      for (auto y = a.y; y <= b.y; ++y)
+        for (auto x = a.x; x <= b.x; ++x) {
+          if (const auto it = bins_.find(key(x, y, z)); it != bins_.end()) {
+            for (const std::uint32_t i : it->second) {
+              if (inside(i)) out.push_back(i);
+            }
+          }
+        }
+    std::sort(out.begin(), out.end());  // (two cells may share a bin)
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+  const Mesh& m_;
+  double cell_;
+  std::vector<dvec3> points_;
+  std::vector<int> floor_;  // lower bound of each kept point's winding number
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins_;
 };
 
 /// The crossings an edit takes part in, found locally: each triangle binned once on a grid
@@ -77,6 +205,8 @@ class LocalCrossings {
     }
     for (std::uint32_t f = 0; f < m.triangles.size(); ++f) add(f);
   }
+  /// The grid's finest cell (a typical triangle's size).
+  double cell() const { return cell_; }
   /// Bins triangle f where it lies now (after an edit).
   void add(std::uint32_t f) {
     if (collapsed(m_.triangles[f])) return;
@@ -187,6 +317,7 @@ class SliverRemover {
     const double limit = o_.angle * kRadians;
     const TriangleIntersections intersections(m_);
     LocalCrossings crossings(m_, intersections);
+    InsideGuard guard(m_, o_.keep_inside, 4 * crossings.cell());
     std::vector<std::uint32_t> all(m_.triangles.size());
     for (std::uint32_t f = 0; f < all.size(); ++f) all[f] = f;
     // The mesh's crossing pairs, found once and kept up to date: an edit may not take part in
@@ -201,7 +332,7 @@ class SliverRemover {
       if (round == 0) st.found = slivers.size();
       if (slivers.empty()) break;
       ++st.rounds;
-      const std::size_t undone_before = st.undone;
+      const std::size_t undone_before = st.undone, kept_out_before = st.kept_out;
       const PairsAt before(known);
 
       std::vector<std::uint8_t> locked(m_.positions.size(), 0);
@@ -222,6 +353,17 @@ class SliverRemover {
           undo(e);
           continue;
         }
+        // An edit that would leave a point to keep inside outside goes back, not to be tried
+        // again (its sliver tries the next best in the next round).
+        std::optional<std::vector<std::pair<std::uint32_t, int>>> winding = guard.change(e);
+        if (!winding) {
+          undo(e);
+          forbidden_.insert(e.key);
+          ++st.kept_out;
+          continue;
+        }
+        guard.apply(*winding);
+        e.winding = std::move(*winding);
         for (const auto& [g, old] : e.triangles) {
           for (const std::uint32_t v : old) locked[v] = 1;
           for (const std::uint32_t v : m_.triangles[g]) locked[v] = 1;
@@ -246,6 +388,7 @@ class SliverRemover {
         for (std::size_t i = edits.size(); i-- > 0;) {
           if (!active[i] || after.count(edits[i]) <= before.count(edits[i])) continue;
           undo(edits[i]);
+          guard.undo(edits[i].winding);
           active[i] = 0;
           forbidden_.insert(edits[i].key);
           ++st.undone;
@@ -277,12 +420,13 @@ class SliverRemover {
       for (std::size_t i = 0; i < edits.size(); ++i) {
         if (!active[i]) continue;
         kept_any = true;
+        guard.keep(edits[i].winding);
         ++(edits[i].collapse ? st.collapses : st.flips);
         for (const auto& [g, old] : edits[i].triangles) look.push_back(g);
       }
       std::sort(look.begin(), look.end());
       look.erase(std::unique(look.begin(), look.end()), look.end());
-      if (!kept_any && st.undone == undone_before) break;
+      if (!kept_any && st.undone == undone_before && st.kept_out == kept_out_before) break;
     }
     st.left = find(all, limit).size();
     return st;
@@ -771,6 +915,7 @@ class SliverRemover {
     std::sort(threes.begin(), threes.end());
     threes.erase(std::unique(threes.begin(), threes.end()), threes.end());
     for (const std::uint32_t z : threes) {
+      if (forbidden_.contains({3, z, f})) continue;
       std::optional<Collapse> first;
       for (const std::uint32_t w : neighbours(z)) {
         if (forbidden_.contains({1, z, w})) continue;

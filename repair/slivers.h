@@ -52,6 +52,9 @@ struct SliverOptions {
   /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
   /// collapse keeps the edge's end with the smaller value where it can.
   std::span<const double> vertex_error;
+  /// Points that must stay inside the mesh where they are inside it (the thick skeleton
+  /// nodes): an edit that would leave one of them outside is refused.
+  std::span<const glm::dvec3> keep_inside;
 };
 
 /// Per vertex of `mesh` (#V): its distance from the round cone of the skeleton edge that made
@@ -63,6 +66,7 @@ struct SliverStats {
   std::size_t flips = 0;      ///< edge flips kept
   std::size_t collapses = 0;  ///< collapse edits kept (each removes a vertex and two triangles; one after a vertex of three neighbours, two of each)
   std::size_t undone = 0;     ///< edits undone because their triangles crossed others
+  std::size_t kept_out = 0;   ///< edits refused because they would leave a point of keep_inside outside
   std::size_t left = 0;       ///< slivers after the step
   std::size_t rounds = 0;     ///< rounds run
 };

@@ -88,11 +88,21 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   RepairStats st = repair_crossings(mesh, s, params);
   // 7. Slivers.
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
-  const std::vector<double> error = params.sliver_angle > 0 ? cone_error(mesh.mesh, s) : std::vector<double>{};
+  // The thick nodes (radius at least the median, as the repair's rule) inside stay inside.
+  std::vector<double> error;
+  std::vector<glm::dvec3> thick;
+  if (params.sliver_angle > 0) {
+    error = cone_error(mesh.mesh, s);
+    const double median = s.median_radius();
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (s.radius[i] >= median) thick.push_back(s.position[i]);
+    }
+  }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
                                      .known_clean = st.counted && st.pairs_left == 0,
-                                     .vertex_error = error});
+                                     .vertex_error = error,
+                                     .keep_inside = thick});
   if (st.slivers.collapses > 0) {
     drop_degenerate(mesh);
     mesh.stats.vertices = mesh.mesh.vertex_count();
