@@ -555,6 +555,52 @@ TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
   EXPECT_EQ(mirrored_uvs(m), mirrored_uvs(test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8)));  // (one cap's)
 }
 
+TEST(Slivers, AThickNodeInsideStaysInside) {
+  // The tube with a needle and a cap (as above): removing them moves the surface by a fraction
+  // of the sliver's size. A point just inside the surface where an edit would take the
+  // surface past it (found by removing the slivers without it) stays inside when it is one to
+  // keep inside: the edit is refused and the next best taken.
+  auto tube = [] {
+    MeshResult r;
+    r.mesh = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8);
+    Mesh& m = r.mesh;
+    auto id = [](std::uint32_t i, std::uint32_t j) { return i * 16 + j % 16; };
+    m.positions[id(4, 1)] = m.positions[id(4, 0)] + 0.002 * (m.positions[id(4, 1)] - m.positions[id(4, 0)]);
+    const glm::dvec3 diagonal_mid = 0.5 * (m.positions[id(5, 8)] + m.positions[id(6, 9)]);
+    m.positions[id(6, 8)] = diagonal_mid + 0.002 * (m.positions[id(6, 8)] - diagonal_mid);
+    return r;
+  };
+  const MeshResult before = tube();
+  MeshResult free = tube();
+  const SliverStats unguarded = remove_slivers(free, {.angle = 1.0});
+  drop_degenerate(free);
+  ASSERT_GE(unguarded.flips + unguarded.collapses, 2u);
+  // Points just under each triangle's centre, inside before and outside after.
+  std::vector<glm::dvec3> lost;
+  for (const auto& t : before.mesh.triangles) {
+    const glm::dvec3 c = (before.mesh.positions[t[0]] + before.mesh.positions[t[1]] + before.mesh.positions[t[2]]) / 3.0;
+    const glm::dvec3 n = glm::normalize(before.mesh.face_normal(t));
+    for (const double depth : {1e-7, 1e-6, 1e-5}) {
+      const glm::dvec3 p = c - depth * n;
+      if (inside_closed_mesh(before.mesh, p) && !inside_closed_mesh(free.mesh, p)) lost.push_back(p);
+    }
+  }
+  ASSERT_FALSE(lost.empty());
+  MeshResult guarded = tube();
+  const SliverStats st = remove_slivers(guarded, {.angle = 1.0, .keep_inside = lost});
+  drop_degenerate(guarded);
+  EXPECT_GE(st.kept_out, 1u);
+  for (const std::uint8_t in : inside_closed_mesh(guarded.mesh, lost)) EXPECT_TRUE(in);
+  EXPECT_EQ(unpaired_half_edges(guarded.mesh, vertex_corners(guarded.mesh)), 0u);
+  // Points far from the edits do not hold them back.
+  MeshResult far = tube();
+  const std::vector<glm::dvec3> axis = {{0, 0, 0.5}, {0, 0.09, 0.1}};
+  const SliverStats st_far = remove_slivers(far, {.angle = 1.0, .keep_inside = axis});
+  EXPECT_EQ(st_far.kept_out, 0u);
+  EXPECT_EQ(st_far.flips, unguarded.flips);
+  EXPECT_EQ(st_far.collapses, unguarded.collapses);
+}
+
 TEST(Slivers, NearCoincidentVerticesOfACutLineAreMerged) {
   // A cut line (self-union) passing a ten-thousandth of an edge from a vertex P leaves two
   // vertices beside it, one of three neighbours inside a triangle of the other two and P:
