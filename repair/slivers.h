@@ -28,9 +28,14 @@
 ///    triangle's texture turns over where it had one side;
 ///  - its triangles take part in no more self-intersecting pairs than before (exact tests,
 ///    sm_meshcheck's TriangleIntersections, against the triangles near them on a grid; the
-///    mesh's pairs are found once and kept up to date).
+///    mesh's pairs are found once and kept up to date);
+///  - no point to keep inside (the thick skeleton nodes) that is inside the mesh leaves it: the
+///    winding number about a point changes only by that of the closed surface the edit's new
+///    triangles and its old ones reversed make, so only the points in those triangles' box are
+///    tested, against them alone (ray crossings as inside_closed_mesh counts them).
 /// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept or undone,
-/// and an edit undone for its crossings is not tried again (its sliver tries the next best).
+/// and an edit undone for its crossings or refused for a point is not tried again (its sliver
+/// tries the next best).
 /// A round costs the tests near its edits, not a pass over the mesh.
 /// Deterministic: slivers are visited in triangle order, serially.
 
