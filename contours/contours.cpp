@@ -1006,9 +1006,8 @@ double Walker::cone_clearance(const SlicePoints& pts, NodeId x, double base, dou
     const dvec3 a = s_.position[py.idx()], b = s_.position[y.idx()];
     const double ra = s_.start_radius(y), rb = s_.radius[y.idx()];
     const dvec3 ab = b - a;
-    const double l2 = glm::dot(ab, ab);
     for (std::size_t k = 0; k < pts.point.size(); ++k) {
-      const double t = l2 > 0 ? std::clamp(glm::dot(pts.point[k] - a, ab) / l2, 0.0, 1.0) : 0.0;
+      const double t = segment_param(pts.point[k], a, b);
       const double d = glm::length(pts.point[k] - (a + t * ab)) - glm::mix(ra, rb, t) - pts.offset[k];
       if (d <= enough) return d;  // (at the first such point, not the edge's nearest)
       best = std::min(best, d);

@@ -27,14 +27,8 @@ namespace {
 
 /// Barycentric coordinates of p projected onto the plane of (a, b, c), clamped to the
 /// triangle (p lies on it up to rounding: it was cut from it).
-glm::dvec3 barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
-  const glm::dvec3 e0 = b - a, e1 = c - a, d = p - a;
-  const double d00 = glm::dot(e0, e0), d01 = glm::dot(e0, e1), d11 = glm::dot(e1, e1);
-  const double d20 = glm::dot(d, e0), d21 = glm::dot(d, e1);
-  const double den = d00 * d11 - d01 * d01;
-  if (!(den > 0)) return {1.0, 0.0, 0.0};
-  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
-  glm::dvec3 l = glm::max(glm::dvec3(1.0 - v - w, v, w), glm::dvec3(0.0));
+glm::dvec3 clamped_barycentric(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& p) {
+  const glm::dvec3 l = glm::max(barycentric(a, b, c, p), glm::dvec3(0.0));
   const double s = l.x + l.y + l.z;
   return s > 0 ? l / s : glm::dvec3(1.0, 0.0, 0.0);
 }
@@ -94,7 +88,7 @@ Candidate candidate_mesh(const MeshResult& base, const OuterSurface& outer, std:
         if (corner != o.end()) {
           uv[std::size_t(k)] = mesh.corner_uvs[g][std::size_t(corner - o.begin())];
         } else {
-          const glm::dvec3 l = barycentric(mesh.positions[o[0]], mesh.positions[o[1]], mesh.positions[o[2]],
+          const glm::dvec3 l = clamped_barycentric(mesh.positions[o[0]], mesh.positions[o[1]], mesh.positions[o[2]],
                                            outer.positions[v]);
           const auto& ouv = mesh.corner_uvs[g];
           uv[std::size_t(k)] = glm::vec2(l.x * glm::dvec2(ouv[0]) + l.y * glm::dvec2(ouv[1]) + l.z * glm::dvec2(ouv[2]));
