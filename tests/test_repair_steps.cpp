@@ -521,11 +521,9 @@ std::size_t mirrored_uvs(const Mesh& m) {
   return n;
 }
 
-TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
-  // A tube with a needle (a ring vertex 0.2 % of a ring edge from its neighbour, beside the
-  // texture seam) and a cap (a vertex moved almost onto the diagonal of its quad): both are
-  // removed, the mesh stays closed and oriented with its volume, and the UVs stay continuous
-  // (no triangle stretched across the seam, a jump of 1 in u; none mirrored).
+/// A capped tube with a needle (a ring vertex 0.2 % of a ring edge from its neighbour, beside
+/// the texture seam) and a cap (a vertex moved almost onto the diagonal of its quad).
+MeshResult needle_and_cap_tube() {
   MeshResult r;
   r.mesh = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8);
   Mesh& m = r.mesh;
@@ -533,6 +531,15 @@ TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
   m.positions[id(4, 1)] = m.positions[id(4, 0)] + 0.002 * (m.positions[id(4, 1)] - m.positions[id(4, 0)]);
   const glm::dvec3 diagonal_mid = 0.5 * (m.positions[id(5, 8)] + m.positions[id(6, 9)]);
   m.positions[id(6, 8)] = diagonal_mid + 0.002 * (m.positions[id(6, 8)] - diagonal_mid);
+  return r;
+}
+
+TEST(Slivers, NeedlesAndCapsAreFlippedOrCollapsedAway) {
+  // The needle and the cap are removed, the mesh stays closed and oriented with its volume,
+  // and the UVs stay continuous (no triangle stretched across the seam, a jump of 1 in u; none
+  // mirrored).
+  MeshResult r = needle_and_cap_tube();
+  Mesh& m = r.mesh;
   ASSERT_LT(smallest_angle_deg(m), 1.0);
   const double volume = signed_volume(m);
   const std::size_t triangles = m.triangle_count();
@@ -560,18 +567,8 @@ TEST(Slivers, AThickNodeInsideStaysInside) {
   // of the sliver's size. A point just inside the surface where an edit would take the
   // surface past it (found by removing the slivers without it) stays inside when it is one to
   // keep inside: the edit is refused and the next best taken.
-  auto tube = [] {
-    MeshResult r;
-    r.mesh = test::capped_tube({0, 0, 0}, {0, 0, 1}, 0.1, 16, 8);
-    Mesh& m = r.mesh;
-    auto id = [](std::uint32_t i, std::uint32_t j) { return i * 16 + j % 16; };
-    m.positions[id(4, 1)] = m.positions[id(4, 0)] + 0.002 * (m.positions[id(4, 1)] - m.positions[id(4, 0)]);
-    const glm::dvec3 diagonal_mid = 0.5 * (m.positions[id(5, 8)] + m.positions[id(6, 9)]);
-    m.positions[id(6, 8)] = diagonal_mid + 0.002 * (m.positions[id(6, 8)] - diagonal_mid);
-    return r;
-  };
-  const MeshResult before = tube();
-  MeshResult free = tube();
+  const MeshResult before = needle_and_cap_tube();
+  MeshResult free = needle_and_cap_tube();
   const SliverStats unguarded = remove_slivers(free, {.angle = 1.0});
   drop_degenerate(free);
   ASSERT_GE(unguarded.flips + unguarded.collapses, 2u);
@@ -586,14 +583,14 @@ TEST(Slivers, AThickNodeInsideStaysInside) {
     }
   }
   ASSERT_FALSE(lost.empty());
-  MeshResult guarded = tube();
+  MeshResult guarded = needle_and_cap_tube();
   const SliverStats st = remove_slivers(guarded, {.angle = 1.0, .keep_inside = lost});
   drop_degenerate(guarded);
   EXPECT_GE(st.kept_out, 1u);
   for (const std::uint8_t in : inside_closed_mesh(guarded.mesh, lost)) EXPECT_TRUE(in);
   EXPECT_EQ(unpaired_half_edges(guarded.mesh, vertex_corners(guarded.mesh)), 0u);
   // Points far from the edits do not hold them back.
-  MeshResult far = tube();
+  MeshResult far = needle_and_cap_tube();
   const std::vector<glm::dvec3> axis = {{0, 0, 0.5}, {0, 0.09, 0.1}};
   const SliverStats st_far = remove_slivers(far, {.angle = 1.0, .keep_inside = axis});
   EXPECT_EQ(st_far.kept_out, 0u);
