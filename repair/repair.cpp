@@ -12,6 +12,7 @@
 
 #include "core/errors.h"
 #include "core/union_find.h"
+#include "meshcheck/checks.h"
 #include "meshcheck/intersections.h"
 #include "repair/fold_repair.h"
 #include "repair/self_union.h"
@@ -250,10 +251,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // A round is kept by the repair's rule (verdict.h; a handle allowed, the thick skeleton
   // nodes inside counted); otherwise the mesh goes back to what it was and the repair stops.
   std::vector<glm::dvec3> thick;
-  const double median = skeleton.median_radius();
-  for (std::size_t i = 0; i < skeleton.position.size(); ++i) {
-    if (skeleton.radius[i] >= median) thick.push_back(skeleton.position[i]);
-  }
+  for (const std::uint32_t i : thick_node_ids(skeleton)) thick.push_back(skeleton.position[i]);
   auto thick_inside = [&](const Mesh& m) {
     const std::vector<std::uint8_t> in = inside_closed_mesh(m, thick);
     return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));

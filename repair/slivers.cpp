@@ -50,6 +50,12 @@ bool within(const dvec3& u, const dvec3& v, double cos_max) {
   return lu > 0 && lv > 0 && glm::dot(u, v) >= cos_max * lu * lv;
 }
 
+/// A hash of grid cell (x, y, z) at `level` (the grids below bin points and triangles by cell).
+std::uint64_t cell_key(int level, std::int64_t x, std::int64_t y, std::int64_t z) {
+  const auto h = [](std::int64_t v) { return static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ull; };
+  return h(x) ^ (h(y) >> 21 | h(y) << 43) ^ (h(z) >> 42 | h(z) << 22) ^ (static_cast<std::uint64_t>(level) << 58);
+}
+
 /// One edit's previous values, to undo it.
 struct Edit {
   std::vector<std::pair<std::uint32_t, Tri>> triangles;
@@ -81,7 +87,7 @@ class InsideGuard {
       points_.push_back(points[i]);
       floor_.push_back(w[i]);
       const glm::i64vec3 c = cell_of(points[i]);
-      bins_[key(c.x, c.y, c.z)].push_back(id);
+      bins_[cell_key(0, c.x, c.y, c.z)].push_back(id);
     }
   }
   bool empty() const { return points_.empty(); }
@@ -149,10 +155,6 @@ class InsideGuard {
 
  private:
   glm::i64vec3 cell_of(const dvec3& p) const { return glm::i64vec3(glm::floor(p / cell_)); }
-  static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
-    const auto h = [](std::int64_t v) { return static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ull; };
-    return h(x) ^ (h(y) >> 21 | h(y) << 43) ^ (h(z) >> 42 | h(z) << 22);
-  }
   /// The kept points in the box [lo, hi], in increasing order.
   std::vector<std::uint32_t> near(const dvec3& lo, const dvec3& hi) const {
     std::vector<std::uint32_t> out;
@@ -170,7 +172,7 @@ class InsideGuard {
     for (auto z = a.z; z <= b.z; ++z)
       for (auto y = a.y; y <= b.y; ++y)
         for (auto x = a.x; x <= b.x; ++x) {
-          if (const auto it = bins_.find(key(x, y, z)); it != bins_.end()) {
+          if (const auto it = bins_.find(cell_key(0, x, y, z)); it != bins_.end()) {
             for (const std::uint32_t i : it->second) {
               if (inside(i)) out.push_back(i);
             }
@@ -216,7 +218,7 @@ class LocalCrossings {
     const auto [lo, hi] = cells(f, level);
     for (auto z = lo.z; z <= hi.z; ++z)
       for (auto y = lo.y; y <= hi.y; ++y)
-        for (auto x = lo.x; x <= hi.x; ++x) bins_[key(level, x, y, z)].push_back(f);
+        for (auto x = lo.x; x <= hi.x; ++x) bins_[cell_key(level, x, y, z)].push_back(f);
   }
   /// The crossing pairs (i < j) with a triangle in `triangles`, sorted.
   std::vector<std::array<std::uint32_t, 2>> touching(const std::vector<std::uint32_t>& triangles) const {
@@ -237,7 +239,7 @@ class LocalCrossings {
         for (auto z = lo.z; z <= hi.z; ++z)
           for (auto y = lo.y; y <= hi.y; ++y)
             for (auto x = lo.x; x <= hi.x; ++x) {
-              if (const auto it = bins_.find(key(level, x, y, z)); it != bins_.end()) {
+              if (const auto it = bins_.find(cell_key(level, x, y, z)); it != bins_.end()) {
                 candidates.insert(candidates.end(), it->second.begin(), it->second.end());
               }
             }
@@ -272,10 +274,6 @@ class LocalCrossings {
     const auto [lo, hi] = box(f);
     const double c = cell_ * std::ldexp(1.0, level);
     return {glm::i64vec3(glm::floor(lo / c)), glm::i64vec3(glm::floor(hi / c))};
-  }
-  static std::uint64_t key(int level, std::int64_t x, std::int64_t y, std::int64_t z) {
-    const auto h = [](std::int64_t v) { return static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ull; };
-    return h(x) ^ (h(y) >> 21 | h(y) << 43) ^ (h(z) >> 42 | h(z) << 22) ^ (static_cast<std::uint64_t>(level) << 58);
   }
   const Mesh& m_;
   const TriangleIntersections& exact_;
@@ -314,7 +312,6 @@ class SliverRemover {
 
   SliverStats run() {
     SliverStats st;
-    const double limit = o_.angle * kRadians;
     const TriangleIntersections intersections(m_);
     LocalCrossings crossings(m_, intersections);
     InsideGuard guard(m_, o_.keep_inside, 4 * crossings.cell());
@@ -328,7 +325,7 @@ class SliverRemover {
     // triangles the kept edits changed (nothing else moved).
     std::vector<std::uint32_t> look = all;
     for (int round = 0; round < o_.max_rounds; ++round) {
-      std::vector<std::uint32_t> slivers = find(look, limit);
+      std::vector<std::uint32_t> slivers = find(look, limit_);
       if (round == 0) st.found = slivers.size();
       if (slivers.empty()) break;
       ++st.rounds;
@@ -428,7 +425,7 @@ class SliverRemover {
       look.erase(std::unique(look.begin(), look.end()), look.end());
       if (!kept_any && st.undone == undone_before && st.kept_out == kept_out_before) break;
     }
-    st.left = find(all, limit).size();
+    st.left = find(all, limit_).size();
     return st;
   }
 
@@ -494,10 +491,7 @@ class SliverRemover {
   }
 
   /// The corner UV of vertex v in triangle f.
-  glm::vec2 uv(std::uint32_t f, std::uint32_t v) const {
-    const Tri& t = m_.triangles[f];
-    return m_.corner_uvs[f][t[0] == v ? 0 : (t[1] == v ? 1 : 2)];
-  }
+  glm::vec2 uv(std::uint32_t f, std::uint32_t v) const { return m_.corner_uvs[f][corner_of(f, v)]; }
   void set_triangle(Edit& e, std::uint32_t f, const Tri& t, const CornerUvs* uv) {
     e.triangles.emplace_back(f, m_.triangles[f]);
     m_.triangles[f] = t;
@@ -563,13 +557,13 @@ class SliverRemover {
   /// point p projected onto its plane; empty where h is degenerate.
   std::optional<glm::vec2> extrapolate(std::uint32_t h, const dvec3& p) const {
     const Tri& t = m_.triangles[h];
-    const dvec3 o = m_.positions[t[0]], e1 = m_.positions[t[1]] - o, e2 = m_.positions[t[2]] - o, q = p - o;
+    const dvec3 &o = m_.positions[t[0]], &p1 = m_.positions[t[1]], &p2 = m_.positions[t[2]];
+    const dvec3 e1 = p1 - o, e2 = p2 - o;
     const double a = glm::dot(e1, e1), b = glm::dot(e1, e2), c = glm::dot(e2, e2);
-    const double det = a * c - b * b;
-    if (!(det > 1e-12 * a * c)) return std::nullopt;
-    const double s = (c * glm::dot(e1, q) - b * glm::dot(e2, q)) / det, r = (a * glm::dot(e2, q) - b * glm::dot(e1, q)) / det;
+    if (!(a * c - b * b > 1e-12 * a * c)) return std::nullopt;
+    const dvec3 l = barycentric(o, p1, p2, p);
     const CornerUvs& u = m_.corner_uvs[h];
-    const glm::dvec2 out = glm::dvec2(u[0]) + s * glm::dvec2(u[1] - u[0]) + r * glm::dvec2(u[2] - u[0]);
+    const glm::dvec2 out = glm::dvec2(u[0]) + l.y * glm::dvec2(u[1] - u[0]) + l.z * glm::dvec2(u[2] - u[0]);
     if (!std::isfinite(out.x) || !std::isfinite(out.y)) return std::nullopt;
     return glm::vec2(out);
   }
@@ -800,9 +794,9 @@ class SliverRemover {
     const bool duplicate = glm::length(m_.positions[v] - m_.positions[w]) < kDuplicateEdge * around;
     // The changed triangles after: none turned over, each within max_turn of a normal before,
     // none flipped in UV where the texture had one side, the smallest angle larger than before.
-    Mesh& m = m_;  // (w's position tried and put back)
-    const dvec3 w_was = m.positions[w];
-    m.positions[w] = p.at;
+    // (w's position is tried and put back)
+    const dvec3 w_was = m_.positions[w];
+    m_.positions[w] = p.at;
     p.angle = std::numbers::pi;
     bool ok = true;
     for (const std::uint32_t h : changed) {
@@ -818,10 +812,10 @@ class SliverRemover {
           u[i] = lookup(*at_w, h);
         }
       }
-      m.positions[w] = w_was;
+      m_.positions[w] = w_was;
       const dvec3 normal_was = m_.face_normal(was);
       const bool uv_ok = !uvs_ || !keep_side || keeps_uv_side(m_.corner_uvs[h], u);
-      m.positions[w] = p.at;
+      m_.positions[w] = p.at;
       const dvec3 normal = m_.face_normal(n);
       ok = uv_ok && (duplicate || (within(normal, normal_was, 0.0) &&
            std::any_of(normals.begin(), normals.end(), [&](const dvec3& o) { return within(normal, o, cos_turn_); })));
@@ -829,7 +823,7 @@ class SliverRemover {
       p.angle = std::min(p.angle, smallest_angle(m_, n));
       p.changes.emplace_back(h, n, u);
     }
-    m.positions[w] = w_was;
+    m_.positions[w] = w_was;
     if (!ok || (better && p.angle <= before)) return std::nullopt;
     p.error = o_.vertex_error.size() == m_.positions.size() ? o_.vertex_error[v] : 0.0;
     return p;
@@ -932,11 +926,10 @@ class SliverRemover {
       for (const std::uint32_t g : left) {
         if (collapsed(m_.triangles[g]) || smallest_angle(m_, m_.triangles[g]) >= limit_) continue;
         Edit next;
-        if (try_flip(g, next)) {
-        } else if (std::optional<Collapse> p = best_collapse(g)) {
+        if (!try_flip(g, next)) {
+          const std::optional<Collapse> p = best_collapse(g);
+          if (!p) continue;
           apply(*p, next);
-        } else {
-          continue;
         }
         if (next.position && e.position) {  // (an edit restores one position)
           undo(next);

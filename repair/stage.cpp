@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "meshcheck/checks.h"
 #include "repair/repair.h"
 
 namespace sm {
@@ -93,10 +94,7 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   std::vector<glm::dvec3> thick;
   if (params.sliver_angle > 0) {
     error = cone_error(mesh.mesh, s);
-    const double median = s.median_radius();
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      if (s.radius[i] >= median) thick.push_back(s.position[i]);
-    }
+    for (const std::uint32_t i : thick_node_ids(s)) thick.push_back(s.position[i]);
   }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
