@@ -1157,6 +1157,22 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         }
       }
     }
+    // A patch whose triangles fall into two parts of the result cut a branch off (the volume's
+    // surface did not join a twig's rim to the rest).
+    {
+      UnionFind joined(out.positions.size());
+      for (const auto& t : out.triangles) {
+        joined.unite(t[0], t[1]);
+        joined.unite(t[1], t[2]);
+      }
+      std::vector<std::uint32_t> part_of(patches.size(), kNone);
+      for (const std::uint32_t f : fresh) {
+        const std::uint32_t part = joined.find(out.triangles[f][0]);
+        std::uint32_t& seen = part_of[patch_of[f]];
+        if (seen == kNone) seen = part;
+        else if (seen != part) reject(patch_of[f], "the patch cuts a branch off");
+      }
+    }
     for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {
       if (options.allow_crossings) continue;
       reject(patch_of[f], "the patch would make a crossing");
