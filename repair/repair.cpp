@@ -332,6 +332,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
     options.max_total_voxels = params.patch_budget_voxels;
+    options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);

@@ -245,8 +245,13 @@ class Builder {
       return (std::floor(size.x / s) + 8) * (std::floor(size.y / s) + 8) * (std::floor(size.z / s) + 8);
     };
     while (count(h) > static_cast<double>(options_.max_voxels)) h *= 1.1;
-    if (rmin / h < options_.min_voxels_per_radius) {
-      patch.failure = "the region is too large for its thinnest branch";
+    // Twigs thinner than a voxel or so vanish from the grid, and where the box cuts one its hole
+    // has no rim: inside the patch they are drawn thicker instead (a local, bounded error), as
+    // long as the region's thickest branch of the pairs is still resolved.
+    const double floor_r = options_.min_twig_voxels * h;
+    if (floor_r > 0 ? std::max(patch.radius_max, rmin) / h < options_.min_voxels_per_radius
+                    : rmin / h < options_.min_voxels_per_radius) {
+      patch.failure = floor_r > 0 ? "the region is too large for its branches" : "the region is too large for its thinnest branch";
       return;
     }
     const double band = 4 * h;
@@ -366,7 +371,8 @@ class Builder {
       }
       if (!up.valid()) continue;
       const double start = first.idx() == c ? skeleton_.start_radius(first) : skeleton_.radius[up.idx()];
-      const Cone cone{skeleton_.position[up.idx()], skeleton_.position[c], start, skeleton_.radius[c]};
+      const Cone cone{skeleton_.position[up.idx()], skeleton_.position[c], std::max(start, floor_r),
+                      std::max(skeleton_.radius[c], floor_r)};
       Box cb;
       cb.add(cone.a);
       cb.add(cone.b);
@@ -375,7 +381,11 @@ class Builder {
     // The cones' distance, each over its own box only (the rest of the grid is farther than
     // the band from it), in slices in parallel (a minimum: the same for any order).
     std::vector<float> cone_field(nvox, static_cast<float>(band));
+    // The twigs drawn thicker, also where the field blends into the cut surface (so that their
+    // rims reach the box's faces).
+    std::vector<float> twig_field(floor_r > 0 ? nvox : 0, static_cast<float>(band));
     for (const Cone& c : cones) {
+      const bool twig = floor_r > 0 && std::min(c.ra, c.rb) <= floor_r;
       Box cb;
       cb.add(c.a);
       cb.add(c.b);
@@ -391,6 +401,7 @@ class Builder {
             const auto d = static_cast<float>(glm::distance(p, c.a + t * (c.b - c.a)) - (c.ra + t * (c.rb - c.ra)));
             float& f = cone_field[at(i, j, k)];
             f = std::min(f, d);
+            if (twig) twig_field[at(i, j, k)] = std::min(twig_field[at(i, j, k)], d);
           }
       });
     }
@@ -407,7 +418,9 @@ class Builder {
             const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
             fm = glm::dot(p - q, mesh_.face_normal(t)) > 0 ? dist[v] : -dist[v];
           }
-          field[v] = static_cast<float>(std::clamp(w * fm + (1 - w) * static_cast<double>(cone_field[v]), -band, band));
+          double value = w * fm + (1 - w) * static_cast<double>(cone_field[v]);
+          if (!twig_field.empty()) value = std::min(value, static_cast<double>(twig_field[v]));
+          field[v] = static_cast<float>(std::clamp(value, -band, band));
         }
     });
     openvdb::initialize();
