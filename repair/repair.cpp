@@ -326,7 +326,6 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
              .thick_inside = thick_inside(mesh)};
     }
-    MeshResult before = r;
     VolumePatchOptions options;
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
@@ -335,11 +334,18 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
-    const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);
-    st.timings.add("volume_patch", clock.lap());
-    st.patch_clusters = vp.clusters;
-    st.patch_voxels = vp.voxels;
-    if (vp.patched > 0) {
+    // Kept by the repair's rule after the untangling; where refused with several patches, once
+    // more without the one whose seams made the most crossings (a volume surface folded
+    // through the kept one), so that one bad region does not cost the others.
+    VolumePatchStats vp;
+    const std::string problem_before = st.problem;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      MeshResult before = r;
+      vp = volume_patch(mesh, pairs, skeleton, options, origin);
+      st.timings.add("volume_patch", clock.lap());
+      st.patch_clusters = vp.clusters;
+      st.patch_voxels += vp.voxels;
+      if (vp.patched == 0) break;
       if (!r.triangle_kind.empty()) {
         std::vector<TriangleKind> kind(origin.size());
         for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
@@ -360,9 +366,15 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;
         r = std::move(before);
+        if (vp.patched < 2) break;
+        const auto worst = std::max_element(vp.seam_crossings.begin(), vp.seam_crossings.end()) - vp.seam_crossings.begin();
+        options.leave_out.assign(vp.seam_crossings.size(), 0);
+        options.leave_out[static_cast<std::size_t>(worst)] = 1;
       } else {
+        st.problem = problem_before;
         st.patched = vp.patched;
         pairs = std::move(after);
+        break;
       }
     }
     // One warning (warnings merge by kind) that counts each reason.

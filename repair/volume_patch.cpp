@@ -1105,6 +1105,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   builder.link();
   std::vector<std::uint8_t> use(patches.size(), 0);
   for (std::size_t p = 0; p < patches.size(); ++p) {
+    if (p < options.leave_out.size() && options.leave_out[p]) {
+      ++st.failures["its seams made the most crossings when the step was refused"];
+      continue;
+    }
     // Where the box's faces cut the surface where it is not yet clean (branches still
     // overlapping there), the box grows, up to four times, as long as it stays clear of the others.
     for (int attempt = 0;; ++attempt) {
@@ -1186,7 +1190,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         else if (seen != part) reject(patch_of[f], "the patch cuts a branch off");
       }
     }
+    std::vector<std::size_t> made(patches.size(), 0);
     for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {
+      for (const std::uint32_t t : {f, g})
+        if (patch_of[t] != kNone) ++made[patch_of[t]];
       if (options.allow_crossings) continue;
       reject(patch_of[f], "the patch would make a crossing");
       reject(patch_of[g], "the patch would make a crossing");
@@ -1202,8 +1209,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       }
     }
     if (!changed) {
+      st.seam_crossings.assign(patches.size(), 0);
       for (std::size_t p = 0; p < patches.size(); ++p) {
         if (!use[p]) continue;
+        st.seam_crossings[p] = made[p];
         ++st.patched;
         st.removed_triangles += patches[p].cut.size();
         st.new_triangles += patches[p].triangles.size() + patches[p].fans.size();

@@ -38,6 +38,7 @@ struct VolumePatchOptions {
   double min_twig_voxels = 1.25;        ///< thinner branches drawn at this radius (voxels); 0: see above
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
   bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
+  std::vector<std::uint8_t> leave_out;  ///< per region (the step's order, as seam_crossings): not patched
 };
 
 struct VolumePatchStats {
@@ -47,6 +48,7 @@ struct VolumePatchStats {
   std::size_t new_triangles = 0;     ///< triangles of the patches and their strips
   std::size_t voxels = 0;            ///< voxels of all grids built
   std::map<std::string, std::size_t> failures;  ///< regions not patched, by why
+  std::vector<std::size_t> seam_crossings;     ///< per region: crossings its patch's seams made (0: none kept)
 };
 
 /// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) by patches, in
