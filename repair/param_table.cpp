@@ -47,6 +47,8 @@ const ParamSpec<R> kFields[] = {
      .unit = "voxels", .help = "largest voxel grid of one patch (coarser voxels beyond)"},
     {.key = "patch_budget_voxels", .field = &R::patch_budget_voxels, .range = {.min = 0, .max = 4'000'000'000},
      .unit = "voxels", .help = "voxels of all patches' grids together, smallest regions first (the rest not patched)"},
+    {.key = "patch_min_twig_voxels", .field = &R::patch_min_twig_voxels, .range = {.min = 0, .max = 4}, .unit = "voxels",
+     .help = "inside a patch, thinner branches are drawn at this radius in voxels (0: a region with them is not patched)"},
     {.key = "sliver_angle", .field = &R::sliver_angle, .range = {.min = 0, .max = 30}, .unit = "degrees",
      .help = "triangles with an angle under this are flipped or collapsed away at the end (0 = none)",
      .slider = {0, 10}},

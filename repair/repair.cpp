@@ -332,9 +332,11 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
     options.max_total_voxels = params.patch_budget_voxels;
+    options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     const VolumePatchStats vp = volume_patch(mesh, pairs, skeleton, options, origin);
+    st.timings.add("volume_patch", clock.lap());
     st.patch_clusters = vp.clusters;
     st.patch_voxels = vp.voxels;
     if (vp.patched > 0) {
@@ -363,9 +365,14 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         pairs = std::move(after);
       }
     }
-    for (const auto& [why, count] : vp.failures)
-      st.warnings.add_count("volume_patch_refused", "region of crossings not patched: " + why, count);
-    st.timings.add("volume_patch", clock.lap());
+    // One warning (warnings merge by kind) that counts each reason.
+    std::string reasons;
+    std::size_t refused = 0;
+    for (const auto& [why, count] : vp.failures) {
+      reasons += (reasons.empty() ? "" : "; ") + std::to_string(count) + "x " + why;
+      refused += count;
+    }
+    st.warnings.add_count("volume_patch_refused", "region of crossings not patched (" + reasons + ")", refused);
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();

@@ -85,6 +85,9 @@ struct RepairParams {
   std::uint32_t patch_max_voxels = 1'500'000;
   /// Voxels of all patches' grids together, smallest regions first (the rest are not patched).
   std::uint32_t patch_budget_voxels = 40'000'000;
+  /// Inside a patch, branches thinner than this many voxels in radius are drawn at this radius
+  /// (a grid loses thinner ones, and the patch its rim there); 0: such a region is not patched.
+  double patch_min_twig_voxels = 1.25;
   /// Step 7: triangles with an angle under this are flipped or collapsed away (degrees; 0 = none).
   double sliver_angle = 1.0;
   /// Largest turn of a triangle's normal by those flips and collapses (degrees).

@@ -148,6 +148,7 @@ class Builder {
 
   // The triangles across each edge: opposite[3 f + k] is the triangle on edge (t[k], t[k+1]).
   void link() {
+    seen_.assign(mesh_.triangles.size(), 0);
     opposite_.assign(3 * mesh_.triangles.size(), kNone);
     for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
       const auto& t = mesh_.triangles[f];
@@ -244,8 +245,13 @@ class Builder {
       return (std::floor(size.x / s) + 8) * (std::floor(size.y / s) + 8) * (std::floor(size.z / s) + 8);
     };
     while (count(h) > static_cast<double>(options_.max_voxels)) h *= 1.1;
-    if (rmin / h < options_.min_voxels_per_radius) {
-      patch.failure = "the region is too large for its thinnest branch";
+    // Twigs thinner than a voxel or so vanish from the grid, and where the box cuts one its hole
+    // has no rim: inside the patch they are drawn thicker instead (a local, bounded error), as
+    // long as the region's thickest branch of the pairs is still resolved.
+    const double floor_r = options_.min_twig_voxels * h;
+    if (floor_r > 0 ? std::max(patch.radius_max, rmin) / h < options_.min_voxels_per_radius
+                    : rmin / h < options_.min_voxels_per_radius) {
+      patch.failure = floor_r > 0 ? "the region is too large for its branches" : "the region is too large for its thinnest branch";
       return;
     }
     const double band = 4 * h;
@@ -258,6 +264,10 @@ class Builder {
     std::vector<float> dist(nvox, static_cast<float>(band));
     std::vector<std::uint32_t> nearest(nvox, kNone);
     Box grid_box{origin, origin + h * dvec3(n - glm::ivec3(1))};
+    // The cut surface's distance is read only where the field blends into it (within three
+    // voxels of the box's faces, below): only that shell of the grid is filled.
+    const double shell = -3 * h;
+    const double x_low_end = mid.x - half.x - shell, x_high_start = mid.x + half.x + shell;
     std::vector<std::uint32_t> local;  // triangles reaching into the grid
     for (const std::uint32_t f : bins.near(grid_box)) {
       const auto& t = mesh_.triangles[f];
@@ -272,9 +282,16 @@ class Builder {
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
       for (int k = lo.z; k <= hi.z; ++k)
-        for (int j = lo.y; j <= hi.y; ++j)
+        for (int j = lo.y; j <= hi.y; ++j) {
+          const dvec3 row = centre(0, j, k);
+          const bool row_in_shell = std::max(std::abs(row.y - mid.y) - half.y, std::abs(row.z - mid.z) - half.z) > shell;
+          // Off the y and z faces only the ends of the row near the x faces are in the shell.
+          const int skip_from = row_in_shell ? hi.x + 1 : static_cast<int>(std::floor((x_low_end - origin.x) / h)) + 1;
+          const int skip_to = row_in_shell ? hi.x + 1 : static_cast<int>(std::ceil((x_high_start - origin.x) / h)) - 1;
           for (int i = lo.x; i <= hi.x; ++i) {
+            if (i > skip_from && i < skip_to) i = skip_to;
             const dvec3 p = centre(i, j, k);
+            if (phi(p) <= shell) continue;
             const auto d = static_cast<float>(glm::distance(p, closest_on_triangle(p, a, b, c)));
             const std::size_t v = at(i, j, k);
             if (d < dist[v]) {
@@ -282,6 +299,7 @@ class Builder {
               nearest[v] = f;
             }
           }
+        }
     }
     // Triangles binned on the grid, for the nearest cut triangle of a point (below).
     const int bin = 2;  // voxels per bin side
@@ -297,6 +315,40 @@ class Builder {
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i].push_back(f);
     }
+    // The cut triangle nearest a voxel's centre within the band (kNone if none): read from the
+    // shell where it was filled, searched in the bins elsewhere.
+    std::unordered_map<std::size_t, std::uint32_t> nearest_found;
+    auto nearest_to = [&](const dvec3& q) {
+      const glm::ivec3 g = glm::clamp(glm::ivec3(glm::round((q - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
+      const std::size_t v = at(g.x, g.y, g.z);
+      const dvec3 p = centre(g.x, g.y, g.z);
+      if (phi(p) > shell) return nearest[v];
+      if (const auto it = nearest_found.find(v); it != nearest_found.end()) return it->second;
+      ++query_;
+      // Rings of bins outward, until the next ring is farther than the best so far.
+      const glm::ivec3 c = glm::ivec3(glm::floor((p - origin) / (h * bin)));
+      const int cells = static_cast<int>(std::ceil(band / (h * bin)));
+      double best = band;
+      std::uint32_t found = kNone;
+      for (int r = 0; r <= cells && best > (r - 1) * h * bin; ++r)
+        for (int z = std::max(c.z - r, 0); z <= std::min(c.z + r, nb.z - 1); ++z)
+          for (int y = std::max(c.y - r, 0); y <= std::min(c.y + r, nb.y - 1); ++y)
+            for (int x = std::max(c.x - r, 0); x <= std::min(c.x + r, nb.x - 1); ++x) {
+              if (std::max({std::abs(x - c.x), std::abs(y - c.y), std::abs(z - c.z)}) != r) continue;
+              for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(z) * nb.y + y) * nb.x + x]) {
+                if (seen_[f] == query_) continue;  // (a large triangle lies in many bins)
+                seen_[f] = query_;
+                const auto& t = mesh_.triangles[f];
+                const double d = glm::distance(p, closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
+                if (d < best || (d == best && found != kNone && f < found)) {
+                  best = d;
+                  found = f;
+                }
+              }
+            }
+      nearest_found.emplace(v, found);
+      return found;
+    };
     // The solid: inside the region, the union of the skeleton's round cones (the input is the
     // truth, and the surface there is what could not be judged); near the kept surface, which
     // is clean, the surface's own signed distance (signed by its nearest triangle), blended
@@ -319,7 +371,8 @@ class Builder {
       }
       if (!up.valid()) continue;
       const double start = first.idx() == c ? skeleton_.start_radius(first) : skeleton_.radius[up.idx()];
-      const Cone cone{skeleton_.position[up.idx()], skeleton_.position[c], start, skeleton_.radius[c]};
+      const Cone cone{skeleton_.position[up.idx()], skeleton_.position[c], std::max(start, floor_r),
+                      std::max(skeleton_.radius[c], floor_r)};
       Box cb;
       cb.add(cone.a);
       cb.add(cone.b);
@@ -328,7 +381,11 @@ class Builder {
     // The cones' distance, each over its own box only (the rest of the grid is farther than
     // the band from it), in slices in parallel (a minimum: the same for any order).
     std::vector<float> cone_field(nvox, static_cast<float>(band));
+    // The twigs drawn thicker, also where the field blends into the cut surface (so that their
+    // rims reach the box's faces).
+    std::vector<float> twig_field(floor_r > 0 ? nvox : 0, static_cast<float>(band));
     for (const Cone& c : cones) {
+      const bool twig = floor_r > 0 && std::min(c.ra, c.rb) <= floor_r;
       Box cb;
       cb.add(c.a);
       cb.add(c.b);
@@ -344,6 +401,7 @@ class Builder {
             const auto d = static_cast<float>(glm::distance(p, c.a + t * (c.b - c.a)) - (c.ra + t * (c.rb - c.ra)));
             float& f = cone_field[at(i, j, k)];
             f = std::min(f, d);
+            if (twig) twig_field[at(i, j, k)] = std::min(twig_field[at(i, j, k)], d);
           }
       });
     }
@@ -360,7 +418,9 @@ class Builder {
             const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
             fm = glm::dot(p - q, mesh_.face_normal(t)) > 0 ? dist[v] : -dist[v];
           }
-          field[v] = static_cast<float>(std::clamp(w * fm + (1 - w) * static_cast<double>(cone_field[v]), -band, band));
+          double value = w * fm + (1 - w) * static_cast<double>(cone_field[v]);
+          if (!twig_field.empty()) value = std::min(value, static_cast<double>(twig_field[v]));
+          field[v] = static_cast<float>(std::clamp(value, -band, band));
         }
     });
     openvdb::initialize();
@@ -381,11 +441,6 @@ class Builder {
     std::vector<openvdb::Vec4I> quads;
     openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0, true);
 
-    // Sample helpers on the grid (nearest voxel).
-    auto voxel_of = [&](const dvec3& p) {
-      const glm::ivec3 c = glm::clamp(glm::ivec3(glm::round((p - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
-      return at(c.x, c.y, c.z);
-    };
     // The volume's surface on the float grid, points at one position welded (the mesher can
     // place two at one spot, and the grid can round two together): a triangle left with two
     // corners at one vertex is an edge collapsed, dropped.
@@ -440,7 +495,7 @@ class Builder {
       index[u] = nv + static_cast<std::uint32_t>(patch.positions.size());
       const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
       patch.positions.push_back(p);
-      std::uint32_t f = nearest[voxel_of(pos[u])];
+      std::uint32_t f = nearest_to(pos[u]);
       if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
       const auto& t = mesh_.triangles[f];
       patch.vertex_origin.push_back(f);
@@ -455,7 +510,7 @@ class Builder {
       const dvec3 q = zero_on(pos[key.first], pos[key.second]);
       const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
       patch.positions.push_back(q);
-      std::uint32_t f = nearest[voxel_of(q)];
+      std::uint32_t f = nearest_to(q);
       if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
       const auto& t = mesh_.triangles[f];
       patch.vertex_origin.push_back(f);
@@ -857,6 +912,8 @@ class Builder {
   const Skeleton& skeleton_;
   const VolumePatchOptions& options_;
   std::vector<std::uint32_t> opposite_;
+  std::vector<std::uint32_t> seen_;  // per triangle: the last nearest-triangle query that met it
+  std::uint32_t query_ = 0;
 };
 
 
@@ -1111,6 +1168,22 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         if (twins != 1 || same != 1) {
           reject(patch_of[f], "the patch does not close up");
         }
+      }
+    }
+    // A patch whose triangles fall into two parts of the result cut a branch off (the volume's
+    // surface did not join a twig's rim to the rest).
+    {
+      UnionFind joined(out.positions.size());
+      for (const auto& t : out.triangles) {
+        joined.unite(t[0], t[1]);
+        joined.unite(t[1], t[2]);
+      }
+      std::vector<std::uint32_t> part_of(patches.size(), kNone);
+      for (const std::uint32_t f : fresh) {
+        const std::uint32_t part = joined.find(out.triangles[f][0]);
+        std::uint32_t& seen = part_of[patch_of[f]];
+        if (seen == kNone) seen = part;
+        else if (seen != part) reject(patch_of[f], "the patch cuts a branch off");
       }
     }
     for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {

@@ -34,7 +34,8 @@ struct VolumePatchOptions {
   double reach = 2.5;                   ///< region: the pairs' box grown by this many local radii
   std::size_t max_voxels = 1'500'000;   ///< largest grid of one patch (coarser voxels beyond)
   std::size_t max_total_voxels = 40'000'000;  ///< all patches' grids together (the rest not patched)
-  double min_voxels_per_radius = 2.5;   ///< a region whose thinnest radius gets fewer is not patched
+  double min_voxels_per_radius = 2.5;   ///< a region whose thinnest (with min_twig_voxels: thickest) radius gets fewer is not patched
+  double min_twig_voxels = 1.25;        ///< thinner branches drawn at this radius (voxels); 0: see above
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
   bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
 };

@@ -189,6 +189,31 @@ TEST(Repair, VolumePatchAloneFusesCrossingBranches) {
   EXPECT_EQ(rep.thick_nodes_inside, rep.thick_nodes);
 }
 
+TEST(Repair, VolumePatchDrawsTwigsThinnerThanItsVoxels) {
+  // The crossing above with a twig four times thinner than the laterals leaving at the crossing
+  // point, and a grid too coarse for it: drawn at 1.25 voxels inside the patch, it keeps its
+  // rim and the crossing is patched; with that off the region is not patched at all.
+  RawSkeleton raw = test::crossing_laterals();
+  raw.add(8, 4, dvec3(0.7, -0.25, 1.6), 0.008);
+  PipelineParams p = keep_input();
+  p.repair.self_union = false;
+  p.repair.volume_patch = true;
+  p.repair.patch_max_voxels = 200'000;
+  p.repair.patch_min_twig_voxels = 0;
+  const PipelineResult off = run_pipeline(raw, p);
+  EXPECT_GT(off.repair.pairs_left, 0u);
+  p.repair.patch_min_twig_voxels = 1.25;
+  const PipelineResult r = run_pipeline(raw, p);
+  EXPECT_GE(r.repair.patched, 1u);
+  EXPECT_EQ(r.repair.pairs_left, 0u);
+  const MeshCheckReport rep = expect_faithful(raw, r, p);
+  EXPECT_EQ(rep.self_intersecting_pairs, 0u);
+  EXPECT_EQ(rep.nodes_inside, rep.nodes);
+  // (The grid is made coarse here: the patch is a large share of this small mesh and rounds
+  // its crotch by about a voxel.)
+  EXPECT_LE(rep.fidelity_p95, 0.2);
+}
+
 TEST(Repair, HairpinStaysWhereItIs) {
   // A lateral that runs out and turns back by 150 degrees, past its own base: kept in place
   // (not re-attached), meshed as one closed part.
