@@ -661,6 +661,30 @@ class Walker {
   /// Is the bundle of `lateral` (its edge starting at `base` above the anchor) apart from the
   /// rest of `fork`'s fused section at distance u?
   bool nested_apart(NodeId fork, double fork_base, NodeId lateral, double base, double u);
+  /// How far above the anchor the bundle of `fork`'s child c (its edge starting at `base`, its
+  /// sibling `other`) may stay in a fused section: `stub`, up to its tip (node `tip`) when its
+  /// segment ends in a stub's tip; `turn`, up to its segment's first node turning back by more
+  /// than kFusedMaxTurn. Infinity where neither applies.
+  struct Leave {
+    double stub, turn;
+    NodeId tip;
+  };
+  Leave leave_by(NodeId fork, NodeId c, NodeId other, double base) const;
+  /// In the fused section of `fork`, after split_gap_at(fork, .., u): a lateral of a fork inside
+  /// either child's subtree (as nested_split's) whose segment ends in a stub's tip (Leave)
+  /// before the next slice, u + step, outside the round cones of the rest of the section, and
+  /// whose bundle is still in the section at u. Invalid if none; its fork's distance above the
+  /// anchor goes to `base`.
+  NodeId nested_due(NodeId fork, double u, double step, double& base);
+  /// In the fused section of `fork` (at fork_base above the anchor), after split_gap_at: the
+  /// distance of the first node in (after, before) on a bundle's chain (from the fork's
+  /// children, and from both children of the forks inside the section) where slices at
+  /// `after` and `before` would cut the corner by more than max_corner_cut x its radius;
+  /// `before` if none. Hairpins are left out (the section splits below them).
+  double next_corner(NodeId fork, double fork_base, double after, double before);
+  /// The laterals of the forks on the paths from `fork`'s children to the cut at the last
+  /// split_gap_at (cut_a_ / cut_b_), in cut order.
+  void nested_candidates(NodeId fork, std::vector<NodeId>& out) const;
   /// Junction::lower_side for a lateral split off inside a fused section: 1 for its strands,
   /// 0 for every other.
   std::vector<std::uint8_t> lateral_sides(NodeId lateral, std::uint32_t loop) const;
@@ -691,6 +715,7 @@ class Walker {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> gaps;
     std::vector<double> arc;
     std::vector<std::uint8_t> strand_side;  ///< per strand, for loop_sides (0xff between calls)
+    std::vector<NodeId> candidates;         ///< nested laterals (nested_candidates)
   };
   static Scratch& thread_scratch() {
     thread_local Scratch scratch;
@@ -1026,16 +1051,8 @@ NodeId Walker::nested_split(NodeId fork, double u, double& base) {
   if (!p_.split_nested_laterals) return {};
   // Forks on the paths from the fork's children down to the cut (pts_a_ / pts_b_ and
   // cut_a_ / cut_b_ hold the section at u), in cut order.
-  std::vector<NodeId> candidates;
-  for (const auto* edges : {&cut_a_, &cut_b_}) {
-    for (const CutEdge& e : *edges) {
-      for (NodeId y = s_.parent[e.node.idx()]; y.valid() && y != fork; y = s_.parent[y.idx()]) {
-        if (!fork_here(y)) continue;
-        const NodeId lateral = s_.children[y.idx()][1];
-        if (std::find(candidates.begin(), candidates.end(), lateral) == candidates.end()) candidates.push_back(lateral);
-      }
-    }
-  }
+  std::vector<NodeId>& candidates = scratch_.candidates;
+  nested_candidates(fork, candidates);
   // Where the walk put the fork (split_gap_at's section), so nested_apart reuses its points.
   const double fork_base = last_fork_base_;
   for (const NodeId lateral : candidates) {
@@ -1044,6 +1061,127 @@ NodeId Walker::nested_split(NodeId fork, double u, double& base) {
       base = b;
       return lateral;
     }
+  }
+  return {};
+}
+
+void Walker::nested_candidates(NodeId fork, std::vector<NodeId>& out) const {
+  out.clear();
+  for (const auto* edges : {&cut_a_, &cut_b_}) {
+    for (const CutEdge& e : *edges) {
+      for (NodeId y = s_.parent[e.node.idx()]; y.valid() && y != fork; y = s_.parent[y.idx()]) {
+        if (!fork_here(y)) continue;
+        const NodeId lateral = s_.children[y.idx()][1];
+        if (std::find(out.begin(), out.end(), lateral) == out.end()) out.push_back(lateral);
+      }
+    }
+  }
+}
+
+Walker::Leave Walker::leave_by(NodeId fork, NodeId c, NodeId other, double base) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Leave out{kInf, kInf, {}};
+  // The turn: at the segment's first node turning back by more than kFusedMaxTurn (a hairpin
+  // or zigzag node: a fused section carried round it folds, its loops around both bundles
+  // crossing).
+  const double cos_turn = std::cos(kFusedMaxTurn);
+  double l = len(c);
+  while (s_.child_count(c) == 1) {
+    const NodeId n = s_.children[c.idx()][0];
+    const dvec3 in = s_.position[c.idx()] - s_.position[s_.parent[c.idx()].idx()];
+    const dvec3 next = s_.position[n.idx()] - s_.position[c.idx()];
+    if (out.turn == kInf && glm::dot(in, next) < cos_turn * glm::length(in) * glm::length(next)) out.turn = base + l;
+    c = n;
+    l += len(c);
+  }
+  // The tip: a stub is at least kStubRadius x the fork's radius thick, or has its tip outside
+  // the other child's round cones, where an absorbed twig would be missing from the mesh
+  // (with split_outside_tips off, only a tip at least the median radius thick).
+  if (!s_.is_tip(c)) return out;
+  const double r = s_.radius[c.idx()];
+  bool stub = r >= kStubRadius * s_.radius[fork.idx()];
+  if (!stub && (p_.split_outside_tips || r >= tables_.median_radius)) {
+    SlicePoints& tip = scratch_.tip;
+    tip.clear();
+    tip.point.push_back(s_.position[c.idx()]);
+    tip.offset.push_back(0.0);
+    stub = cone_clearance(tip, other, base, l + 2.0 * s_.radius[fork.idx()], 0.0) > 0.0;
+  }
+  if (stub) {
+    out.stub = base + l;
+    out.tip = c;
+  }
+  return out;
+}
+
+double Walker::next_corner(NodeId fork, double fork_base, double after, double before) {
+  const double cos_hairpin = std::cos(kFusedMaxTurn);
+  double best = before;
+  // Along the chain from c (its edge starting at `base` above the anchor) through single
+  // nodes and forks whose lateral has its own tube already: the straight chord between the
+  // chain's points at `after` and `best` misses a node by more than max_corner_cut x its
+  // radius (hairpins, turning back by over kFusedMaxTurn, split before them instead).
+  auto chain = [&](NodeId c, double base) {
+    double l = base + len(c);
+    while (l < best && (s_.child_count(c) == 1 || (s_.is_fork(c) && !fork_here(c)))) {
+      const NodeId n = s_.children[c.idx()][0];
+      if (l > after) {
+        const dvec3 p = s_.position[c.idx()];
+        const dvec3 u = p - s_.position[s_.parent[c.idx()].idx()], v = s_.position[n.idx()] - p;
+        const double lu = glm::length(u), lv = glm::length(v);
+        if (lu > 0 && lv > 0 && glm::dot(u, v) >= cos_hairpin * lu * lv) {
+          const dvec3 from = p - u * (std::min(l - after, lu) / lu), to = p + v * (std::min(best - l, lv) / lv);
+          const double chord = glm::length(to - from);
+          const double miss = chord > 0 ? glm::length(glm::cross(p - from, to - from)) / chord : 0.0;
+          if (miss > p_.max_corner_cut * s_.radius[c.idx()]) {
+            best = l;
+            return;
+          }
+        }
+      }
+      c = n;
+      l += len(c);
+    }
+  };
+  for (const NodeId c : s_.children[fork.idx()]) chain(c, fork_base);
+  std::vector<NodeId>& candidates = scratch_.candidates;
+  nested_candidates(fork, candidates);
+  for (const NodeId lateral : candidates) {
+    const NodeId y = s_.parent[lateral.idx()];
+    const double b = tables_.root_distance[y.idx()] - anchor_distance_;
+    chain(lateral, b);
+    chain(s_.children[y.idx()][0], b);
+  }
+  return best;
+}
+
+NodeId Walker::nested_due(NodeId fork, double u, double step, double& base) {
+  std::vector<NodeId>& candidates = scratch_.candidates;
+  nested_candidates(fork, candidates);
+  const auto& c = s_.children[fork.idx()];
+  for (const NodeId lateral : candidates) {
+    const NodeId y = s_.parent[lateral.idx()];
+    const double b = tables_.root_distance[y.idx()] - anchor_distance_;
+    const Leave leave = leave_by(y, lateral, s_.children[y.idx()][0], b);
+    if (u + step < leave.stub) continue;
+    // Only a tip outside the rest of the section's round cones (the fork's two subtrees
+    // without the lateral's): inside them, nothing is missing, and a tube of its own would
+    // run through the rest's.
+    SlicePoints& probe = scratch_.tip;
+    probe.clear();
+    probe.point.push_back(s_.position[leave.tip.idx()]);
+    probe.offset.push_back(0.0);
+    const double reach = leave.stub + 2.0 * s_.radius[fork.idx()];
+    excluded_.push_back(lateral);
+    const bool outside = cone_clearance(probe, c[0], last_fork_base_, reach, 0.0) > 0.0 &&
+                         cone_clearance(probe, c[1], last_fork_base_, reach, 0.0) > 0.0;
+    excluded_.pop_back();
+    if (!outside) continue;
+    cut_n_.clear();
+    cut(lateral, b, u, cut_n_);
+    if (cut_n_.empty()) continue;  // (already past its tip)
+    base = b;
+    return lateral;
   }
   return {};
 }
@@ -1227,45 +1365,26 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
     };
     const double shorter_end =
         fork_base + std::max(std::min(segment(a), segment(b)), p_.min_fused_length * s_.radius[fork.idx()]);
-    // Where a child whose segment ends in a tip that is a stub ends; infinity if neither
-    // does. A stub is at least kStubRadius x the fork's radius thick, or has its tip outside
-    // the other child's round cones, where an absorbed twig would be missing from the mesh
-    // (with split_outside_tips off, only a tip at least the median radius thick).
-    auto tip_end = [&](NodeId c, NodeId other) {
-      double l = len(c);
-      while (s_.child_count(c) == 1) {
-        c = s_.children[c.idx()][0];
-        l += len(c);
-      }
-      if (s_.child_count(c) != 0) return std::numeric_limits<double>::infinity();
-      const double r = s_.radius[c.idx()];
-      bool stub = r >= kStubRadius * s_.radius[fork.idx()];
-      if (!stub && (p_.split_outside_tips || r >= tables_.median_radius)) {
-        SlicePoints& tip = scratch_.tip;
-        tip.clear();
-        tip.point.push_back(s_.position[c.idx()]);
-        tip.offset.push_back(0.0);
-        stub = cone_clearance(tip, other, fork_base, l + 2.0 * s_.radius[fork.idx()], 0.0) > 0.0;
-      }
-      return stub ? fork_base + l : std::numeric_limits<double>::infinity();
+    const Leave leave_a = leave_by(fork, a, b, fork_base), leave_b = leave_by(fork, b, a, fork_base);
+    const double stub_end = std::min(leave_a.stub, leave_b.stub);
+    const double turn_end = std::min(leave_a.turn, leave_b.turn);
+    // A bundle turning at a node between the last loop and `upto` (a child's or that of a fork
+    // inside the section): one more fused loop at the node, if the bundles still touch there,
+    // so the section's loops pass round the corner rather than cut it. Leaves the points of
+    // split_gap_at at another distance; true if it added the loop.
+    const double corner_margin = 0.25 * fine_step(edge_geometry(fork, 1.0));
+    auto corner_loop = [&](double upto) {
+      const double corner = next_corner(fork, fork_base, last + corner_margin, upto - corner_margin);
+      if (!(corner < upto - corner_margin)) return false;
+      split_gap_at(fork, fork_base, corner);
+      double unused = 0;
+      if (pts_a_.point.empty() || pts_b_.point.empty() || separated_now() || nested_split(fork, corner, unused).valid())
+        return false;
+      fuse_points();
+      add_loop(pts_, fused_geometry(), LoopKind::fused, anchor_distance + corner, tube);
+      last = corner;
+      return true;
     };
-    const double stub_end = std::min(tip_end(a, b), tip_end(b, a));
-    // Where a child's chain first turns back on itself (a hairpin or zigzag node, turning by
-    // more than kFusedMaxTurn): a fused section carried round it folds, its loops around
-    // both bundles crossing; the bundles split before it, like below a stub's tip.
-    auto bend_end = [&](NodeId c) {
-      double l = len(c);
-      while (s_.child_count(c) == 1) {
-        const NodeId n = s_.children[c.idx()][0];
-        const dvec3 in = s_.position[c.idx()] - s_.position[s_.parent[c.idx()].idx()];
-        const dvec3 out = s_.position[n.idx()] - s_.position[c.idx()];
-        if (glm::dot(in, out) < std::cos(kFusedMaxTurn) * glm::length(in) * glm::length(out)) return fork_base + l;
-        c = n;
-        l += len(c);
-      }
-      return std::numeric_limits<double>::infinity();
-    };
-    const double turn_end = std::min(bend_end(a), bend_end(b));
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);
@@ -1306,6 +1425,22 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       // still, 2.6 radii at the median, but the bench tree's fold repair then found 10,306
       // pairs instead of 1,922 and the fork retry ran 9 times.)
       const double min_sep = 0.25 * (s_.radius[fork.idx()] < spacing_ ? fine_step(g) : step);
+      // The lateral of a fork inside the section opens its own tube at `split`.
+      auto split_nested = [&](NodeId lateral, double nested_base, double split, bool forced_here) {
+        const NodeId y = s_.parent[lateral.idx()];
+        Junction& j = open_junction(fragment, y, tube, split - nested_base);
+        j.forced = forced_here;
+        j.lower_side = lateral_sides(lateral, j.lower);
+        // The fused section goes on without the lateral: distances relative to `fork`.
+        const double abs_split = anchor_distance + split;
+        Task rest{fork, s_.children[fork.idx()][0], abs_split - tables_.root_distance[fork.idx()], true, excluded_};
+        rest.excluded.push_back(lateral);
+        fragment.next[0] = std::move(rest);
+        fragment.next[1] =
+            Task{y, lateral, abs_split - tables_.root_distance[y.idx()], false, excluded_within(lateral)};
+        ++out_->stats.nested_splits;
+        if (forced_here) ++out_->stats.forced_splits;
+      };
       if (separated || forced) {
         double split = d;
         if (separated) {
@@ -1320,7 +1455,15 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
               "bundles still touching where the shorter child edge ends, or just below a stub's tip; split there",
               s_.describe(fork));
         }
+        // A split forced by a turn lies at the turning node at most (the first slice may
+        // already be past it): the child's own tube then carries the corner.
+        if (forced && d + step >= turn_end && turn_end <= stub_end) split = std::min(split, turn_end);
         split = std::min(d, std::max(split, last + min_sep));
+        // A child turning between the last loop and the split (by more than max_corner_cut
+        // allows) splits at the turning node, so its tube starts with the node's own section
+        // instead of the junction cutting the corner; one turning lower gets a fused loop.
+        split = std::min(split, next_corner(fork, fork_base, last + min_sep, split));
+        corner_loop(split - min_sep);
         // After a coarse step (along a long straight edge) the bundles may have been apart
         // for most of it: one more fused loop a fine step below the split, where they still
         // touch, keeps the crotch short.
@@ -1350,26 +1493,32 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
       double nested_base = 0;
       const NodeId lateral = nested_split(fork, d, nested_base);
       if (lateral.valid()) {
-        const NodeId y = s_.parent[lateral.idx()];
         const double apart = bisect(std::max(last, nested_base), d,
                                     [&](double u) { return nested_apart(fork, fork_base, lateral, nested_base, u); });
-        const double split = std::min(d, std::max(apart, last + min_sep));
-        Junction& j = open_junction(fragment, y, tube, split - nested_base);
-        j.forced = false;
-        j.lower_side = lateral_sides(lateral, j.lower);
-        // The fused section goes on without the lateral: distances relative to `fork`.
-        const double abs_split = anchor_distance + split;
-        Task rest{fork, s_.children[fork.idx()][0], abs_split - tables_.root_distance[fork.idx()], true, excluded_};
-        rest.excluded.push_back(lateral);
-        fragment.next[0] = std::move(rest);
-        fragment.next[1] =
-            Task{y, lateral, abs_split - tables_.root_distance[y.idx()], false, excluded_within(lateral)};
-        ++out_->stats.nested_splits;
+        split_nested(lateral, nested_base, std::min(d, std::max(apart, last + min_sep)), false);
+        return;
+      }
+      // A lateral inside the section whose segment ends in a stub's tip before the next slice
+      // splits off here, apart or not, as the fork's own children do: carried on, its tip
+      // would be missing from the mesh (a twig of a whorl running inside the trunk, then out).
+      double due_base = 0;
+      const NodeId due = nested_due(fork, d, step, due_base);
+      if (due.valid()) {
+        out_->stats.warnings.add("forced_split",
+                                 "bundles still touching where the shorter child edge ends, or just below a stub's tip; split there",
+                                 s_.describe(s_.parent[due.idx()]));
+        split_nested(due, due_base, d, true);
         return;
       }
       // One loop around both bundles.
-      fuse_points();
-      add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
+      if (corner_loop(d)) {
+        split_gap_at(fork, fork_base, d);
+        fuse_points();
+        add_loop(pts_, fused_geometry(), LoopKind::fused, anchor_distance + d, tube);
+      } else {
+        fuse_points();
+        add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
+      }
       last = d;
       d += step;
     }
