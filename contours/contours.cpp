@@ -678,7 +678,7 @@ class Walker {
   NodeId nested_due(NodeId fork, double u, double step, double& base);
   /// In the fused section of `fork` (at fork_base above the anchor), after split_gap_at: the
   /// distance of the first node in (after, before) on a bundle's chain (from the fork's
-  /// children, and from both children of the forks inside the section) where slices at
+  /// children, and from the laterals of the forks inside the section) where slices at
   /// `after` and `before` would cut the corner by more than max_corner_cut x its radius;
   /// `before` if none. Hairpins are left out (the section splits below them).
   double next_corner(NodeId fork, double fork_base, double after, double before);
@@ -1146,11 +1146,11 @@ double Walker::next_corner(NodeId fork, double fork_base, double after, double b
   for (const NodeId c : s_.children[fork.idx()]) chain(c, fork_base);
   std::vector<NodeId>& candidates = scratch_.candidates;
   nested_candidates(fork, candidates);
+  // A nested fork's main child is left out: a split of `fork` moved back to its corner leaves
+  // that corner in the nested fork's own fused section all the same, and moves the split
+  // below where the bundles came apart for nothing.
   for (const NodeId lateral : candidates) {
-    const NodeId y = s_.parent[lateral.idx()];
-    const double b = tables_.root_distance[y.idx()] - anchor_distance_;
-    chain(lateral, b);
-    chain(s_.children[y.idx()][0], b);
+    chain(lateral, tables_.root_distance[s_.parent[lateral.idx()].idx()] - anchor_distance_);
   }
   return best;
 }
@@ -1368,23 +1368,6 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
     const Leave leave_a = leave_by(fork, a, b, fork_base), leave_b = leave_by(fork, b, a, fork_base);
     const double stub_end = std::min(leave_a.stub, leave_b.stub);
     const double turn_end = std::min(leave_a.turn, leave_b.turn);
-    // A bundle turning at a node between the last loop and `upto` (a child's or that of a fork
-    // inside the section): one more fused loop at the node, if the bundles still touch there,
-    // so the section's loops pass round the corner rather than cut it. Leaves the points of
-    // split_gap_at at another distance; true if it added the loop.
-    const double corner_margin = 0.25 * fine_step(edge_geometry(fork, 1.0));
-    auto corner_loop = [&](double upto) {
-      const double corner = next_corner(fork, fork_base, last + corner_margin, upto - corner_margin);
-      if (!(corner < upto - corner_margin)) return false;
-      split_gap_at(fork, fork_base, corner);
-      double unused = 0;
-      if (pts_a_.point.empty() || pts_b_.point.empty() || separated_now() || nested_split(fork, corner, unused).valid())
-        return false;
-      fuse_points();
-      add_loop(pts_, fused_geometry(), LoopKind::fused, anchor_distance + corner, tube);
-      last = corner;
-      return true;
-    };
     bool absorbed = false;
     for (;;) {
       const double g_ab = split_gap_at(fork, fork_base, d);
@@ -1455,15 +1438,18 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
               "bundles still touching where the shorter child edge ends, or just below a stub's tip; split there",
               s_.describe(fork));
         }
-        // A split forced by a turn lies at the turning node at most (the first slice may
-        // already be past it): the child's own tube then carries the corner.
-        if (forced && d + step >= turn_end && turn_end <= stub_end) split = std::min(split, turn_end);
         split = std::min(d, std::max(split, last + min_sep));
         // A child turning between the last loop and the split (by more than max_corner_cut
         // allows) splits at the turning node, so its tube starts with the node's own section
-        // instead of the junction cutting the corner; one turning lower gets a fused loop.
-        split = std::min(split, next_corner(fork, fork_base, last + min_sep, split));
-        corner_loop(split - min_sep);
+        // instead of the junction cutting the corner, where the bundles are at least loosely
+        // apart there (a forced split's point test; its cone test is left out, as for a stub's
+        // tip: the node would lie outside the mesh). Closer, the two tubes would start inside
+        // each other.
+        if (const double corner = next_corner(fork, fork_base, last + min_sep, split); corner < split) {
+          const double g_corner = split_gap_at(fork, fork_base, corner);
+          if (!pts_a_.point.empty() && !pts_b_.point.empty() && (g_corner > 0.5 * spacing_ || separated_now()))
+            split = corner;
+        }
         // After a coarse step (along a long straight edge) the bundles may have been apart
         // for most of it: one more fused loop a fine step below the split, where they still
         // touch, keeps the crotch short.
@@ -1511,14 +1497,8 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
         return;
       }
       // One loop around both bundles.
-      if (corner_loop(d)) {
-        split_gap_at(fork, fork_base, d);
-        fuse_points();
-        add_loop(pts_, fused_geometry(), LoopKind::fused, anchor_distance + d, tube);
-      } else {
-        fuse_points();
-        add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
-      }
+      fuse_points();
+      add_loop(pts_, g, LoopKind::fused, anchor_distance + d, tube);
       last = d;
       d += step;
     }

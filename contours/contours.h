@@ -101,7 +101,7 @@ struct ContourParams {
   /// Where a branch bends at a node, the straight strip between the loops on either side
   /// passes this far from the node at most (relative to its radius); farther, the node's own
   /// section is added as a loop (thin twigs sliced coarsely would otherwise leave their
-  /// skeleton outside the surface), or in a fused section a fused slice lies at the node.
+  /// skeleton outside the surface), or in a fused section the split moves back to the node.
   double max_corner_cut = 0.25;
   /// Lower bound on the slice step, relative to the neighbour distance of the particles
   /// (ParticleField::neighbour_distance; keeps thin twigs from being sliced ever more finely).
