@@ -81,6 +81,13 @@ struct CutEdge {
 };
 
 /// The strand points of a slice and where they come from.
+/// How far the straight chord from `from` to `to` passes from p (0 for a chord of no length):
+/// how much a strip between loops at those points cuts the corner at p.
+double chord_miss(const dvec3& p, const dvec3& from, const dvec3& to) {
+  const double chord = glm::length(to - from);
+  return chord > 0 ? glm::length(glm::cross(p - from, to - from)) / chord : 0.0;
+}
+
 struct SlicePoints {
   std::vector<dvec3> point;
   std::vector<StrandId> strand;
@@ -89,6 +96,12 @@ struct SlicePoints {
     point.clear();
     strand.clear();
     offset.clear();
+  }
+  /// Just the point p, on the surface (a probe for cone_clearance).
+  void assign_point(const dvec3& p) {
+    clear();
+    point.push_back(p);
+    offset.push_back(0.0);
   }
   void append(const SlicePoints& o) { append(o, 0, o.point.size()); }
   /// Appends points [begin, end) of o.
@@ -1102,9 +1115,7 @@ Walker::Leave Walker::leave_by(NodeId fork, NodeId c, NodeId other, double base)
   bool stub = r >= kStubRadius * s_.radius[fork.idx()];
   if (!stub && (p_.split_outside_tips || r >= tables_.median_radius)) {
     SlicePoints& tip = scratch_.tip;
-    tip.clear();
-    tip.point.push_back(s_.position[c.idx()]);
-    tip.offset.push_back(0.0);
+    tip.assign_point(s_.position[c.idx()]);
     stub = cone_clearance(tip, other, base, l + 2.0 * s_.radius[fork.idx()], 0.0) > 0.0;
   }
   if (stub) {
@@ -1131,9 +1142,7 @@ double Walker::next_corner(NodeId fork, double fork_base, double after, double b
         const double lu = glm::length(u), lv = glm::length(v);
         if (lu > 0 && lv > 0 && glm::dot(u, v) >= cos_hairpin * lu * lv) {
           const dvec3 from = p - u * (std::min(l - after, lu) / lu), to = p + v * (std::min(best - l, lv) / lv);
-          const double chord = glm::length(to - from);
-          const double miss = chord > 0 ? glm::length(glm::cross(p - from, to - from)) / chord : 0.0;
-          if (miss > p_.max_corner_cut * s_.radius[c.idx()]) {
+          if (chord_miss(p, from, to) > p_.max_corner_cut * s_.radius[c.idx()]) {
             best = l;
             return;
           }
@@ -1168,9 +1177,7 @@ NodeId Walker::nested_due(NodeId fork, double u, double step, double& base) {
     // without the lateral's): inside them, nothing is missing, and a tube of its own would
     // run through the rest's.
     SlicePoints& probe = scratch_.tip;
-    probe.clear();
-    probe.point.push_back(s_.position[leave.tip.idx()]);
-    probe.offset.push_back(0.0);
+    probe.assign_point(s_.position[leave.tip.idx()]);
     const double reach = leave.stub + 2.0 * s_.radius[fork.idx()];
     excluded_.push_back(lateral);
     const bool outside = cone_clearance(probe, c[0], last_fork_base_, reach, 0.0) > 0.0 &&
@@ -1315,9 +1322,7 @@ void Walker::walk(const Task& task, Fragment& fragment, ContourSet& store) {
         if (lu > 0 && lv > 0) {
           const double a = end - last, b = std::min(d - end, lv);
           const dvec3 from = p - u * (a / lu), to = p + v * (b / lv);
-          const double chord = glm::length(to - from);
-          const double miss = chord > 0 ? glm::length(glm::cross(p - from, to - from)) / chord : 0.0;
-          if (miss > p_.max_corner_cut * s_.radius[cur.idx()]) {
+          if (chord_miss(p, from, to) > p_.max_corner_cut * s_.radius[cur.idx()]) {
             const SliceGeometry g = edge_geometry(cur, 1.0);
             pts_.clear();
             evaluate(cur, 1.0, pts_);

@@ -315,39 +315,47 @@ class Builder {
         for (int j = lo.y; j <= hi.y; ++j)
           for (int i = lo.x; i <= hi.x; ++i) bins_of[(static_cast<std::size_t>(k) * nb.y + j) * nb.x + i].push_back(f);
     }
-    // The cut triangle nearest a voxel's centre within the band (kNone if none): read from the
-    // shell where it was filled, searched in the bins elsewhere.
-    std::unordered_map<std::size_t, std::uint32_t> nearest_found;
-    auto nearest_to = [&](const dvec3& q) {
-      const glm::ivec3 g = glm::clamp(glm::ivec3(glm::round((q - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
-      const std::size_t v = at(g.x, g.y, g.z);
-      const dvec3 p = centre(g.x, g.y, g.z);
-      if (phi(p) > shell) return nearest[v];
-      if (const auto it = nearest_found.find(v); it != nearest_found.end()) return it->second;
+    // The triangle of the grid nearest p within `reach` (kNone if none), and its nearest point:
+    // rings of bins outward, until the next ring is farther than the best so far, each
+    // triangle once (a large one lies in many bins); of equal distances the lowest index.
+    struct Near {
+      std::uint32_t f = kNone;
+      dvec3 q{0.0};
+    };
+    auto nearest_in_bins = [&](const dvec3& p, double reach) {
       ++query_;
-      // Rings of bins outward, until the next ring is farther than the best so far.
       const glm::ivec3 c = glm::ivec3(glm::floor((p - origin) / (h * bin)));
-      const int cells = static_cast<int>(std::ceil(band / (h * bin)));
-      double best = band;
-      std::uint32_t found = kNone;
+      const int cells = static_cast<int>(std::ceil(reach / (h * bin)));
+      double best = reach;
+      Near found;
       for (int r = 0; r <= cells && best > (r - 1) * h * bin; ++r)
         for (int z = std::max(c.z - r, 0); z <= std::min(c.z + r, nb.z - 1); ++z)
           for (int y = std::max(c.y - r, 0); y <= std::min(c.y + r, nb.y - 1); ++y)
             for (int x = std::max(c.x - r, 0); x <= std::min(c.x + r, nb.x - 1); ++x) {
               if (std::max({std::abs(x - c.x), std::abs(y - c.y), std::abs(z - c.z)}) != r) continue;
               for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(z) * nb.y + y) * nb.x + x]) {
-                if (seen_[f] == query_) continue;  // (a large triangle lies in many bins)
+                if (seen_[f] == query_) continue;
                 seen_[f] = query_;
                 const auto& t = mesh_.triangles[f];
-                const double d = glm::distance(p, closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
-                if (d < best || (d == best && found != kNone && f < found)) {
+                const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
+                const double d = glm::distance(p, q);
+                if (d < best || (d == best && found.f != kNone && f < found.f)) {
                   best = d;
-                  found = f;
+                  found = {f, q};
                 }
               }
             }
-      nearest_found.emplace(v, found);
       return found;
+    };
+    // The cut triangle nearest a voxel's centre within the band: read from the shell where it
+    // was filled, searched in the bins elsewhere (once per voxel).
+    std::unordered_map<std::size_t, std::uint32_t> nearest_found;
+    auto nearest_to = [&](const dvec3& q) {
+      const glm::ivec3 g = glm::clamp(glm::ivec3(glm::round((q - origin) / h)), glm::ivec3(0), n - glm::ivec3(1));
+      const std::size_t v = at(g.x, g.y, g.z);
+      const dvec3 p = centre(g.x, g.y, g.z);
+      if (phi(p) > shell) return nearest[v];
+      return nearest_found.try_emplace(v, nearest_in_bins(p, band).f).first->second;
     };
     // The solid: inside the region, the union of the skeleton's round cones (the input is the
     // truth, and the surface there is what could not be judged); near the kept surface, which
@@ -598,29 +606,17 @@ class Builder {
     // meet as one sheet instead of two a voxel apart.
     {
       const double reach_band = 3 * h;
-      const int cells = static_cast<int>(std::ceil(reach_band / (h * bin)));
       for (std::size_t k = 0; k < patch.positions.size(); ++k) {
         const dvec3 p = patch.positions[k];
         if (phi(p) < -reach_band) continue;
-        const glm::ivec3 c = glm::ivec3(glm::floor((p - origin) / (h * bin)));
-        double best = reach_band;
         dvec3 onto = p;
-        for (int z = c.z - cells; z <= c.z + cells; ++z)
-          for (int y = c.y - cells; y <= c.y + cells; ++y)
-            for (int x = c.x - cells; x <= c.x + cells; ++x) {
-              if (x < 0 || y < 0 || z < 0 || x >= nb.x || y >= nb.y || z >= nb.z) continue;
-              for (const std::uint32_t f : bins_of[(static_cast<std::size_t>(z) * nb.y + y) * nb.x + x]) {
-                const auto& t = mesh_.triangles[f];
-                const dvec3 q = closest_on_triangle(p, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]);
-                const double d = glm::distance(p, q);
-                if (d >= best) continue;
-                best = d;
-                // Only onto a triangle's inside: points nearest an edge or corner would land
-                // on one another.
-                const dvec3 w = barycentric(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], q);
-                onto = std::min({w.x, w.y, w.z}) > 1e-3 ? q : p;
-              }
-            }
+        if (const Near near = nearest_in_bins(p, reach_band); near.f != kNone) {
+          // Only onto a triangle's inside: points nearest an edge or corner would land on one
+          // another.
+          const auto& t = mesh_.triangles[near.f];
+          const dvec3 w = barycentric(mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]], near.q);
+          if (std::min({w.x, w.y, w.z}) > 1e-3) onto = near.q;
+        }
         patch.positions[k] = options_.grid > 0 ? snap_to_grid(onto, options_.grid) : onto;
       }
     }
@@ -912,7 +908,7 @@ class Builder {
   const Skeleton& skeleton_;
   const VolumePatchOptions& options_;
   std::vector<std::uint32_t> opposite_;
-  std::vector<std::uint32_t> seen_;  // per triangle: the last nearest-triangle query that met it
+  std::vector<std::uint32_t> seen_;  // per triangle: the last nearest_in_bins query that met it
   std::uint32_t query_ = 0;
 };
 
