@@ -236,6 +236,8 @@ class Attempt {
   /// CGAL fails; otherwise `bad` lists the cut triangles (mesh indices) whose patches could not
   /// be judged consistently (empty: the union can be assembled).
   bool run(const std::vector<std::array<std::uint32_t, 2>>& pairs);
+  /// Per corner k of mesh triangle f, at 3f + k, the triangle across its edge to k + 1 (after run()).
+  [[nodiscard]] const std::vector<std::uint32_t>& across() const { return across_; }
   /// The cut triangles (mesh indices) with a piece kept flipped.
   [[nodiscard]] std::vector<std::uint32_t> flipped() const {
     std::vector<std::uint32_t> f;
@@ -772,15 +774,61 @@ void Attempt::assemble(Mesh& out, std::vector<std::uint32_t>& origin_of, double 
 
 namespace {
 
+/// Where drop_loose_parts found a part holding a node cut loose (`in_severed`, per triangle of
+/// `out`), the crossings that cut it off: in the mesh before the union, the cut triangles of the
+/// wholly dropped regions (joined across edges) that touch both the loose part and the rest,
+/// the loose part's cut triangles next to such a region, and cut triangles with pieces on both
+/// sides. Leaving out only these keeps the crossings elsewhere in the loose part (on a large
+/// tree, thousands of them). Empty where no such region is found.
+std::vector<std::uint32_t> severing_cuts(const Mesh& mesh, const std::vector<std::uint32_t>& across, const Mesh& out,
+                                         const std::vector<std::uint32_t>& origin_of,
+                                         const std::vector<std::uint8_t>& in_severed,
+                                         const std::vector<std::uint8_t>& was_cut) {
+  const auto nf = static_cast<std::uint32_t>(mesh.triangles.size());
+  std::vector<std::uint8_t> side(nf, 0);  // bit 1: a piece in the loose part, bit 2: one elsewhere
+  for (std::uint32_t f = 0; f < out.triangles.size(); ++f) side[origin_of[f]] |= in_severed[f] ? 1 : 2;
+  UnionFind dropped(nf);
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (side[f] != 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t g = across[3 * f + k];
+      if (g != kNone && side[g] == 0) dropped.unite(f, g);
+    }
+  }
+  std::vector<std::uint8_t> touches(nf, 0);  // by root of a dropped region: the sides it meets
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (side[f] != 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t g = across[3 * f + k];
+      if (g != kNone) touches[dropped.find(f)] |= side[g];
+    }
+  }
+  auto between = [&](std::uint32_t f) { return side[f] == 0 && touches[dropped.find(f)] == 3; };
+  std::vector<std::uint32_t> cuts;
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!was_cut[f]) continue;
+    bool take = between(f) || side[f] == 3;
+    for (int k = 0; k < 3 && !take && side[f] == 1; ++k) {
+      const std::uint32_t g = across[3 * f + k];
+      take = g != kNone && between(g);
+    }
+    if (take) cuts.push_back(f);
+  }
+  return cuts;
+}
+
 /// Components (through shared vertices) of `out` other than the largest: inner shells (a void
 /// enclosed by crossing branches: negative volume) and lumps (a pocket turned inside out, come
 /// apart from the tube it folded) go. A part that holds an anchor, of either volume, is a branch
 /// the union cut off the tree (its tube turned inside out over a whole section): the input
-/// triangles it was cut from are returned, and the mesh is not to be used.
+/// triangles it was cut from are returned, `in_severed` marks its triangles, and the mesh is not
+/// to be used.
 std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t>& origin_of,
                                             std::span<const glm::dvec3> anchors,
-                                            const std::vector<std::uint8_t>& was_cut, SelfUnionStats& st) {
+                                            const std::vector<std::uint8_t>& was_cut, SelfUnionStats& st,
+                                            std::vector<std::uint8_t>& in_severed) {
   std::vector<std::uint32_t> severed;
+  in_severed.assign(out.triangles.size(), 0);
   if (out.triangles.empty()) return severed;
   const bool uvs = !out.corner_uvs.empty(), branches = !out.triangle_branch.empty();
   UnionFind comp(out.positions.size());
@@ -843,6 +891,7 @@ std::vector<std::uint32_t> drop_loose_parts(Mesh& out, std::vector<std::uint32_t
     }
     if (holds) {
       for (const std::uint32_t f : members[c]) {
+        in_severed[f] = 1;
         if (was_cut[origin_of[f]]) severed.push_back(origin_of[f]);
       }
       continue;
@@ -1112,8 +1161,8 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
   }
   Attempt attempt(mesh, vc);
   // (Each attempt finds one kind of failure; trees with thousands of crossings, the fir, need
-  // more than 12 before the union is kept.)
-  constexpr int kAttempts = 24;
+  // 28 before the union is kept.)
+  constexpr int kAttempts = 40;
   Mesh out;
   std::vector<std::uint32_t> origin_of;
   bool ready = false;
@@ -1149,9 +1198,11 @@ SelfUnionStats self_union(Mesh& mesh, const std::vector<std::array<std::uint32_t
       leave_out(open);
       continue;
     }
-    const std::vector<std::uint32_t> severed = drop_loose_parts(out, origin_of, anchors, was_cut, trial);
+    std::vector<std::uint8_t> in_severed;
+    const std::vector<std::uint32_t> severed = drop_loose_parts(out, origin_of, anchors, was_cut, trial, in_severed);
     if (!severed.empty()) {
-      leave_out(severed);
+      const std::vector<std::uint32_t> cuts = severing_cuts(mesh, attempt.across(), out, origin_of, in_severed, was_cut);
+      leave_out(cuts.empty() ? severed : cuts);
       continue;
     }
     // A large part judged turned inside out and flipped turns the whole surface over: those
