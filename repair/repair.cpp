@@ -123,6 +123,32 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
   return moving.size();
 }
 
+/// The input's nodes of `skeleton` (source_id >= 0), each joined to its nearest input ancestor:
+/// the round cones the volume patch draws, and what its fidelity is measured against (only
+/// position, radius, parent and source_id filled, as input_skeleton). The skeleton itself where
+/// it has no source ids.
+Skeleton input_nodes(const Skeleton& skeleton) {
+  if (skeleton.source_id.size() != skeleton.size()) return skeleton;
+  Skeleton out;
+  out.up_axis = skeleton.up_axis;
+  std::vector<NodeId> now(skeleton.size());  // nearest input node at or above each node
+  for (std::size_t i = 0; i < skeleton.size(); ++i) {
+    const NodeId up = skeleton.parent[i].valid() ? now[skeleton.parent[i].idx()] : NodeId{};
+    if (skeleton.source_id[i] < 0 && (up.valid() || i > 0)) {
+      now[i] = up;
+      continue;
+    }
+    now[i] = NodeId(static_cast<std::uint32_t>(out.size()));
+    out.position.push_back(skeleton.position[i]);
+    out.radius.push_back(skeleton.radius[i]);
+    out.parent.push_back(up);
+    out.source_id.push_back(skeleton.source_id[i]);
+  }
+  out.children.resize(out.size());
+  out.frame.resize(out.size());
+  return out;
+}
+
 /// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`;
 /// `origin[g]` names the triangle of `before` that triangle g of `after` may still be (or
 /// kNoTriangle). Pairs of triangles both found unchanged (the same three positions in the same
@@ -320,20 +346,41 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     left_out = std::move(still);
     pairs = std::move(after);
   }
-  // Step 6: what the union left, patched from a voxel grid of the solid around it.
-  if (params.volume_patch && !pairs.empty() && mesh.vertex_node.size() == mesh.positions.size()) {
-    if (!params.self_union) {
+  // Step 6: what the union left, patched from a voxel grid of the solid around it; then, in a
+  // second pass kept only where it does better again (so that it cannot cost the first pass's
+  // patches), the thick nodes still outside (a hub or a hairpin the slicing could not
+  // separate) with the pairs left, whose regions merge with theirs where they overlap.
+  const bool can_patch = params.volume_patch && mesh.vertex_node.size() == mesh.positions.size();
+  Skeleton input;  // (made where the fidelity is first measured)
+  auto patch_pass = [&](const std::vector<std::array<std::uint32_t, 2>>& patch_pairs,
+                        const std::vector<std::uint32_t>& uncovered, const char* warning, const char* what) {
+    if (patch_pairs.empty() && uncovered.empty()) return;
+    if (!params.self_union || now.pairs != pairs.size() || !now.thick_inside) {
       now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
              .thick_inside = thick_inside(mesh)};
+    }
+    // The second pass is also held to the fidelity to the input's cones (its patches' many
+    // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
+    // inside are worth).
+    auto fidelity = [&] {
+      if (input.empty()) input = input_nodes(skeleton);
+      MeshCheckParams check{.self_intersections = false, .skeleton = &input, .quality = false, .uvs = false};
+      return check_mesh(mesh, check).fidelity_p95;
+    };
+    if (!uncovered.empty()) {
+      now.fidelity_p95 = fidelity();
+      now.fidelity_tolerance = MeshCheckParams{}.fidelity_tolerance;
     }
     VolumePatchOptions options;
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
+    // (The second pass, for nodes only, within a quarter of the budget.)
     options.max_total_voxels = params.patch_budget_voxels;
     options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
+    options.uncovered = uncovered;
     // Kept by the repair's rule after the untangling; where refused with several patches, once
     // more without the one whose seams made the most crossings (a volume surface folded
     // through the kept one), so that one bad region does not cost the others.
@@ -341,9 +388,9 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     const std::string problem_before = st.problem;
     for (int attempt = 0; attempt < 2; ++attempt) {
       MeshResult before = r;
-      vp = volume_patch(mesh, pairs, skeleton, options, origin);
+      vp = volume_patch(mesh, patch_pairs, skeleton, options, origin);
       st.timings.add("volume_patch", clock.lap());
-      st.patch_clusters = vp.clusters;
+      st.patch_clusters += vp.clusters;
       st.patch_voxels += vp.voxels;
       if (vp.patched == 0) break;
       if (!r.triangle_kind.empty()) {
@@ -362,6 +409,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         next.volume = signed_volume(mesh);
         next.pairs = after.size();
         next.thick_inside = thick_inside(mesh);
+        if (now.fidelity_p95) next.fidelity_p95 = fidelity();
       }
       if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;
@@ -372,7 +420,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         options.leave_out[static_cast<std::size_t>(worst)] = 1;
       } else {
         st.problem = problem_before;
-        st.patched = vp.patched;
+        st.patched += vp.patched;
+        now = next;
         pairs = std::move(after);
         break;
       }
@@ -384,7 +433,17 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       reasons += (reasons.empty() ? "" : "; ") + std::to_string(count) + "x " + why;
       refused += count;
     }
-    st.warnings.add_count("volume_patch_refused", "region of crossings not patched (" + reasons + ")", refused);
+    st.warnings.add_count(warning, std::string(what) + " not patched (" + reasons + ")", refused);
+  };
+  if (can_patch) patch_pass(pairs, {}, "volume_patch_refused", "region of crossings");
+  if (can_patch && params.patch_uncovered) {
+    std::vector<std::uint32_t> uncovered;
+    const std::vector<std::uint32_t> ids = thick_node_ids(skeleton);
+    const std::vector<std::uint8_t> in = inside_closed_mesh(mesh, thick);
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      if (!in[k]) uncovered.push_back(ids[k]);
+    }
+    if (!uncovered.empty()) patch_pass(pairs, uncovered, "volume_patch_refused_nodes", "region around a thick node outside");
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();

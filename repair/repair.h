@@ -77,6 +77,8 @@ struct RepairParams {
   /// Step 6: replace the surface around pairs the union left by a patch drawn from a voxel
   /// grid of the solid there (repair/volume_patch.h).
   bool volume_patch = true;
+  /// Thick skeleton nodes left outside the mesh get such a patch too (around the node).
+  bool patch_uncovered = true;
   /// Voxels per thinnest local radius of those patches.
   double patch_voxels_per_radius = 4;
   /// A patch's region: the pairs' box grown by this many local radii.

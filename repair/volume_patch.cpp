@@ -103,6 +103,7 @@ class TriangleBins {
 struct Patch {
   Box region;                           // triangles wholly inside are cut out
   double radius_min = 0, radius_max = 0;
+  bool node = false;                    // holds the region of an uncovered node
   std::vector<std::uint32_t> cut;       // the triangles cut out, sorted
   std::vector<glm::dvec3> positions;    // the patch's vertices (snapped)
   std::vector<std::uint32_t> vertex_origin;    // per patch vertex: nearest mesh triangle
@@ -232,6 +233,10 @@ class Builder {
     std::vector<std::vector<std::uint32_t>> holes;
     if (!boundary_loops(hole_edges, holes)) {
       patch.failure = "the region's boundary crosses the surface in touching loops";
+      return;
+    }
+    if (patch.cut.empty() && patch.replaced.empty()) {  // (a node's region the surface misses)
+      patch.failure = "the region holds no surface";
       return;
     }
     // The scale: the thinnest branch of the pairs (thinner ones passing the region and lost on
@@ -1010,7 +1015,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   VolumePatchStats st;
   origin.resize(mesh.triangles.size());
   std::iota(origin.begin(), origin.end(), 0u);
-  if (pairs.empty()) return st;
+  if (pairs.empty() && options.uncovered.empty()) return st;
   const VertexCorners vc = vertex_corners(mesh);
   const bool nodes = mesh.vertex_node.size() == mesh.positions.size();
 
@@ -1052,6 +1057,22 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     p.region = p.region.grown(options.reach * std::max(p.radius_min, 1e-4));
     patches.push_back(std::move(p));
   }
+  // Regions around nodes left outside: the node's own scale (thinner twigs there are drawn at
+  // min_twig_voxels), and a box that reaches the surface the slicing left nearby.
+  for (const std::uint32_t n : options.uncovered) {
+    Patch p;
+    p.node = true;
+    p.radius_max = std::max(node_radius[n], 1e-4);
+    p.region.add(anchors[n]);
+    p.region = p.region.grown((options.reach + 1) * p.radius_max);
+    // The scale: the thinnest node in the box, down to a quarter of the node's radius (a
+    // twig drawn thicker than it is costs fidelity where the patch has many vertices).
+    p.radius_min = p.radius_max;
+    for (std::size_t m = 0; m < anchors.size(); ++m) {
+      if (p.region.contains(anchors[m])) p.radius_min = std::min(p.radius_min, std::max(node_radius[m], p.radius_max / 4));
+    }
+    patches.push_back(std::move(p));
+  }
   st.clusters = patches.size();
   // Overlapping regions merge: passes of a sweep along x joining every overlapping pair,
   // until none overlap (a merged box can reach a further one).
@@ -1086,9 +1107,13 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       into.region.add(patches[i].region);
       into.radius_max = std::max(into.radius_max, patches[i].radius_max);
       into.radius_min = std::min(into.radius_min, patches[i].radius_min);
+      into.node = into.node || patches[i].node;
     }
     patches = std::move(next);
   }
+  // With uncovered nodes, only their regions (and those of the pairs merged into them): the
+  // pairs' own were tried before (repair.cpp's first pass).
+  if (!options.uncovered.empty()) std::erase_if(patches, [](const Patch& p) { return !p.node; });
   // Smallest regions first, within a budget of voxels for the whole step: its cost is
   // bounded however many regions a tree has.
   std::stable_sort(patches.begin(), patches.end(), [](const Patch& a, const Patch& b) {
@@ -1123,6 +1148,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       fresh.region = grown;
       fresh.radius_min = patches[p].radius_min;
       fresh.radius_max = patches[p].radius_max;
+      fresh.node = patches[p].node;
       patches[p] = std::move(fresh);
     }
     use[p] = patches[p].failure.empty();

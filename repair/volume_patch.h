@@ -39,6 +39,10 @@ struct VolumePatchOptions {
   double grid = 0;                      ///< float grid of the positions (core/mesh.h), 0: none
   bool allow_crossings = false;         ///< keep a patch that crosses (the caller untangles it)
   std::vector<std::uint8_t> leave_out;  ///< per region (the step's order, as seam_crossings): not patched
+  /// Skeleton nodes (indices) left outside the surface: each gets a region of its own, its box
+  /// grown by `reach` + 1 of its radii (where the slicing could not separate a hub or a hairpin).
+  /// Where given, only those regions are patched, with the pairs' regions that overlap them.
+  std::vector<std::uint32_t> uncovered;
 };
 
 struct VolumePatchStats {
@@ -51,7 +55,8 @@ struct VolumePatchStats {
   std::vector<std::size_t> seam_crossings;     ///< per region: crossings its patch's seams made (0: none kept)
 };
 
-/// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) by patches, in
+/// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) and around the
+/// `uncovered` nodes of the options by patches, in
 /// place, where each patch checks as described above. `skeleton` gives the local scale (its
 /// radii, indexed by mesh.vertex_node), the cones and the anchors (its nodes). `origin`
 /// receives, per triangle of the result, the input triangle it is, or the nearest cut-out

@@ -378,6 +378,27 @@ TEST(Repair, MessyTreesStayOnePartAndInPlace) {
   }
 }
 
+TEST(Repair, VolumePatchCoversThickNodesLeftOutside) {
+  // Messy seed 154: a thick node the slicing leaves outside its crotch. The patch pass around
+  // such nodes (repair.patch_uncovered) draws the input's round cones there: more thick input
+  // nodes inside, no more pairs, still one closed part.
+  MessyGrowParams g;
+  g.seed = 154;
+  const RawSkeleton raw = grow_messy(g);
+  const Skeleton input = input_skeleton(raw);
+  auto check = [&](bool uncovered) {
+    PipelineParams p = keep_input();
+    p.repair.patch_uncovered = uncovered;
+    const PipelineResult r = run_pipeline(raw, p);
+    return check_mesh(r.mesh.mesh, {.skeleton = &input});
+  };
+  const MeshCheckReport off = check(false), on = check(true);
+  EXPECT_GT(on.thick_nodes_inside, off.thick_nodes_inside);
+  EXPECT_LE(on.self_intersecting_pairs, off.self_intersecting_pairs);
+  EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
+  EXPECT_EQ(on.components, 1u);
+}
+
 TEST(Repair, SelfUnionIsTheSameForAnyThreadCount) {
   // CGAL returns the refined triangles in an order that depends on heap addresses; messy seed
   // 104 at UTM coordinates gave another mesh about one run in three on two threads before the
