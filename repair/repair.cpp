@@ -413,11 +413,42 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       }
       if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;
-        r = std::move(before);
-        if (vp.patched < 2) break;
-        const auto worst = std::max_element(vp.seam_crossings.begin(), vp.seam_crossings.end()) - vp.seam_crossings.begin();
+        if (vp.patched < 2) {
+          r = std::move(before);
+          break;
+        }
+        // The regions that hold more pairs after than before are left out; where none does
+        // (or the result was not sound), the one whose seams made the most crossings. The
+        // regions not made are left out too: the next try is a subset of this one.
         options.leave_out.assign(vp.seam_crossings.size(), 0);
-        options.leave_out[static_cast<std::size_t>(worst)] = 1;
+        for (std::size_t k = 0; k < vp.made.size() && k < options.leave_out.size(); ++k) options.leave_out[k] = !vp.made[k];
+        bool any = false;
+        if (next.sound && vp.regions.size() == vp.seam_crossings.size()) {
+          auto count_in = [&](const Mesh& m, const std::vector<std::array<std::uint32_t, 2>>& ps, std::size_t k) {
+            const auto& [lo, hi] = vp.regions[k];
+            std::size_t n = 0;
+            for (const auto& pr : ps) {
+              for (const std::uint32_t f : pr) {
+                const auto& t = m.triangles[f];
+                const glm::dvec3 c = (m.positions[t[0]] + m.positions[t[1]] + m.positions[t[2]]) / 3.0;
+                if (glm::all(glm::greaterThanEqual(c, lo)) && glm::all(glm::lessThanEqual(c, hi))) {
+                  ++n;
+                  break;
+                }
+              }
+            }
+            return n;
+          };
+          for (std::size_t k = 0; k < vp.seam_crossings.size(); ++k) {
+            if (vp.seam_crossings[k] == 0) continue;  // (not patched, or made no crossing)
+            if (count_in(mesh, after, k) > count_in(before.mesh, pairs, k)) options.leave_out[k] = any = 1;
+          }
+        }
+        if (!any) {
+          const auto worst = std::max_element(vp.seam_crossings.begin(), vp.seam_crossings.end()) - vp.seam_crossings.begin();
+          options.leave_out[static_cast<std::size_t>(worst)] = 1;
+        }
+        r = std::move(before);
       } else {
         st.problem = problem_before;
         st.patched += vp.patched;

@@ -1127,7 +1127,7 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   std::vector<std::uint8_t> use(patches.size(), 0);
   for (std::size_t p = 0; p < patches.size(); ++p) {
     if (p < options.leave_out.size() && options.leave_out[p]) {
-      ++st.failures["its seams made the most crossings when the step was refused"];
+      ++st.failures["not tried again after the step was refused (not made, or more pairs in it)"];
       continue;
     }
     // Where the box's faces cut the surface where it is not yet clean (branches still
@@ -1232,7 +1232,10 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     }
     if (!changed) {
       st.seam_crossings.assign(patches.size(), 0);
+      st.regions.resize(patches.size());
+      st.made.assign(use.begin(), use.end());
       for (std::size_t p = 0; p < patches.size(); ++p) {
+        st.regions[p] = {patches[p].region.lo, patches[p].region.hi};
         if (!use[p]) continue;
         st.seam_crossings[p] = made[p];
         ++st.patched;

@@ -53,6 +53,8 @@ struct VolumePatchStats {
   std::size_t voxels = 0;            ///< voxels of all grids built
   std::map<std::string, std::size_t> failures;  ///< regions not patched, by why
   std::vector<std::size_t> seam_crossings;     ///< per region: crossings its patch's seams made (0: none kept)
+  std::vector<std::array<glm::dvec3, 2>> regions;  ///< per region (same order): its box, lo and hi
+  std::vector<std::uint8_t> made;              ///< per region (same order): its patch was made
 };
 
 /// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) and around the
