@@ -1125,13 +1125,18 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
   Builder builder(mesh, vc, skeleton, options);
   builder.link();
   std::vector<std::uint8_t> use(patches.size(), 0);
+  std::vector<std::uint8_t> absorbed(patches.size(), 0);  // merged into a region that grew into it
+  auto left_out = [&](std::size_t q) { return q < options.leave_out.size() && options.leave_out[q]; };
   for (std::size_t p = 0; p < patches.size(); ++p) {
-    if (p < options.leave_out.size() && options.leave_out[p]) {
+    if (absorbed[p]) continue;
+    if (left_out(p)) {
       ++st.failures["not tried again after the step was refused (not made, or more pairs in it)"];
       continue;
     }
     // Where the box's faces cut the surface where it is not yet clean (branches still
-    // overlapping there), the box grows, up to four times, as long as it stays clear of the others.
+    // overlapping there), the box grows, up to four times, as long as it stays clear of the
+    // patches made; regions not made that it grows into are merged into it (two regions a
+    // voxel apart each failing at the other's rims).
     for (int attempt = 0;; ++attempt) {
       if (st.voxels >= options.max_total_voxels) {
         patches[p].failure = "the step's budget of voxels is spent";
@@ -1142,13 +1147,26 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       if (patches[p].failure.empty() || attempt == 4 || patches[p].voxels == 0) break;
       const Box grown = patches[p].region.grown(options.reach * std::max(patches[p].radius_min, 1e-4));
       bool clear = true;
-      for (std::size_t q = 0; q < patches.size(); ++q) clear = clear && (q == p || !grown.overlaps(patches[q].region));
+      std::vector<std::size_t> into;
+      for (std::size_t q = 0; q < patches.size() && clear; ++q) {
+        if (q == p || absorbed[q] || !grown.overlaps(patches[q].region)) continue;
+        clear = !use[q] && !left_out(q);
+        into.push_back(q);
+      }
       if (!clear) break;
       Patch fresh;
       fresh.region = grown;
       fresh.radius_min = patches[p].radius_min;
       fresh.radius_max = patches[p].radius_max;
       fresh.node = patches[p].node;
+      for (const std::size_t q : into) {
+        fresh.region.add(patches[q].region);
+        fresh.radius_min = std::min(fresh.radius_min, patches[q].radius_min);
+        fresh.radius_max = std::max(fresh.radius_max, patches[q].radius_max);
+        fresh.node = fresh.node || patches[q].node;
+        absorbed[q] = 1;
+        if (q < p && --st.failures[patches[q].failure] == 0) st.failures.erase(patches[q].failure);
+      }
       patches[p] = std::move(fresh);
     }
     use[p] = patches[p].failure.empty();
