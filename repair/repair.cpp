@@ -126,9 +126,12 @@ std::size_t separate_coincident(Mesh& mesh, double grid) {
 /// The input's nodes of `skeleton` (source_id >= 0), each joined to its nearest input ancestor:
 /// the round cones the volume patch draws, and what its fidelity is measured against (only
 /// position, radius, parent and source_id filled, as input_skeleton). The skeleton itself where
-/// it has no source ids.
-Skeleton input_nodes(const Skeleton& skeleton) {
+/// it has no source ids. `index` receives, per node of the result, its index in `skeleton`.
+Skeleton input_nodes(const Skeleton& skeleton, std::vector<std::uint32_t>& index) {
+  index.resize(skeleton.size());
+  std::iota(index.begin(), index.end(), 0u);
   if (skeleton.source_id.size() != skeleton.size()) return skeleton;
+  index.clear();
   Skeleton out;
   out.up_axis = skeleton.up_axis;
   std::vector<NodeId> now(skeleton.size());  // nearest input node at or above each node
@@ -139,6 +142,7 @@ Skeleton input_nodes(const Skeleton& skeleton) {
       continue;
     }
     now[i] = NodeId(static_cast<std::uint32_t>(out.size()));
+    index.push_back(static_cast<std::uint32_t>(i));
     out.position.push_back(skeleton.position[i]);
     out.radius.push_back(skeleton.radius[i]);
     out.parent.push_back(up);
@@ -351,7 +355,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // patches), the thick nodes still outside (a hub or a hairpin the slicing could not
   // separate) with the pairs left, whose regions merge with theirs where they overlap.
   const bool can_patch = params.volume_patch && mesh.vertex_node.size() == mesh.positions.size();
-  Skeleton input;  // (made where the fidelity is first measured)
+  std::vector<std::uint32_t> input_index;
+  const Skeleton input = can_patch ? input_nodes(skeleton, input_index) : Skeleton{};
   auto patch_pass = [&](const std::vector<std::array<std::uint32_t, 2>>& patch_pairs,
                         const std::vector<std::uint32_t>& uncovered, const char* warning, const char* what) {
     if (patch_pairs.empty() && uncovered.empty()) return;
@@ -363,7 +368,6 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
     // inside are worth).
     auto fidelity = [&] {
-      if (input.empty()) input = input_nodes(skeleton);
       MeshCheckParams check{.self_intersections = false, .skeleton = &input, .quality = false, .uvs = false};
       return check_mesh(mesh, check).fidelity_p95;
     };
@@ -468,11 +472,14 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   };
   if (can_patch) patch_pass(pairs, {}, "volume_patch_refused", "region of crossings");
   if (can_patch && params.patch_uncovered) {
+    // (Thick by the input's median radius, as `check --skeleton` counts them.)
     std::vector<std::uint32_t> uncovered;
-    const std::vector<std::uint32_t> ids = thick_node_ids(skeleton);
-    const std::vector<std::uint8_t> in = inside_closed_mesh(mesh, thick);
+    const std::vector<std::uint32_t> ids = thick_node_ids(input);
+    std::vector<glm::dvec3> at;
+    for (const std::uint32_t i : ids) at.push_back(input.position[i]);
+    const std::vector<std::uint8_t> in = inside_closed_mesh(mesh, at);
     for (std::size_t k = 0; k < ids.size(); ++k) {
-      if (!in[k]) uncovered.push_back(ids[k]);
+      if (!in[k]) uncovered.push_back(input_index[ids[k]]);
     }
     if (!uncovered.empty()) patch_pass(pairs, uncovered, "volume_patch_refused_nodes", "region around a thick node outside");
   }
