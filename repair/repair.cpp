@@ -379,15 +379,13 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
-    // (The second pass, for nodes only, within a quarter of the budget.)
     options.max_total_voxels = params.patch_budget_voxels;
     options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
     options.allow_crossings = true;  // the fold repair below untangles the seams' creases
     options.uncovered = uncovered;
     // Kept by the repair's rule after the untangling; where refused with several patches, once
-    // more without the one whose seams made the most crossings (a volume surface folded
-    // through the kept one), so that one bad region does not cost the others.
+    // more with a subset of them (below), so that a few bad regions do not cost the others.
     VolumePatchStats vp;
     const std::string problem_before = st.problem;
     for (int attempt = 0; attempt < 2; ++attempt) {

@@ -1065,11 +1065,26 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
     p.radius_max = std::max(node_radius[n], 1e-4);
     p.region.add(anchors[n]);
     p.region = p.region.grown((options.reach + 1) * p.radius_max);
-    // The scale: the thinnest node in the box, down to a quarter of the node's radius (a
-    // twig drawn thicker than it is costs fidelity where the patch has many vertices).
+    // The scale: the thinnest of the node's neighbours in the tree within the box (its parent,
+    // and the nodes below it up to three edges down), down to a quarter of its radius (a twig
+    // drawn thicker than it is costs fidelity where the patch has many vertices).
     p.radius_min = p.radius_max;
-    for (std::size_t m = 0; m < anchors.size(); ++m) {
-      if (p.region.contains(anchors[m])) p.radius_min = std::min(p.radius_min, std::max(node_radius[m], p.radius_max / 4));
+    auto take = [&](NodeId m) {
+      if (m.valid() && p.region.contains(anchors[m.idx()]))
+        p.radius_min = std::min(p.radius_min, std::max(node_radius[m.idx()], p.radius_max / 4));
+    };
+    take(skeleton.parent[n]);
+    std::vector<NodeId> level{NodeId(n)};
+    for (int depth = 0; depth < 3; ++depth) {
+      std::vector<NodeId> below;
+      for (const NodeId m : level) {
+        for (const NodeId c : skeleton.children[m.idx()]) {
+          if (!c.valid()) continue;
+          take(c);
+          below.push_back(c);
+        }
+      }
+      level = std::move(below);
     }
     patches.push_back(std::move(p));
   }
