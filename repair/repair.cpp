@@ -373,7 +373,9 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     };
     if (!uncovered.empty()) {
       now.fidelity_p95 = fidelity();
-      now.fidelity_tolerance = MeshCheckParams{}.fidelity_tolerance;
+      // (Two thirds of the check's tolerance: this skeleton lacks the input nodes the
+      // sanitizing merged, against which messy seed 182 came out at 0.1502.)
+      now.fidelity_tolerance = MeshCheckParams{}.fidelity_tolerance * 2 / 3;
     }
     VolumePatchOptions options;
     options.voxels_per_radius = params.patch_voxels_per_radius;
