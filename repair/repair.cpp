@@ -153,6 +153,18 @@ Skeleton input_nodes(const Skeleton& skeleton, std::vector<std::uint32_t>& index
   return out;
 }
 
+/// How many of `pairs` have a triangle whose centroid lies in the box {lo, hi}.
+std::size_t pairs_in_box(const Mesh& mesh, const std::vector<std::array<std::uint32_t, 2>>& pairs,
+                         const std::array<glm::dvec3, 2>& box) {
+  auto in_box = [&](std::uint32_t f) {
+    const auto& t = mesh.triangles[f];
+    const glm::dvec3 c = (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
+    return glm::all(glm::greaterThanEqual(c, box[0])) && glm::all(glm::lessThanEqual(c, box[1]));
+  };
+  return static_cast<std::size_t>(
+      std::count_if(pairs.begin(), pairs.end(), [&](const auto& pr) { return in_box(pr[0]) || in_box(pr[1]); }));
+}
+
 /// The self-intersecting pairs of `after`, an edit of `before` whose pairs were `pairs`;
 /// `origin[g]` names the triangle of `before` that triangle g of `after` may still be (or
 /// kNoTriangle). Pairs of triangles both found unchanged (the same three positions in the same
@@ -428,24 +440,10 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         for (std::size_t k = 0; k < vp.made.size() && k < options.leave_out.size(); ++k) options.leave_out[k] = !vp.made[k];
         bool any = false;
         if (next.sound && vp.regions.size() == vp.seam_crossings.size()) {
-          auto count_in = [&](const Mesh& m, const std::vector<std::array<std::uint32_t, 2>>& ps, std::size_t k) {
-            const auto& [lo, hi] = vp.regions[k];
-            std::size_t n = 0;
-            for (const auto& pr : ps) {
-              for (const std::uint32_t f : pr) {
-                const auto& t = m.triangles[f];
-                const glm::dvec3 c = (m.positions[t[0]] + m.positions[t[1]] + m.positions[t[2]]) / 3.0;
-                if (glm::all(glm::greaterThanEqual(c, lo)) && glm::all(glm::lessThanEqual(c, hi))) {
-                  ++n;
-                  break;
-                }
-              }
-            }
-            return n;
-          };
           for (std::size_t k = 0; k < vp.seam_crossings.size(); ++k) {
             if (vp.seam_crossings[k] == 0) continue;  // (not patched, or made no crossing)
-            if (count_in(mesh, after, k) > count_in(before.mesh, pairs, k)) options.leave_out[k] = any = 1;
+            if (pairs_in_box(mesh, after, vp.regions[k]) > pairs_in_box(before.mesh, pairs, vp.regions[k]))
+              options.leave_out[k] = any = 1;
           }
         }
         if (!any) {

@@ -153,6 +153,18 @@ PipelineParams keep_input() {
   return p;
 }
 
+// `raw` meshed with the input kept, checked against the input: with the volume patch around
+// thick nodes left outside (repair.patch_uncovered) off, then on.
+std::pair<MeshCheckReport, MeshCheckReport> checked_without_and_with_node_patches(const RawSkeleton& raw) {
+  const Skeleton input = input_skeleton(raw);
+  auto check = [&](bool uncovered) {
+    PipelineParams p = keep_input();
+    p.repair.patch_uncovered = uncovered;
+    return check_mesh(run_pipeline(raw, p).mesh.mesh, {.skeleton = &input});
+  };
+  return {check(false), check(true)};
+}
+
 /// Closed, manifold, oriented, one part; no node moved beyond max_node_move; the thick nodes of
 /// the input inside; returns the report measured against the input skeleton.
 MeshCheckReport expect_faithful(const RawSkeleton& raw, const PipelineResult& r, const PipelineParams& p) {
@@ -385,14 +397,7 @@ TEST(Repair, VolumePatchCoversThickNodesLeftOutside) {
   MessyGrowParams g;
   g.seed = 154;
   const RawSkeleton raw = grow_messy(g);
-  const Skeleton input = input_skeleton(raw);
-  auto check = [&](bool uncovered) {
-    PipelineParams p = keep_input();
-    p.repair.patch_uncovered = uncovered;
-    const PipelineResult r = run_pipeline(raw, p);
-    return check_mesh(r.mesh.mesh, {.skeleton = &input});
-  };
-  const MeshCheckReport off = check(false), on = check(true);
+  const auto [off, on] = checked_without_and_with_node_patches(raw);
   EXPECT_GT(on.thick_nodes_inside, off.thick_nodes_inside);
   EXPECT_LE(on.self_intersecting_pairs, off.self_intersecting_pairs);
   EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
@@ -434,14 +439,7 @@ TEST(Repair, FirWhorlWithALateralRunningBackIsRoundAndHoldsItsNodes) {
   raw.add(25, 1, dvec3(-2.501355, 0.129031, 14.601654), 0.006307);
   raw.add(26, 25, dvec3(-2.704303, -0.017046, 14.144723), 0.004153);
   raw.add(27, 26, dvec3(-2.983052, -0.169323, 13.7319), 0.0);
-  const Skeleton input = input_skeleton(raw);
-  auto check = [&](bool uncovered) {
-    PipelineParams p;
-    p.repair.patch_uncovered = uncovered;
-    const PipelineResult r = run_pipeline(raw, p);
-    return check_mesh(r.mesh.mesh, {.skeleton = &input});
-  };
-  const MeshCheckReport off = check(false), on = check(true);
+  const auto [off, on] = checked_without_and_with_node_patches(raw);
   EXPECT_LT(off.thick_nodes_inside, off.thick_nodes);
   EXPECT_EQ(on.thick_nodes_inside, on.thick_nodes);
   EXPECT_LT(on.self_intersecting_pairs, off.self_intersecting_pairs);
