@@ -19,6 +19,10 @@ STRANDMESH_PACKAGES=(
 # Node.js and npm run the Khronos glTF validator (scripts/validate_gltf.sh). Installed only when
 # missing: a machine may already have a newer Node.js whose npm conflicts with Debian's.
 command -v npm >/dev/null 2>&1 || STRANDMESH_PACKAGES+=(nodejs npm)
+# The real clients the `clients` tests load our files in (scripts/check_threejs.sh,
+# scripts/check_blender.sh). test.sh installs them so those tests run rather than skip;
+# STRANDMESH_NO_CLIENTS=1 leaves them out (the two tests then skip).
+CLIENT_PACKAGES=(chromium blender python3-numpy)
 
 log() { printf '\033[1m[strandmesh]\033[0m %s\n' "$*" >&2; }
 

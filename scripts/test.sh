@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds (Release), and runs every default-label test.
 # Slow cases are opt-in: ctest --test-dir build -L slow
+# Also installs Chromium and Blender for the client tests (STRANDMESH_NO_CLIENTS=1: skip them).
 #   ./scripts/test.sh --sanitize   the same suite built with clang, -fsanitize=address,undefined
 #                                  (in build-asan; the first sanitizer report fails the test)
 set -euo pipefail
@@ -14,7 +15,7 @@ if [ "${1:-}" = "--sanitize" ]; then
   log "done in $(( $(date +%s) - start )) s"
   exit 0
 fi
-ensure_packages
+if [ "${STRANDMESH_NO_CLIENTS:-0}" = 1 ]; then ensure_packages; else ensure_packages "${CLIENT_PACKAGES[@]}"; fi
 configure_and_build
 "$STRANDMESH_ROOT/scripts/validate_gltf.sh" --install || log "glTF validator unavailable: its test will be skipped"
 log "running tests"
