@@ -56,6 +56,9 @@ const ParamSpec<R> kFields[] = {
      .slider = {0, 10}},
     {.key = "sliver_max_turn", .field = &R::sliver_max_turn, .range = {.min = 0, .max = 90}, .unit = "degrees",
      .help = "largest turn of a triangle's normal by those flips and collapses", .slider = {0, 90}},
+    {.key = "sliver_max_move", .field = &R::sliver_max_move, .range = {.min = 0, .max = 1}, .unit = "radii",
+     .help = "farthest a vertex those edits remove or move may lie from the surface after them, in local radii (0: no limit)",
+     .slider = {0, 0.5}},
     {.key = "split_normals", .field = &R::split_normals,
      .help = "one normal per smoothing group where a vertex's fan has creases or would face away from a triangle "
              "(false: one per vertex)"},

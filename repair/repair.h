@@ -91,9 +91,12 @@ struct RepairParams {
   /// (a grid loses thinner ones, and the patch its rim there); 0: such a region is not patched.
   double patch_min_twig_voxels = 1.25;
   /// Step 7: triangles with an angle under this are flipped or collapsed away (degrees; 0 = none).
-  double sliver_angle = 1.0;
+  double sliver_angle = 10.0;
   /// Largest turn of a triangle's normal by those flips and collapses (degrees).
   double sliver_max_turn = 30.0;
+  /// Farthest a vertex those edits remove or move may lie from the surface after them (share
+  /// of the local radius; 0 = no limit).
+  double sliver_max_move = 0.1;
   /// Step 8: where a vertex's fan has creases or its normal faces (nearly) away from one of its
   /// triangles, one normal per smoothing group at the corners (Mesh::corner_normals; the
   /// writers split the vertex there). false: one normal per vertex, as in older versions.

@@ -29,16 +29,21 @@ constexpr float kUvTolerance = 1e-5f;
 /// for one point.
 constexpr double kDuplicateEdge = 0.01;
 
-/// The smallest angle of triangle t (radians; 0 where it is degenerate).
+/// The first phase's sliver angle where the limit is larger (radians): needles of a degree.
+constexpr double kNeedle = 1.0 * kRadians;
+
+/// The smallest angle of triangle t (radians; 0 where it is degenerate): the one opposite the
+/// shortest edge.
 double smallest_angle(const Mesh& m, const Tri& t) {
-  double best = std::numbers::pi;
-  for (int k = 0; k < 3; ++k) {
-    const dvec3 a = m.positions[t[(k + 1) % 3]] - m.positions[t[k]], b = m.positions[t[(k + 2) % 3]] - m.positions[t[k]];
-    const double c = glm::length(glm::cross(a, b));
-    if (!(c > 0)) return 0;
-    best = std::min(best, std::atan2(c, glm::dot(a, b)));
+  int k = 0;  // the corner opposite the shortest edge
+  double shortest = INFINITY;
+  for (int i = 0; i < 3; ++i) {
+    const dvec3 e = m.positions[t[(i + 2) % 3]] - m.positions[t[(i + 1) % 3]];
+    if (const double l = glm::dot(e, e); l < shortest) shortest = l, k = i;
   }
-  return best;
+  const dvec3 a = m.positions[t[(k + 1) % 3]] - m.positions[t[k]], b = m.positions[t[(k + 2) % 3]] - m.positions[t[k]];
+  const double c = glm::length(glm::cross(a, b));
+  return c > 0 ? std::atan2(c, glm::dot(a, b)) : 0.0;
 }
 
 bool collapsed(const Tri& t) { return t[0] == t[1] && t[1] == t[2]; }
@@ -64,6 +69,7 @@ struct Edit {
   std::optional<std::pair<std::uint32_t, dvec3>> position;
   bool collapse = false;
   std::array<std::uint32_t, 3> key{};  ///< which edit (kind, vertices), not to try again once undone
+  std::uint32_t sliver = 0;            ///< the sliver it was made for
   std::vector<std::pair<std::uint32_t, int>> winding;  ///< kept points' winding number changes (InsideGuard)
 };
 
@@ -321,109 +327,141 @@ class SliverRemover {
     // more of them than its triangles did before it.
     std::vector<std::array<std::uint32_t, 2>> known;
     if (!o_.known_clean) known = intersections.pairs(all);
-    // Round 0 looks at every triangle; later rounds only at the slivers left and the
-    // triangles the kept edits changed (nothing else moved).
-    std::vector<std::uint32_t> look = all;
-    for (int round = 0; round < o_.max_rounds; ++round) {
-      std::vector<std::uint32_t> slivers = find(look, limit_);
-      if (round == 0) st.found = slivers.size();
-      if (slivers.empty()) break;
-      ++st.rounds;
-      const std::size_t undone_before = st.undone, kept_out_before = st.kept_out;
-      const PairsAt before(known);
+    st.found = find(all, limit_).size();
+    // Needles first: with a limit well above a degree, the edits on milder slivers would lock
+    // and reshape the neighbourhoods that the few needles' edits need, and leave more of them.
+    const double limit = limit_;
+    std::vector<double> phases{limit};
+    if (limit > kNeedle) phases.insert(phases.begin(), kNeedle);
+    for (const double phase : phases) {
+      limit_ = phase;
+      // Round 0 looks at every triangle; later rounds only at the slivers held back and the
+      // triangles at the vertices of those the kept edits changed (nothing else moved).
+      std::vector<std::uint32_t> look = all;
+      for (int round = 0; round < o_.max_rounds; ++round) {
+        std::vector<std::uint32_t> slivers = find(look, limit_);
+        if (slivers.empty()) break;
+        // The thinnest first: an edit on a milder sliver must not lock the vertices a needle's
+        // edit needs in the same round.
+        std::vector<std::pair<double, std::uint32_t>> by_angle;
+        by_angle.reserve(slivers.size());
+        for (const std::uint32_t f : slivers) by_angle.emplace_back(smallest_angle(m_, m_.triangles[f]), f);
+        std::sort(by_angle.begin(), by_angle.end());
+        for (std::size_t i = 0; i < slivers.size(); ++i) slivers[i] = by_angle[i].second;
+        ++st.rounds;
+        const std::size_t undone_before = st.undone, kept_out_before = st.kept_out;
+        const PairsAt before(known);
 
-      std::vector<std::uint8_t> locked(m_.positions.size(), 0);
-      std::vector<Edit> edits;
-      for (const std::uint32_t f : slivers) {
-        const Tri t = m_.triangles[f];
-        if (collapsed(t) || locked[t[0]] || locked[t[1]] || locked[t[2]]) continue;
-        Edit e;
-        if (!try_flip(f, e) && !try_collapse(f, e)) continue;
-        // Edits of one round touch disjoint vertices (so that any of them can be undone
-        // alone): one reaching a vertex an earlier edit of the round touched goes back.
-        bool clash = false;
-        for (const auto& [g, old] : e.triangles) {
-          for (const std::uint32_t v : old) clash = clash || locked[v];
-          for (const std::uint32_t v : m_.triangles[g]) clash = clash || locked[v];
+        std::vector<std::uint8_t> locked(m_.positions.size(), 0);
+        std::vector<Edit> edits;
+        // The slivers to look at again next round: those a clash held back and those whose edit
+        // went back (they try their next best). A sliver with no edit at all is looked at again
+        // only where a kept edit changes a triangle at one of its vertices.
+        std::vector<std::uint32_t> again;
+        for (const std::uint32_t f : slivers) {
+          const Tri t = m_.triangles[f];
+          if (collapsed(t)) continue;
+          if (locked[t[0]] || locked[t[1]] || locked[t[2]]) {
+            again.push_back(f);
+            continue;
+          }
+          Edit e;
+          if (!try_flip(f, e) && !try_collapse(f, e)) continue;
+          e.sliver = f;
+          // Edits of one round touch disjoint vertices (so that any of them can be undone
+          // alone): one reaching a vertex an earlier edit of the round touched goes back.
+          bool clash = false;
+          for (const auto& [g, old] : e.triangles) {
+            for (const std::uint32_t v : old) clash = clash || locked[v];
+            for (const std::uint32_t v : m_.triangles[g]) clash = clash || locked[v];
+          }
+          if (clash) {
+            undo(e);
+            again.push_back(f);
+            continue;
+          }
+          // An edit that would leave a point to keep inside outside goes back, not to be tried
+          // again (its sliver tries the next best in the next round).
+          std::optional<std::vector<std::pair<std::uint32_t, int>>> winding = guard.change(e);
+          if (!winding) {
+            undo(e);
+            forbidden_.insert(e.key);
+            ++st.kept_out;
+            again.push_back(f);
+            continue;
+          }
+          guard.apply(*winding);
+          e.winding = std::move(*winding);
+          for (const auto& [g, old] : e.triangles) {
+            for (const std::uint32_t v : old) locked[v] = 1;
+            for (const std::uint32_t v : m_.triangles[g]) locked[v] = 1;
+          }
+          edits.push_back(std::move(e));
         }
-        if (clash) {
-          undo(e);
-          continue;
+        // Edits whose triangles cross more than before are undone, until none does; such an
+        // edit is not tried again (its sliver tries its next best in the next round). `now` holds the pairs of the
+        // triangles `changed` as the mesh is now: after an undo only the restored triangles' pairs are found again.
+        std::vector<std::uint8_t> active(edits.size(), 1);
+        std::vector<std::uint32_t> changed;
+        for (const Edit& e : edits) {
+          for (const auto& [g, old] : e.triangles) changed.push_back(g);
         }
-        // An edit that would leave a point to keep inside outside goes back, not to be tried
-        // again (its sliver tries the next best in the next round).
-        std::optional<std::vector<std::pair<std::uint32_t, int>>> winding = guard.change(e);
-        if (!winding) {
-          undo(e);
-          forbidden_.insert(e.key);
-          ++st.kept_out;
-          continue;
+        std::sort(changed.begin(), changed.end());
+        changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+        for (const std::uint32_t g : changed) crossings.add(g);
+        std::vector<std::array<std::uint32_t, 2>> now = crossings.touching(changed);
+        for (;;) {
+          const PairsAt after(now);
+          std::vector<std::uint32_t> restored;
+          for (std::size_t i = edits.size(); i-- > 0;) {
+            if (!active[i] || after.count(edits[i]) <= before.count(edits[i])) continue;
+            undo(edits[i]);
+            guard.undo(edits[i].winding);
+            active[i] = 0;
+            forbidden_.insert(edits[i].key);
+            again.push_back(edits[i].sliver);
+            ++st.undone;
+            for (const auto& [g, old] : edits[i].triangles) restored.push_back(g);
+          }
+          if (restored.empty()) break;
+          std::sort(restored.begin(), restored.end());
+          restored.erase(std::unique(restored.begin(), restored.end()), restored.end());
+          for (const std::uint32_t g : restored) crossings.add(g);
+          std::erase_if(now, [&](const std::array<std::uint32_t, 2>& p) {
+            return std::binary_search(restored.begin(), restored.end(), p[0]) ||
+                   std::binary_search(restored.begin(), restored.end(), p[1]);
+          });
+          const std::vector<std::array<std::uint32_t, 2>> again = crossings.touching(restored);
+          now.insert(now.end(), again.begin(), again.end());
+          std::sort(now.begin(), now.end());
+          now.erase(std::unique(now.begin(), now.end()), now.end());
         }
-        guard.apply(*winding);
-        e.winding = std::move(*winding);
-        for (const auto& [g, old] : e.triangles) {
-          for (const std::uint32_t v : old) locked[v] = 1;
-          for (const std::uint32_t v : m_.triangles[g]) locked[v] = 1;
+        bool kept_any = false;
+        {
+          std::vector<std::uint8_t> touched(m_.triangles.size(), 0);
+          for (const std::uint32_t g : changed) touched[g] = 1;
+          std::erase_if(known, [&](const std::array<std::uint32_t, 2>& p) { return touched[p[0]] || touched[p[1]]; });
+          known.insert(known.end(), now.begin(), now.end());
+          std::sort(known.begin(), known.end());
+          known.erase(std::unique(known.begin(), known.end()), known.end());
         }
-        edits.push_back(std::move(e));
-      }
-      // Edits whose triangles cross more than before are undone, until none does; such an
-      // edit is not tried again (its sliver tries its next best in the next round). `now` holds the pairs of the triangles `changed` as the
-      // mesh is now: after an undo only the restored triangles' pairs are found again.
-      std::vector<std::uint8_t> active(edits.size(), 1);
-      std::vector<std::uint32_t> changed;
-      for (const Edit& e : edits) {
-        for (const auto& [g, old] : e.triangles) changed.push_back(g);
-      }
-      std::sort(changed.begin(), changed.end());
-      changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
-      for (const std::uint32_t g : changed) crossings.add(g);
-      std::vector<std::array<std::uint32_t, 2>> now = crossings.touching(changed);
-      for (;;) {
-        const PairsAt after(now);
-        std::vector<std::uint32_t> restored;
-        for (std::size_t i = edits.size(); i-- > 0;) {
-          if (!active[i] || after.count(edits[i]) <= before.count(edits[i])) continue;
-          undo(edits[i]);
-          guard.undo(edits[i].winding);
-          active[i] = 0;
-          forbidden_.insert(edits[i].key);
-          ++st.undone;
-          for (const auto& [g, old] : edits[i].triangles) restored.push_back(g);
+        look = std::move(again);
+        for (std::size_t i = 0; i < edits.size(); ++i) {
+          if (!active[i]) continue;
+          kept_any = true;
+          guard.keep(edits[i].winding);
+          ++(edits[i].collapse ? st.collapses : st.flips);
+          for (const auto& [g, old] : edits[i].triangles) {
+            for (const std::uint32_t v : m_.triangles[g]) {
+              const std::vector<std::uint32_t> around = faces(v);
+              look.insert(look.end(), around.begin(), around.end());
+            }
+          }
         }
-        if (restored.empty()) break;
-        std::sort(restored.begin(), restored.end());
-        restored.erase(std::unique(restored.begin(), restored.end()), restored.end());
-        for (const std::uint32_t g : restored) crossings.add(g);
-        std::erase_if(now, [&](const std::array<std::uint32_t, 2>& p) {
-          return std::binary_search(restored.begin(), restored.end(), p[0]) ||
-                 std::binary_search(restored.begin(), restored.end(), p[1]);
-        });
-        const std::vector<std::array<std::uint32_t, 2>> again = crossings.touching(restored);
-        now.insert(now.end(), again.begin(), again.end());
-        std::sort(now.begin(), now.end());
-        now.erase(std::unique(now.begin(), now.end()), now.end());
+        std::sort(look.begin(), look.end());
+        look.erase(std::unique(look.begin(), look.end()), look.end());
+        if (!kept_any && st.undone == undone_before && st.kept_out == kept_out_before) break;
       }
-      bool kept_any = false;
-      {
-        std::vector<std::uint8_t> touched(m_.triangles.size(), 0);
-        for (const std::uint32_t g : changed) touched[g] = 1;
-        std::erase_if(known, [&](const std::array<std::uint32_t, 2>& p) { return touched[p[0]] || touched[p[1]]; });
-        known.insert(known.end(), now.begin(), now.end());
-        std::sort(known.begin(), known.end());
-        known.erase(std::unique(known.begin(), known.end()), known.end());
-      }
-      look = slivers;
-      for (std::size_t i = 0; i < edits.size(); ++i) {
-        if (!active[i]) continue;
-        kept_any = true;
-        guard.keep(edits[i].winding);
-        ++(edits[i].collapse ? st.collapses : st.flips);
-        for (const auto& [g, old] : edits[i].triangles) look.push_back(g);
-      }
-      std::sort(look.begin(), look.end());
-      look.erase(std::unique(look.begin(), look.end()), look.end());
-      if (!kept_any && st.undone == undone_before && st.kept_out == kept_out_before) break;
     }
     st.left = find(all, limit_).size();
     return st;
@@ -434,14 +472,17 @@ class SliverRemover {
   std::vector<std::uint32_t> faces(std::uint32_t v) const {
     if (const auto it = faces_.find(v); it != faces_.end()) return it->second;
     std::vector<std::uint32_t> out;
+    out.reserve(vc_.begin[v + 1] - vc_.begin[v]);
     for (std::uint32_t k = vc_.begin[v]; k < vc_.begin[v + 1]; ++k) out.push_back(vc_.corner[k] / 3);
-    std::sort(out.begin(), out.end());
+    if (!std::is_sorted(out.begin(), out.end())) std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
   std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
     std::vector<std::uint32_t> out;
-    for (const std::uint32_t f : faces(v)) {
+    const std::vector<std::uint32_t> around = faces(v);
+    out.reserve(2 * around.size());
+    for (const std::uint32_t f : around) {
       for (const std::uint32_t w : m_.triangles[f]) {
         if (w != v) out.push_back(w);
       }
@@ -631,6 +672,20 @@ class SliverRemover {
     double angle;
     std::array<std::uint32_t, 3> key;
   };
+  /// The smallest local radius of the given vertices (SliverOptions::vertex_radius), 0 where
+  /// one is unknown and in the needles' phase (no limit on the move then: a needle's edit
+  /// moves the surface by less than the needle's width).
+  double scale(std::initializer_list<std::uint32_t> vs) const {
+    if (o_.vertex_radius.size() != m_.positions.size() || !(o_.max_move > 0) || !(limit_ > kNeedle)) return 0;
+    double r = INFINITY;
+    for (const std::uint32_t v : vs) r = std::min(r, o_.vertex_radius[v]);
+    return std::isfinite(r) && r > 0 ? r : 0;
+  }
+  /// The distance from q to triangle t as the mesh is now.
+  double distance_to(const dvec3& q, const Tri& t) const {
+    return glm::length(q - closest_on_triangle(q, m_.positions[t[0]], m_.positions[t[1]], m_.positions[t[2]]));
+  }
+
   /// The key of flipping the edge opposite corner k of triangle f (Edit::key).
   std::array<std::uint32_t, 3> flip_key(std::uint32_t f, int k) const {
     const Tri& t = m_.triangles[f];
@@ -648,6 +703,16 @@ class SliverRemover {
       if (v != a && v != b) d = v;
     }
     if (d == c) return std::nullopt;
+    // The surface moves by at most the old edge's midpoint from the new pair, and the new
+    // edge's from the old pair.
+    if (const double r = scale({a, b, c, d}); r > 0) {
+      const Tri t1{a, d, c}, t2{d, b, c};
+      const dvec3 old_mid = 0.5 * (m_.positions[a] + m_.positions[b]), new_mid = 0.5 * (m_.positions[c] + m_.positions[d]);
+      if (std::min(distance_to(old_mid, t1), distance_to(old_mid, t2)) > o_.max_move * r ||
+          std::min(distance_to(new_mid, t), distance_to(new_mid, tg)) > o_.max_move * r) {
+        return std::nullopt;
+      }
+    }
     const std::vector<std::uint32_t> nc = neighbours(c);
     if (std::binary_search(nc.begin(), nc.end(), d)) return std::nullopt;
     Flip p{.g = g, .t1 = {a, d, c}, .t2 = {d, b, c}, .u1 = {}, .u2 = {}, .angle = 0, .key = flip_key(f, k)};
@@ -732,6 +797,27 @@ class SliverRemover {
       }
     }
     if (found != 3 || on_edge != 2 || p.x == p.y) return std::nullopt;
+    // The removed vertex (and w, where it moves) stays within max_move of the new surface
+    // (tested first: on twigs it refuses most collapses).
+    if (const double r = scale({v, w}); r > 0) {
+      const dvec3 w_was = m_.positions[w], v_at = m_.positions[v];
+      const dvec3 mid = 0.5 * (v_at + w_was);
+      m_.positions[w] = midpoint ? (r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid) : w_was;
+      double dv = INFINITY, dw = midpoint ? INFINITY : 0.0;
+      auto measure = [&](std::uint32_t h) {
+        if (h == p.t1 || h == p.t2) return;
+        Tri n = m_.triangles[h];
+        for (std::uint32_t& x : n) x = x == v ? w : x;
+        dv = std::min(dv, distance_to(v_at, n));
+        if (midpoint) dw = std::min(dw, distance_to(w_was, n));
+      };
+      for (const std::uint32_t h : faces(v)) measure(h);
+      if (midpoint) {
+        for (const std::uint32_t h : faces(w)) measure(h);
+      }
+      m_.positions[w] = w_was;
+      if (std::max(dv, dw) > o_.max_move * r) return std::nullopt;
+    }
     // Link condition: v and w share exactly the neighbours x and y; both keep three or more.
     const std::vector<std::uint32_t> nv = neighbours(v), nw = neighbours(w);
     std::vector<std::uint32_t> common;
@@ -899,11 +985,12 @@ class SliverRemover {
       apply(*p, e);
       return true;
     }
+    // (On the closed manifold a vertex has as many neighbours as triangles.)
     std::vector<std::uint32_t> threes;
     for (const std::uint32_t v : m_.triangles[f]) {
-      if (neighbours(v).size() == 3) threes.push_back(v);
+      if (faces(v).size() == 3) threes.push_back(v);
       for (const std::uint32_t z : neighbours(v)) {
-        if (neighbours(z).size() == 3) threes.push_back(z);
+        if (faces(z).size() == 3) threes.push_back(z);
       }
     }
     std::sort(threes.begin(), threes.end());
@@ -974,7 +1061,7 @@ class SliverRemover {
   const VertexCorners vc_;
   const double cos_turn_;
   const bool uvs_;
-  const double limit_;  // the sliver angle (radians)
+  double limit_;  // the sliver angle of the phase running (radians)
   std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> faces_;  // lists changed by edits
   std::set<std::array<std::uint32_t, 3>> forbidden_;  // edits undone for their crossings (Edit::key)
 };
@@ -995,6 +1082,20 @@ std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton) {
     if (r > 0) error[v] = std::abs(glm::length(mesh.positions[v] - (a + t * (b - a))) - r) / r;
   }
   return error;
+}
+
+std::vector<double> cone_radius(const Mesh& mesh, const Skeleton& skeleton) {
+  std::vector<double> radius(mesh.positions.size(), 0.0);
+  if (mesh.vertex_node.size() != mesh.positions.size()) return radius;
+  for (std::size_t v = 0; v < radius.size(); ++v) {
+    const NodeId n = mesh.vertex_node[v];
+    if (!n.valid() || n.idx() >= skeleton.position.size()) continue;
+    const NodeId up = skeleton.parent[n.idx()];
+    const dvec3 a = skeleton.position[n.idx()], b = up.valid() ? skeleton.position[up.idx()] : a;
+    const double ra = skeleton.radius[n.idx()], rb = up.valid() ? skeleton.radius[up.idx()] : ra;
+    radius[v] = ra + segment_param(mesh.positions[v], a, b) * (rb - ra);
+  }
+  return radius;
 }
 
 SliverStats remove_slivers(MeshResult& mesh, const SliverOptions& options) {

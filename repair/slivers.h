@@ -1,7 +1,7 @@
 #pragma once
 /// \file slivers.h
-/// The last step of the repair stage: slivers (triangles with an angle under a degree or so)
-/// removed by edge flips and edge collapses. The strips stitch loops whose strands crowd or
+/// The last step of the repair stage: slivers (triangles with an angle under `angle`, 10
+/// degrees by default) removed by edge flips and edge collapses. The strips stitch loops whose strands crowd or
 /// whose vertices nearly line up, and the repairs cut and move triangles; both leave needles
 /// (one edge much shorter than the others) and caps (one angle near 180 degrees), which shade
 /// as streaks in a close-up and make vertex normals that face away from a triangle.
@@ -33,10 +33,17 @@
 ///    winding number about a point changes only by that of the closed surface the edit's new
 ///    triangles and its old ones reversed make, so only the points in those triangles' box are
 ///    tested, against them alone (ray crossings as inside_closed_mesh counts them).
+///  - beyond the needles' phase (below), no vertex the edit removes or moves, nor the old
+///    edge of a flip, lies farther than `max_move` local radii from the surface after it: on
+///    a twig a few vertices around, collapsing a mild sliver's short edge would flatten it.
+/// Two phases where `angle` is over a degree: the needles (under a degree) first, then the
+/// rest, so that edits on milder slivers do not take the neighbourhoods the needles need;
+/// within a round the thinnest go first.
 /// Edits in one round touch disjoint vertices; rounds repeat while any edit is kept or undone,
 /// and an edit undone for its crossings or refused for a point is not tried again (its sliver
 /// tries the next best).
-/// A round costs the tests near its edits, not a pass over the mesh.
+/// A round costs the tests near its edits, not a pass over the mesh: a sliver no edit could
+/// remove is looked at again only where a kept edit changes a triangle at one of its vertices.
 /// Deterministic: slivers are visited in triangle order, serially.
 
 #include <cstddef>
@@ -57,6 +64,12 @@ struct SliverOptions {
   /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
   /// collapse keeps the edge's end with the smaller value where it can.
   std::span<const double> vertex_error;
+  /// Per vertex (#V, or empty): the local radius of the branch it lies on (cone_radius).
+  std::span<const double> vertex_radius;
+  /// An edit is refused where a vertex it removes, moves or unlinks lies farther than this
+  /// share of the local radius from the surface after it: on a twig of a few vertices around,
+  /// collapsing a needle's short edge would flatten the twig (0 = no limit).
+  double max_move = 0.1;
   /// Points that must stay inside the mesh where they are inside it (the thick skeleton
   /// nodes): an edit that would leave one of them outside is refused.
   std::span<const glm::dvec3> keep_inside;
@@ -65,6 +78,10 @@ struct SliverOptions {
 /// Per vertex of `mesh` (#V): its distance from the round cone of the skeleton edge that made
 /// it (Mesh::vertex_node and its parent) over the local radius; 0 without vertex_node.
 std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton);
+
+/// Per vertex of `mesh` (#V): the radius of the round cone of the skeleton edge that made it at
+/// its nearest point (0 without vertex_node).
+std::vector<double> cone_radius(const Mesh& mesh, const Skeleton& skeleton);
 
 struct SliverStats {
   std::size_t found = 0;      ///< slivers before the step

@@ -89,17 +89,21 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   RepairStats st = repair_crossings(mesh, s, params);
   // 7. Slivers.
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
-  // The thick nodes (radius at least the median, as the repair's rule) inside stay inside.
-  std::vector<double> error;
+  // The skeleton's nodes inside stay inside: the thick ones by the repair's rule, the thin ones
+  // because a sliver's edit is far smaller than what they need to be outside.
+  std::vector<double> error, radius;
   std::vector<glm::dvec3> thick;
   if (params.sliver_angle > 0) {
     error = cone_error(mesh.mesh, s);
-    for (const std::uint32_t i : thick_node_ids(s)) thick.push_back(s.position[i]);
+    radius = cone_radius(mesh.mesh, s);
+    thick = s.position;
   }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
                                      .known_clean = st.counted && st.pairs_left == 0,
                                      .vertex_error = error,
+                                     .vertex_radius = radius,
+                                     .max_move = params.sliver_max_move,
                                      .keep_inside = thick});
   if (st.slivers.collapses > 0) {
     drop_degenerate(mesh);

@@ -61,7 +61,7 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
     sub.add_option("--stats", o->stats_path, "Write the run's figures (counts, seconds per stage) as JSON");
     sub.add_flag("--print-config", o->print_config, "Print the full parameter set as a config file and exit");
     sub.add_flag("--strict", o->strict,
-                 "Also run `strandmesh check` on the mesh (against the skeleton) and exit 4 when it fails a check "
+                 "Also run `strandmesh check` on the mesh (against the input skeleton, as `check --skeleton`) and exit 4 when it fails a check "
                  "(the outputs are written all the same)");
     add_skeleton_options(sub, o->skeleton);
     add_input_options(sub, o->input_options);
@@ -263,8 +263,12 @@ void add_mesh_command(CLI::App& app, const GlobalOptions& global) {
         log::verbose("  outer surface: " + to_text(os) + (os.refused.empty() ? "" : "; not kept: " + os.refused));
       }
       if (o->strict) {
+        // As `strandmesh check --skeleton`: against the skeleton as the file gives it, never
+        // against our own sanitized copy.
+        const Skeleton input = input_skeleton(raw, params.skeleton);
         MeshCheckParams cp;
-        cp.skeleton = &r.skeleton.skeleton;
+        cp.skeleton = &input;
+        cp.implied_genus = true;
         const MeshCheckReport report = check_mesh(r.mesh.mesh, cp);
         if (!report.ok()) {
           log::error(o->output + " fails its checks (--strict):\n" + to_text(report));
