@@ -80,7 +80,8 @@ void rerun_pipeline(PipelineResult& r, const RawSkeleton& raw, const PipelinePar
   StitchedMesh stitched;
   timed(Stage::meshing, [&] { stitched = stitch_mesh(r.skeleton.skeleton, r.contours, p.meshing, progress); });
   clock.lap();
-  const RepairInputs inputs{r.skeleton.skeleton, r.particles, r.strands, p.contours, p.meshing};
+  const Skeleton input = input_skeleton(raw, p.skeleton);  // (what `check --skeleton` measures against)
+  const RepairInputs inputs{r.skeleton.skeleton, r.particles, r.strands, p.contours, p.meshing, &input};
   r.repair = repair_mesh(std::move(stitched), r.contours, r.mesh, inputs, p.repair, progress);
   for (auto& e : r.timings.entries) {
     if (e.name == "repair") e.seconds = 0;

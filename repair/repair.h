@@ -153,6 +153,10 @@ struct RepairInputs {
   const StrandSet& strands;
   const ContourParams& contour_params;
   const MeshParams& mesh_params;
+  /// The skeleton as the file gives it (input_skeleton), what `check --skeleton` measures
+  /// against: the volume patch's fidelity guard and the nodes the sliver step keeps inside.
+  /// Null: the sanitized skeleton's input nodes (those with a source id) stand for it.
+  const Skeleton* input = nullptr;
 };
 
 /// Drops the triangles left as (u, u, u) (fold repair, sliver removal) and the vertices no
@@ -175,6 +179,8 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
 
 /// Step 5 on a finished mesh (exposed for tests; repair_mesh runs it last): fills the step's
 /// figures of the result. Precondition: `mesh` is closed, edge-manifold and oriented outward.
-RepairStats repair_crossings(MeshResult& mesh, const Skeleton& skeleton, const RepairParams& params = {});
+/// `input`: as RepairInputs::input.
+RepairStats repair_crossings(MeshResult& mesh, const Skeleton& skeleton, const RepairParams& params = {},
+                             const Skeleton* input = nullptr);
 
 }  // namespace sm

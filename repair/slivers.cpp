@@ -357,12 +357,12 @@ class SliverRemover {
         // The slivers to look at again next round: those a clash held back and those whose edit
         // went back (they try their next best). A sliver with no edit at all is looked at again
         // only where a kept edit changes a triangle at one of its vertices.
-        std::vector<std::uint32_t> again;
+        std::vector<std::uint32_t> retry;
         for (const std::uint32_t f : slivers) {
           const Tri t = m_.triangles[f];
           if (collapsed(t)) continue;
           if (locked[t[0]] || locked[t[1]] || locked[t[2]]) {
-            again.push_back(f);
+            retry.push_back(f);
             continue;
           }
           Edit e;
@@ -377,7 +377,7 @@ class SliverRemover {
           }
           if (clash) {
             undo(e);
-            again.push_back(f);
+            retry.push_back(f);
             continue;
           }
           // An edit that would leave a point to keep inside outside goes back, not to be tried
@@ -387,7 +387,7 @@ class SliverRemover {
             undo(e);
             forbidden_.insert(e.key);
             ++st.kept_out;
-            again.push_back(f);
+            retry.push_back(f);
             continue;
           }
           guard.apply(*winding);
@@ -419,7 +419,7 @@ class SliverRemover {
             guard.undo(edits[i].winding);
             active[i] = 0;
             forbidden_.insert(edits[i].key);
-            again.push_back(edits[i].sliver);
+            retry.push_back(edits[i].sliver);
             ++st.undone;
             for (const auto& [g, old] : edits[i].triangles) restored.push_back(g);
           }
@@ -445,7 +445,7 @@ class SliverRemover {
           std::sort(known.begin(), known.end());
           known.erase(std::unique(known.begin(), known.end()), known.end());
         }
-        look = std::move(again);
+        look = std::move(retry);
         for (std::size_t i = 0; i < edits.size(); ++i) {
           if (!active[i]) continue;
           kept_any = true;
@@ -802,8 +802,8 @@ class SliverRemover {
     if (const double r = scale({v, w}); r > 0) {
       const dvec3 w_was = m_.positions[w], v_at = m_.positions[v];
       const dvec3 mid = 0.5 * (v_at + w_was);
-      m_.positions[w] = midpoint ? (r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid) : w_was;
-      double dv = INFINITY, dw = midpoint ? INFINITY : 0.0;
+      if (midpoint) m_.positions[w] = r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid;
+      double dv = INFINITY, dw = midpoint ? double(INFINITY) : 0.0;
       auto measure = [&](std::uint32_t h) {
         if (h == p.t1 || h == p.t2) return;
         Tri n = m_.triangles[h];

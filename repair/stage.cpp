@@ -86,17 +86,19 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   timings.add("outer_surface", clock.lap());
   // 5. Crossings anywhere: folds and the self-union.
   report("repair");
-  RepairStats st = repair_crossings(mesh, s, params);
+  RepairStats st = repair_crossings(mesh, s, params, in.input);
   // 7. Slivers.
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
-  // The skeleton's nodes inside stay inside: the thick ones by the repair's rule, the thin ones
-  // because a sliver's edit is far smaller than what they need to be outside.
+  // The nodes inside stay inside, the input's (`check` counts them all) and the sanitized
+  // skeleton's (the repair's rule): a sliver's edit is far smaller than what a node, thick
+  // or thin, needs to be outside.
   std::vector<double> error, radius;
-  std::vector<glm::dvec3> thick;
+  std::vector<glm::dvec3> keep;
   if (params.sliver_angle > 0) {
     error = cone_error(mesh.mesh, s);
     radius = cone_radius(mesh.mesh, s);
-    thick = s.position;
+    keep = s.position;
+    if (in.input) keep.insert(keep.end(), in.input->position.begin(), in.input->position.end());
   }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
@@ -104,7 +106,7 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
                                      .vertex_error = error,
                                      .vertex_radius = radius,
                                      .max_move = params.sliver_max_move,
-                                     .keep_inside = thick});
+                                     .keep_inside = keep});
   if (st.slivers.collapses > 0) {
     drop_degenerate(mesh);
     mesh.stats.vertices = mesh.mesh.vertex_count();

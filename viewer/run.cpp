@@ -137,7 +137,9 @@ RunData load_stage_dump(const std::filesystem::path& dir, const PipelineParams& 
     // from particles a dump may not have.
     RepairParams repair = params.repair;
     repair.fork_retry = false;
-    const RepairInputs inputs{s, run.result.particles, run.result.strands, params.contours, params.meshing};
+    const Skeleton input = run.raw ? input_skeleton(*run.raw, params.skeleton) : Skeleton{};
+    const RepairInputs inputs{s, run.result.particles, run.result.strands, params.contours, params.meshing,
+                              run.raw ? &input : nullptr};
     run.result.repair = repair_mesh(stitch_mesh(s, run.result.contours, params.meshing), run.result.contours,
                                     run.result.mesh, inputs, repair);
     run.has[idx(Stage::meshing)] = true;
