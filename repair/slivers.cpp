@@ -445,7 +445,9 @@ class SliverRemover {
           std::sort(known.begin(), known.end());
           known.erase(std::unique(known.begin(), known.end()), known.end());
         }
-        look = std::move(retry);
+        // (The needles, few, are all looked at again: whether one can be edited depends on
+        // more than its vertices' triangles, the link condition on its neighbours' neighbours.)
+        look = limit_ > kNeedle ? std::move(retry) : std::move(slivers);
         for (std::size_t i = 0; i < edits.size(); ++i) {
           if (!active[i]) continue;
           kept_any = true;
