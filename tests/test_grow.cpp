@@ -521,6 +521,7 @@ TEST(GrowPresetsSlow, CountingEverywhereRepairsALargeTree) {
   preset.params.seed = 11;
   const RawSkeleton tree = grow_tree(preset.params).skeleton;
   PipelineParams p = test::separating();  // (the shape edits, fork retry and 300,000 of earlier defaults)
+  p.repair.count_pairs_up_to = 200'000;    // (the sliver step leaves 272,572 triangles)
   const PipelineResult limited = run_pipeline(tree, p);
   EXPECT_GT(limited.mesh.mesh.triangles.size(), p.repair.count_pairs_up_to);
   EXPECT_FALSE(limited.repair.fork_retry.counted_everywhere);
