@@ -1070,32 +1070,37 @@ class SliverRemover {
 
 }  // namespace
 
+namespace {
+
+/// Where vertex v's round cone (the skeleton edge that made it: Mesh::vertex_node and its
+/// parent) is nearest it: the point on the axis and the radius there; none without one.
+std::optional<std::pair<dvec3, double>> cone_at(const Mesh& mesh, const Skeleton& skeleton, std::size_t v) {
+  if (mesh.vertex_node.size() != mesh.positions.size()) return std::nullopt;
+  const NodeId n = mesh.vertex_node[v];
+  if (!n.valid() || n.idx() >= skeleton.position.size()) return std::nullopt;
+  const NodeId up = skeleton.parent[n.idx()];
+  const dvec3 a = skeleton.position[n.idx()], b = up.valid() ? skeleton.position[up.idx()] : a;
+  const double ra = skeleton.radius[n.idx()], rb = up.valid() ? skeleton.radius[up.idx()] : ra;
+  const double t = segment_param(mesh.positions[v], a, b);
+  return std::pair(a + t * (b - a), ra + t * (rb - ra));
+}
+
+}  // namespace
+
 std::vector<double> cone_error(const Mesh& mesh, const Skeleton& skeleton) {
   std::vector<double> error(mesh.positions.size(), 0.0);
-  if (mesh.vertex_node.size() != mesh.positions.size()) return error;
   for (std::size_t v = 0; v < error.size(); ++v) {
-    const NodeId n = mesh.vertex_node[v];
-    if (!n.valid() || n.idx() >= skeleton.position.size()) continue;
-    const NodeId up = skeleton.parent[n.idx()];
-    const dvec3 a = skeleton.position[n.idx()], b = up.valid() ? skeleton.position[up.idx()] : a;
-    const double ra = skeleton.radius[n.idx()], rb = up.valid() ? skeleton.radius[up.idx()] : ra;
-    const double t = segment_param(mesh.positions[v], a, b);
-    const double r = ra + t * (rb - ra);
-    if (r > 0) error[v] = std::abs(glm::length(mesh.positions[v] - (a + t * (b - a))) - r) / r;
+    if (const auto c = cone_at(mesh, skeleton, v); c && c->second > 0) {
+      error[v] = std::abs(glm::length(mesh.positions[v] - c->first) - c->second) / c->second;
+    }
   }
   return error;
 }
 
 std::vector<double> cone_radius(const Mesh& mesh, const Skeleton& skeleton) {
   std::vector<double> radius(mesh.positions.size(), 0.0);
-  if (mesh.vertex_node.size() != mesh.positions.size()) return radius;
   for (std::size_t v = 0; v < radius.size(); ++v) {
-    const NodeId n = mesh.vertex_node[v];
-    if (!n.valid() || n.idx() >= skeleton.position.size()) continue;
-    const NodeId up = skeleton.parent[n.idx()];
-    const dvec3 a = skeleton.position[n.idx()], b = up.valid() ? skeleton.position[up.idx()] : a;
-    const double ra = skeleton.radius[n.idx()], rb = up.valid() ? skeleton.radius[up.idx()] : ra;
-    radius[v] = ra + segment_param(mesh.positions[v], a, b) * (rb - ra);
+    if (const auto c = cone_at(mesh, skeleton, v)) radius[v] = c->second;
   }
   return radius;
 }
