@@ -16,6 +16,7 @@
 #include "fixtures.h"
 #include "meshcheck/checks.h"
 #include "pipeline/pipeline.h"
+#include "tests/sample_checks.h"
 #include "skeleton/build.h"
 #include "skeleton/io.h"
 
@@ -36,24 +37,16 @@ TEST(SamplesSlow, EverySampleAtParticleSeedsTwoAndThreeWithinItsBounds) {
       {"sapling_small_pine.json", {Bound{116, 0.1, 6}, Bound{42, 0.115, 10}}}};
   for (const auto& f : files) {
     const RawSkeleton raw = read_skeleton(f);
-    const Skeleton input = input_skeleton(raw);
     for (const std::uint64_t seed : {2u, 3u}) {
       SCOPED_TRACE(f.filename().string() + " at particle seed " + std::to_string(seed));
       PipelineParams p;
       p.particles.seed = seed;
-      const PipelineResult r = run_pipeline(raw, p);
-      MeshCheckParams cp;
-      cp.skeleton = &input;
-      const MeshCheckReport rep = check_mesh(r.mesh.mesh, cp);
-      EXPECT_TRUE(rep.closed && rep.edge_manifold && rep.vertex_manifold && rep.oriented);
-      EXPECT_EQ(rep.components, 1u);
-      EXPECT_GT(rep.thick_nodes, 0u);
+      const MeshCheckReport rep = test::mesh_and_check_against_input(raw, p);
+      test::expect_one_sound_piece(rep);
       const auto it = bounds.find(f.filename().string());
       if (it == bounds.end()) continue;  // a sample added later: at least a sound surface
       const auto& [pairs, p95, outside] = it->second[seed - 2];
-      EXPECT_LE(rep.self_intersecting_pairs, pairs);
-      EXPECT_LE(rep.fidelity_p95, p95);
-      EXPECT_LE(rep.thick_nodes - rep.thick_nodes_inside, outside);
+      test::expect_within(rep, pairs, p95, outside);
     }
   }
 }
