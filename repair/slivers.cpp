@@ -34,17 +34,31 @@ constexpr double kNeedle = 1.0 * kRadians;
 
 /// The smallest angle of triangle t (radians; 0 where it is degenerate): the one opposite the
 /// shortest edge.
-double smallest_angle(const Mesh& m, const Tri& t) {
+template <class Positions>
+double smallest_angle(const Positions& pos, const Tri& t) {
   int k = 0;  // the corner opposite the shortest edge
   double shortest = INFINITY;
   for (int i = 0; i < 3; ++i) {
-    const dvec3 e = m.positions[t[(i + 2) % 3]] - m.positions[t[(i + 1) % 3]];
+    const dvec3 e = pos(t[(i + 2) % 3]) - pos(t[(i + 1) % 3]);
     if (const double l = glm::dot(e, e); l < shortest) shortest = l, k = i;
   }
-  const dvec3 a = m.positions[t[(k + 1) % 3]] - m.positions[t[k]], b = m.positions[t[(k + 2) % 3]] - m.positions[t[k]];
+  const dvec3 a = pos(t[(k + 1) % 3]) - pos(t[k]), b = pos(t[(k + 2) % 3]) - pos(t[k]);
   const double c = glm::length(glm::cross(a, b));
   return c > 0 ? std::atan2(c, glm::dot(a, b)) : 0.0;
 }
+double smallest_angle(const Mesh& m, const Tri& t) {
+  return smallest_angle([&](std::uint32_t v) -> const dvec3& { return m.positions[v]; }, t);
+}
+
+/// The mesh's positions with one vertex elsewhere: an edit tried without changing the mesh
+/// (so that edits can be planned on several threads).
+struct MovedVertex {
+  const Mesh& m;
+  std::uint32_t vertex;
+  dvec3 at;
+  const dvec3& operator()(std::uint32_t v) const { return v == vertex ? at : m.positions[v]; }
+  [[nodiscard]] dvec3 normal(const Tri& t) const { return glm::cross((*this)(t[1]) - (*this)(t[0]), (*this)(t[2]) - (*this)(t[0])); }
+};
 
 bool collapsed(const Tri& t) { return t[0] == t[1] && t[1] == t[2]; }
 
@@ -785,7 +799,7 @@ class SliverRemover {
     double angle = 0;
     double error = 0;
   };
-  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint, bool better = true) {
+  std::optional<Collapse> plan_collapse(std::uint32_t v, std::uint32_t w, bool midpoint, bool better = true) const {
     Collapse p{.v = v, .w = w, .t1 = 0, .t2 = 0, .x = 0, .y = 0, .at = m_.positions[w], .changes = {}};
     // The edge's two triangles t1 = (v, w, x) and t2 = (w, v, y), and no other.
     int on_edge = 0, found = 0;
@@ -804,20 +818,20 @@ class SliverRemover {
     if (const double r = scale({v, w}); r > 0) {
       const dvec3 w_was = m_.positions[w], v_at = m_.positions[v];
       const dvec3 mid = 0.5 * (v_at + w_was);
-      if (midpoint) m_.positions[w] = r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid;
+      const MovedVertex after{m_, w, midpoint ? (r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid) : w_was};
       double dv = INFINITY, dw = midpoint ? double(INFINITY) : 0.0;
       auto measure = [&](std::uint32_t h) {
         if (h == p.t1 || h == p.t2) return;
         Tri n = m_.triangles[h];
         for (std::uint32_t& x : n) x = x == v ? w : x;
-        dv = std::min(dv, distance_to(v_at, n));
-        if (midpoint) dw = std::min(dw, distance_to(w_was, n));
+        auto distance = [&](const dvec3& q) { return glm::length(q - closest_on_triangle(q, after(n[0]), after(n[1]), after(n[2]))); };
+        dv = std::min(dv, distance(v_at));
+        if (midpoint) dw = std::min(dw, distance(w_was));
       };
       for (const std::uint32_t h : faces(v)) measure(h);
       if (midpoint) {
         for (const std::uint32_t h : faces(w)) measure(h);
       }
-      m_.positions[w] = w_was;
       if (std::max(dv, dw) > o_.max_move * r) return std::nullopt;
     }
     // Link condition: v and w share exactly the neighbours x and y; both keep three or more.
@@ -883,8 +897,7 @@ class SliverRemover {
     // The changed triangles after: none turned over, each within max_turn of a normal before,
     // none flipped in UV where the texture had one side, the smallest angle larger than before.
     // (w's position is tried and put back)
-    const dvec3 w_was = m_.positions[w];
-    m_.positions[w] = p.at;
+    const MovedVertex after{m_, w, p.at};
     p.angle = std::numbers::pi;
     bool ok = true;
     for (const std::uint32_t h : changed) {
@@ -900,18 +913,15 @@ class SliverRemover {
           u[i] = lookup(*at_w, h);
         }
       }
-      m_.positions[w] = w_was;
       const dvec3 normal_was = m_.face_normal(was);
       const bool uv_ok = !uvs_ || !keep_side || keeps_uv_side(m_.corner_uvs[h], u);
-      m_.positions[w] = p.at;
-      const dvec3 normal = m_.face_normal(n);
+      const dvec3 normal = after.normal(n);
       ok = uv_ok && (duplicate || (within(normal, normal_was, 0.0) &&
            std::any_of(normals.begin(), normals.end(), [&](const dvec3& o) { return within(normal, o, cos_turn_); })));
       if (!ok) break;
-      p.angle = std::min(p.angle, smallest_angle(m_, n));
+      p.angle = std::min(p.angle, smallest_angle(after, n));
       p.changes.emplace_back(h, n, u);
     }
-    m_.positions[w] = w_was;
     if (!ok || (better && p.angle <= before)) return std::nullopt;
     p.error = o_.vertex_error.size() == m_.positions.size() ? o_.vertex_error[v] : 0.0;
     return p;
@@ -921,7 +931,7 @@ class SliverRemover {
   /// the largest smallest angle: each of f's edges either way (the vertex kept stays where it
   /// is), else f's shortest edge onto its midpoint.
   /// Where several leave no sliver, the one removing the vertex farthest from its surface.
-  std::optional<Collapse> best_collapse(std::uint32_t f) {
+  std::optional<Collapse> best_collapse(std::uint32_t f) const {
     const Tri t = m_.triangles[f];
     double shortest = INFINITY;
     int k = 0;  // edge (t[k], t[k + 1]) is the shortest
