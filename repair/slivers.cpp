@@ -10,8 +10,12 @@
 #include <tuple>
 #include <unordered_map>
 #include <set>
+#include <span>
 #include <utility>
 #include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "core/math.h"
 #include "meshcheck/intersections.h"
@@ -328,7 +332,20 @@ class SliverRemover {
  public:
   SliverRemover(MeshResult& r, const SliverOptions& o)
       : r_(r), m_(r.mesh), o_(o), vc_(vertex_corners(m_)), cos_turn_(std::cos(o.max_turn * kRadians)),
-        uvs_(m_.corner_uvs.size() == m_.triangles.size()), limit_(o.angle * kRadians) {}
+        uvs_(m_.corner_uvs.size() == m_.triangles.size()), limit_(o.angle * kRadians) {
+    // The triangles at each vertex before any edit, sorted and unique (faces()).
+    const std::size_t nv = m_.positions.size();
+    first_face_.assign(nv + 1, 0);
+    base_faces_.reserve(vc_.corner.size());
+    for (std::size_t v = 0; v < nv; ++v) {
+      const std::size_t from = base_faces_.size();
+      for (std::uint32_t k = vc_.begin[v]; k < vc_.begin[v + 1]; ++k) base_faces_.push_back(vc_.corner[k] / 3);
+      const auto b = base_faces_.begin() + static_cast<std::ptrdiff_t>(from);
+      if (!std::is_sorted(b, base_faces_.end())) std::sort(b, base_faces_.end());
+      base_faces_.erase(std::unique(b, base_faces_.end()), base_faces_.end());
+      first_face_[v + 1] = static_cast<std::uint32_t>(base_faces_.size());
+    }
+  }
 
   SliverStats run() {
     SliverStats st;
@@ -362,6 +379,21 @@ class SliverRemover {
         for (const std::uint32_t f : slivers) by_angle.emplace_back(smallest_angle(m_, m_.triangles[f]), f);
         std::sort(by_angle.begin(), by_angle.end());
         for (std::size_t i = 0; i < slivers.size(); ++i) slivers[i] = by_angle[i].second;
+        // Those with no edit at all as the mesh is at the round's start are left for a round
+        // after a kept edit changes their neighbourhood (found on all threads: planning only
+        // reads the mesh). On a large tree most slivers are twigs' needles no edit can remove
+        // within the move cap.
+        {
+          std::vector<std::uint8_t> viable(slivers.size(), 0);
+          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, slivers.size(), 256),
+                            [&](const tbb::blocked_range<std::size_t>& range) {
+                              for (std::size_t i = range.begin(); i != range.end(); ++i) viable[i] = has_edit(slivers[i]);
+                            });
+          std::size_t kept = 0;
+          for (std::size_t i = 0; i < slivers.size(); ++i)
+            if (viable[i]) slivers[kept++] = slivers[i];
+          slivers.resize(kept);
+        }
         ++st.rounds;
         const std::size_t undone_before = st.undone, kept_out_before = st.kept_out;
         const PairsAt before(known);
@@ -469,7 +501,7 @@ class SliverRemover {
           ++(edits[i].collapse ? st.collapses : st.flips);
           for (const auto& [g, old] : edits[i].triangles) {
             for (const std::uint32_t v : m_.triangles[g]) {
-              const std::vector<std::uint32_t> around = faces(v);
+              const std::span<const std::uint32_t> around = faces(v);
               look.insert(look.end(), around.begin(), around.end());
             }
           }
@@ -484,19 +516,14 @@ class SliverRemover {
   }
 
  private:
-  /// The triangles at vertex v, in increasing order.
-  std::vector<std::uint32_t> faces(std::uint32_t v) const {
+  /// The triangles at vertex v, in increasing order (valid until an edit changes v's list).
+  std::span<const std::uint32_t> faces(std::uint32_t v) const {
     if (const auto it = faces_.find(v); it != faces_.end()) return it->second;
-    std::vector<std::uint32_t> out;
-    out.reserve(vc_.begin[v + 1] - vc_.begin[v]);
-    for (std::uint32_t k = vc_.begin[v]; k < vc_.begin[v + 1]; ++k) out.push_back(vc_.corner[k] / 3);
-    if (!std::is_sorted(out.begin(), out.end())) std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    return out;
+    return {base_faces_.data() + first_face_[v], base_faces_.data() + first_face_[v + 1]};
   }
   std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
     std::vector<std::uint32_t> out;
-    const std::vector<std::uint32_t> around = faces(v);
+    const std::span<const std::uint32_t> around = faces(v);
     out.reserve(2 * around.size());
     for (const std::uint32_t f : around) {
       for (const std::uint32_t w : m_.triangles[f]) {
@@ -635,7 +662,7 @@ class SliverRemover {
   std::optional<std::vector<std::pair<std::uint32_t, glm::vec2>>> carry(std::uint32_t v, const dvec3& p, std::uint32_t s1,
                                                                          std::uint32_t s2, glm::vec2 uv1, glm::vec2 uv2,
                                                                          bool* extrapolated = nullptr) const {
-    const std::vector<std::uint32_t> fan = faces(v);
+    const std::span<const std::uint32_t> fan = faces(v);
     std::vector<std::pair<std::uint32_t, glm::vec2>> out;
     if (!uvs_) {
       for (const std::uint32_t h : fan) out.emplace_back(h, glm::vec2(0));
@@ -772,11 +799,13 @@ class SliverRemover {
     if (!best) return false;
     e.key = best->key;
     const std::uint32_t a = best->t1[0], d = best->t1[1], c = best->t1[2], b = best->t2[1];
-    auto without = [](std::vector<std::uint32_t> l, std::uint32_t x) {
+    auto without = [](std::span<const std::uint32_t> in, std::uint32_t x) {
+      std::vector<std::uint32_t> l(in.begin(), in.end());
       l.erase(std::remove(l.begin(), l.end(), x), l.end());
       return l;
     };
-    auto with = [](std::vector<std::uint32_t> l, std::uint32_t x) {
+    auto with = [](std::span<const std::uint32_t> in, std::uint32_t x) {
+      std::vector<std::uint32_t> l(in.begin(), in.end());
       l.push_back(x);
       return l;
     };
@@ -839,7 +868,7 @@ class SliverRemover {
     std::vector<std::uint32_t> common;
     std::set_intersection(nv.begin(), nv.end(), nw.begin(), nw.end(), std::back_inserter(common));
     if (common.size() != 2 || neighbours(p.x).size() < 4 || neighbours(p.y).size() < 4) return std::nullopt;
-    std::vector<std::uint32_t> changed = faces(v);
+    std::vector<std::uint32_t> changed(faces(v).begin(), faces(v).end());
     if (midpoint) {
       const dvec3 mid = 0.5 * (m_.positions[v] + m_.positions[w]);
       p.at = r_.grid > 0 ? snap_to_grid(mid, r_.grid) : mid;
@@ -848,13 +877,24 @@ class SliverRemover {
       for (const std::uint32_t n : near) {
         if (m_.positions[n] == p.at) return std::nullopt;
       }
-      const std::vector<std::uint32_t> fw = faces(w);
+      const std::span<const std::uint32_t> fw = faces(w);
       std::vector<std::uint32_t> both;
       std::set_union(changed.begin(), changed.end(), fw.begin(), fw.end(), std::back_inserter(both));
       changed = std::move(both);
     }
     double before = std::numbers::pi;
     for (const std::uint32_t h : changed) before = std::min(before, smallest_angle(m_, m_.triangles[h]));
+    // The angles after first (positions only): most collapses tried on a twig's needles leave
+    // no better triangles, and the UVs and normals below cost more.
+    if (better) {
+      const MovedVertex moved{m_, w, p.at};
+      for (const std::uint32_t h : changed) {
+        if (h == p.t1 || h == p.t2) continue;
+        Tri n = m_.triangles[h];
+        for (std::uint32_t& x : n) x = x == v ? w : x;
+        if (smallest_angle(moved, n) <= before) return std::nullopt;
+      }
+    }
     // The UVs of the moved corners, carried around each moved vertex from the edge's triangles.
     auto target = [&](std::uint32_t h) { return midpoint ? 0.5f * (uv(h, v) + uv(h, w)) : uv(h, w); };
     bool mixed = false;  // charts that differ by more than a translation meet at v or w
@@ -969,11 +1009,12 @@ class SliverRemover {
     }
     std::vector<std::uint32_t> fan;  // the triangles left at w
     {
-      const std::vector<std::uint32_t> fv = faces(p.v), fw = faces(p.w);
+      const std::span<const std::uint32_t> fv = faces(p.v), fw = faces(p.w);
       std::set_union(fv.begin(), fv.end(), fw.begin(), fw.end(), std::back_inserter(fan));
       std::erase_if(fan, [&](std::uint32_t h) { return h == p.t1 || h == p.t2; });
     }
-    auto without = [](std::vector<std::uint32_t> l, std::uint32_t y) {
+    auto without = [](std::span<const std::uint32_t> in, std::uint32_t y) {
+      std::vector<std::uint32_t> l(in.begin(), in.end());
       l.erase(std::remove(l.begin(), l.end(), y), l.end());
       return l;
     };
@@ -984,6 +1025,24 @@ class SliverRemover {
     for (const auto& [h, n, u] : p.changes) set_triangle(e, h, n, &u);
     set_triangle(e, p.t1, {p.w, p.w, p.w}, nullptr);
     set_triangle(e, p.t2, {p.w, p.w, p.w}, nullptr);
+  }
+
+  /// Whether sliver f has a flip or a collapse that keeps the rules, or a vertex of three
+  /// neighbours near it for try_collapse's two steps (not planned here: rare).
+  bool has_edit(std::uint32_t f) const {
+    const Tri& t = m_.triangles[f];
+    if (collapsed(t)) return false;
+    for (int k = 0; k < 3; ++k) {
+      if (!forbidden_.contains(flip_key(f, k)) && plan_flip(f, k)) return true;
+    }
+    if (best_collapse(f)) return true;
+    for (const std::uint32_t v : t) {
+      if (faces(v).size() == 3) return true;
+      for (const std::uint32_t z : neighbours(v)) {
+        if (faces(z).size() == 3) return true;
+      }
+    }
+    return false;
   }
 
   /// Removes a vertex of sliver f by a collapse (best_collapse). Where none keeps the rules, a
@@ -1071,6 +1130,7 @@ class SliverRemover {
   Mesh& m_;
   const SliverOptions& o_;
   const VertexCorners vc_;
+  std::vector<std::uint32_t> base_faces_, first_face_;  // faces() before any edit
   const double cos_turn_;
   const bool uvs_;
   double limit_;  // the sliver angle of the phase running (radians)
