@@ -41,6 +41,8 @@ const ParamSpec<R> kFields[] = {
      .help = "replace the surface around pairs the union left by a patch drawn from a voxel grid of the solid"},
     {.key = "patch_uncovered", .field = &R::patch_uncovered,
      .help = "thick skeleton nodes left outside the mesh get such a patch too (around the node)"},
+    {.key = "patch_uncovered_thin", .field = &R::patch_uncovered_thin,
+     .help = "then every node still outside, thin ones too, at its own scale (kept where more nodes are inside)"},
     {.key = "patch_voxels_per_radius", .field = &R::patch_voxels_per_radius, .range = {.min = 2.5, .max = 32},
      .unit = "voxels", .help = "voxels per thinnest local radius of those patches", .slider = {3, 16}},
     {.key = "patch_reach", .field = &R::patch_reach, .range = {.min = 0.5, .max = 20}, .unit = "x local radius",

@@ -79,6 +79,9 @@ struct RepairParams {
   bool volume_patch = true;
   /// Thick skeleton nodes left outside the mesh get such a patch too (around the node).
   bool patch_uncovered = true;
+  /// Then every skeleton node still outside, thin ones too (a twig's first node at a hub), at
+  /// its own scale; kept only where more nodes are inside and nothing else is worse.
+  bool patch_uncovered_thin = true;
   /// Voxels per thinnest local radius of those patches.
   double patch_voxels_per_radius = 4;
   /// A patch's region: the pairs' box grown by this many local radii.

@@ -32,6 +32,8 @@ std::string worse(const MeshFigures& before, const MeshFigures& after, const Kee
   if (!(after.volume > 0)) return "negative volume";
   if (before.thick_inside && after.thick_inside && *after.thick_inside < *before.thick_inside)
     return n(*before.thick_inside - *after.thick_inside) + " more thick nodes outside";
+  if (before.nodes_inside && after.nodes_inside && *after.nodes_inside < *before.nodes_inside)
+    return n(*before.nodes_inside - *after.nodes_inside) + " more nodes outside";
   if (before.fidelity_p95 && after.fidelity_p95 &&
       *after.fidelity_p95 > std::max(*before.fidelity_p95, before.fidelity_tolerance))
     return "fidelity p95 " + n(*after.fidelity_p95);
@@ -42,8 +44,9 @@ std::string worse(const MeshFigures& before, const MeshFigures& after, const Kee
 std::string refuse(const MeshFigures& before, const MeshFigures& after, const KeepRule& rule) {
   std::string why = worse(before, after, rule);
   if (!why.empty()) return why;
-  const bool more_inside = before.thick_inside && after.thick_inside && *after.thick_inside > *before.thick_inside;
-  if (after.pairs >= before.pairs && !more_inside) return "no fewer pairs and no more thick nodes inside";
+  const bool more_inside = (before.thick_inside && after.thick_inside && *after.thick_inside > *before.thick_inside) ||
+                           (before.nodes_inside && after.nodes_inside && *after.nodes_inside > *before.nodes_inside);
+  if (after.pairs >= before.pairs && !more_inside) return "no fewer pairs and no more nodes inside";
   return {};
 }
 

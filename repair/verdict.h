@@ -24,6 +24,7 @@ struct MeshFigures {
   std::size_t degenerate = 0;           ///< degenerate triangles
   std::size_t pairs = 0;                ///< self-intersecting triangle pairs
   std::optional<std::size_t> thick_inside;  ///< skeleton nodes of at least the median radius inside
+  std::optional<std::size_t> nodes_inside;  ///< all skeleton nodes inside (where a step measures them)
   std::optional<double> fidelity_p95;   ///< fidelity to the skeleton (x local radius)
   double fidelity_tolerance = 0;        ///< the tolerance fidelity_p95 is held to
 };
@@ -39,11 +40,13 @@ struct KeepRule {
 
 /// Why `after` does worse than `before` (empty if it does not): not sound, more parts, another
 /// genus (unless allowed), more degenerate triangles, not outward, fewer thick nodes inside,
-/// fidelity beyond both the tolerance and where it was, more pairs.
+/// fewer nodes inside (where both count them), fidelity beyond both the tolerance and where
+/// it was, more pairs.
 std::string worse(const MeshFigures& before, const MeshFigures& after, const KeepRule& rule = {});
 
 /// The rule: `after` is kept when it is no worse (above) and better in what the repair is for:
-/// fewer pairs or more thick nodes inside. Returns why not (empty: kept).
+/// fewer pairs or more thick nodes inside (or more nodes, where both count them). Returns why
+/// not (empty: kept).
 std::string refuse(const MeshFigures& before, const MeshFigures& after, const KeepRule& rule = {});
 
 }  // namespace sm

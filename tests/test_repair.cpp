@@ -84,7 +84,7 @@ TEST(Repair, OneRuleKeepsOnlyABetterMesh) {
   };
   EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; })), "");
   EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.thick_inside = 51; })), "");
-  EXPECT_EQ(refuse(before, before), "no fewer pairs and no more thick nodes inside");
+  EXPECT_EQ(refuse(before, before), "no fewer pairs and no more nodes inside");
   EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.sound = false; })),
             "not a closed, oriented 2-manifold");
   EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.parts = 2; })), "2 components");
@@ -97,6 +97,18 @@ TEST(Repair, OneRuleKeepsOnlyABetterMesh) {
   EXPECT_EQ(refuse(before, handle, {.handles_allowed = true}), "");
   // Figures a step does not measure are not compared.
   EXPECT_EQ(refuse(before, with([](MeshFigures& f) { f.pairs = 4; f.thick_inside.reset(); })), "");
+  // All nodes inside, where both count them (the pass for thin nodes outside): more is better,
+  // fewer is worse even with fewer pairs.
+  const MeshFigures counted = with([](MeshFigures& f) { f.nodes_inside = 90; });
+  auto from_counted = [&](auto edit) {
+    MeshFigures f = counted;
+    edit(f);
+    return f;
+  };
+  EXPECT_EQ(refuse(counted, from_counted([](MeshFigures& f) { f.nodes_inside = 91; })), "");
+  EXPECT_EQ(refuse(counted, from_counted([](MeshFigures& f) { f.pairs = 4; f.nodes_inside = 89; })),
+            "1 more nodes outside");
+  EXPECT_EQ(refuse(before, from_counted([](MeshFigures&) {})), "no fewer pairs and no more nodes inside");
 }
 
 TEST(Repair, CleanMeshIsUnchanged) {
