@@ -393,27 +393,11 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     // The second pass is also held to the fidelity to the input's cones (its patches' many
     // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
     // inside are worth).
-    auto fidelity = [&](const Skeleton* against = nullptr) {
-      MeshCheckParams check{.self_intersections = false,
-                            .skeleton = against ? against : (input_skeleton ? input_skeleton : &input),
+    auto fidelity = [&] {
+      MeshCheckParams check{.self_intersections = false, .skeleton = input_skeleton ? input_skeleton : &input,
                             .quality = false, .uvs = false};
       return check_mesh(mesh, check).fidelity_p95;
     };
-    // The pass for thin nodes is also held to the skeleton the mesh was made from (which moved
-    // branches where the sanitizing separated them) and makes no handle.
-    auto genus = [&](const Mesh& m) {
-      std::vector<std::uint8_t> used(m.positions.size(), 0);
-      for (const auto& t : m.triangles)
-        for (const std::uint32_t v : t) used[v] = 1;
-      const auto v = static_cast<std::int64_t>(std::count(used.begin(), used.end(), std::uint8_t{1}));
-      const auto f = static_cast<std::int64_t>(m.triangles.size());
-      return (2 * static_cast<std::int64_t>(components(m)) - (v - 3 * f / 2 + f)) / 2;
-    };
-    std::optional<double> made_from_before;
-    if (count_all) {
-      now.genus = genus(mesh);
-      made_from_before = fidelity(&skeleton);
-    }
     if (!uncovered.empty()) {
       now.fidelity_p95 = fidelity();
       // A margin under the check's tolerance: a tenth against the file's skeleton (what the
@@ -465,14 +449,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         next.thick_inside = thick_inside(mesh);
         if (count_all) next.nodes_inside = nodes_inside(mesh);
         if (now.fidelity_p95) next.fidelity_p95 = fidelity();
-        if (count_all) next.genus = genus(mesh);
       }
-      std::string why = refuse(now, next, {.handles_allowed = !count_all});
-      if (why.empty() && made_from_before) {
-        if (const double f = fidelity(&skeleton); f > std::max(*made_from_before, now.fidelity_tolerance))
-          why = "fidelity p95 " + std::to_string(f) + " to the sanitized skeleton";
-      }
-      if (!why.empty()) {
+      if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;
         if (vp.patched < 2) {
           r = std::move(before);

@@ -28,6 +28,7 @@ inline PipelineParams separating() {
   p.repair.count_pairs_up_to = 300'000;
   p.repair.fork_retry = true;
   p.repair.outer_surface = true;
+  p.repair.patch_uncovered_thin = false;  // (it draws the input's cones; the mesh follows the moved skeleton)
   return p;
 }
 

@@ -416,6 +416,32 @@ TEST(Repair, VolumePatchCoversThickNodesLeftOutside) {
   EXPECT_EQ(on.components, 1u);
 }
 
+TEST(Repair, VolumePatchCoversThinNodesLeftOutsideAtAHub) {
+  // Messy seed 222: a hub of twelve twigs whose first nodes the slicing's webs leave outside.
+  // The pass for every node still outside (repair.patch_uncovered_thin) draws the input's round
+  // cones there: more input nodes inside, no fewer thick ones, no more pairs, the same genus.
+  MessyGrowParams g;
+  g.seed = 222;
+  // (As `strandmesh grow --messy --seed 222` writes it: the file's rounding keeps two nodes
+  // that the grown tree's zero-length edges merge.)
+  const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+  const Skeleton input = input_skeleton(raw);
+  auto check = [&](bool thin) {
+    PipelineParams p;  // the defaults
+    p.repair.patch_uncovered_thin = thin;
+    return check_mesh(run_pipeline(raw, p).mesh.mesh, {.skeleton = &input});
+  };
+  const MeshCheckReport off = check(false), on = check(true);
+  EXPECT_GE(double(on.nodes_inside), double(off.nodes_inside) + 5);
+  EXPECT_GE(double(on.nodes_inside), 0.99 * double(on.nodes));
+  EXPECT_GE(on.thick_nodes_inside, off.thick_nodes_inside);
+  EXPECT_LE(on.self_intersecting_pairs, off.self_intersecting_pairs);
+  EXPECT_EQ(on.genus, off.genus);
+  EXPECT_LE(on.fidelity_p95, 0.1);
+  EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
+  EXPECT_EQ(on.components, 1u);
+}
+
 TEST(Repair, FirWhorlWithALateralRunningBackIsRoundAndHoldsItsNodes) {
   // The whorl at input node 21 of skeletons-large/sapling_douglas_fir_s202.json (its nodes 19 and
   // 20 and node 20's subtree three edges deep, positions and radii as in the file): five
