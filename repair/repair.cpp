@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <tuple>
 
@@ -382,14 +383,15 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   };
   auto patch_pass = [&](const std::vector<std::array<std::uint32_t, 2>>& patch_pairs,
                         const std::vector<std::uint32_t>& uncovered, const char* warning, const char* what,
-                        bool count_all = false) {
+                        std::optional<std::size_t> all_inside = std::nullopt) {
+    // (Given: the pass for thin nodes, judged by all input nodes inside, counted by the caller.)
+    const bool count_all = all_inside.has_value();
     if (patch_pairs.empty() && uncovered.empty()) return;
     if (!params.self_union || now.pairs != pairs.size() || !now.thick_inside) {
       now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
              .thick_inside = thick_inside(mesh)};
     }
-    now.nodes_inside.reset();
-    if (count_all) now.nodes_inside = nodes_inside(mesh);
+    now.nodes_inside = all_inside;
     // The second pass is also held to the fidelity to the input's cones (its patches' many
     // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
     // inside are worth).
@@ -511,8 +513,10 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       for (std::size_t k = 0; k < in_all.size(); ++k) {
         if (!in_all[k]) uncovered.push_back(input_index[k]);
       }
-      if (!uncovered.empty())
-        patch_pass(pairs, uncovered, "volume_patch_refused_thin", "region around a node outside", true);
+      if (!uncovered.empty()) {
+        patch_pass(pairs, uncovered, "volume_patch_refused_thin", "region around a node outside",
+                   in_all.size() - uncovered.size());
+      }
     }
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);

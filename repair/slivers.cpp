@@ -1035,14 +1035,22 @@ class SliverRemover {
     for (int k = 0; k < 3; ++k) {
       if (!forbidden_.contains(flip_key(f, k)) && plan_flip(f, k)) return true;
     }
-    if (best_collapse(f)) return true;
-    for (const std::uint32_t v : t) {
-      if (faces(v).size() == 3) return true;
+    return best_collapse(f) || !threes_near(f).empty();
+  }
+
+  /// The vertices of three neighbours at or next to f's vertices, sorted (try_collapse).
+  /// (On the closed manifold a vertex has as many neighbours as triangles.)
+  std::vector<std::uint32_t> threes_near(std::uint32_t f) const {
+    std::vector<std::uint32_t> threes;
+    for (const std::uint32_t v : m_.triangles[f]) {
+      if (faces(v).size() == 3) threes.push_back(v);
       for (const std::uint32_t z : neighbours(v)) {
-        if (faces(z).size() == 3) return true;
+        if (faces(z).size() == 3) threes.push_back(z);
       }
     }
-    return false;
+    std::sort(threes.begin(), threes.end());
+    threes.erase(std::unique(threes.begin(), threes.end()), threes.end());
+    return threes;
   }
 
   /// Removes a vertex of sliver f by a collapse (best_collapse). Where none keeps the rules, a
@@ -1056,17 +1064,7 @@ class SliverRemover {
       apply(*p, e);
       return true;
     }
-    // (On the closed manifold a vertex has as many neighbours as triangles.)
-    std::vector<std::uint32_t> threes;
-    for (const std::uint32_t v : m_.triangles[f]) {
-      if (faces(v).size() == 3) threes.push_back(v);
-      for (const std::uint32_t z : neighbours(v)) {
-        if (faces(z).size() == 3) threes.push_back(z);
-      }
-    }
-    std::sort(threes.begin(), threes.end());
-    threes.erase(std::unique(threes.begin(), threes.end()), threes.end());
-    for (const std::uint32_t z : threes) {
+    for (const std::uint32_t z : threes_near(f)) {
       if (forbidden_.contains({3, z, f})) continue;
       std::optional<Collapse> first;
       for (const std::uint32_t w : neighbours(z)) {
