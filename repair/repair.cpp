@@ -172,11 +172,17 @@ std::size_t pairs_in_box(const Mesh& mesh, const std::vector<std::array<std::uin
 /// turn as their origin, each origin claimed once, by the first) carry over, and the rest are
 /// looked for around the changed triangles only (the repair's edits are local). The edits
 /// report their origins (the fold repair keeps triangle indices, the self-union hands them
-/// on): no triangle of the whole mesh is hashed.
+/// on): no triangle of the whole mesh is hashed. `known` (where given): triangles of `after`
+/// (increasing) whose pairs the edit already found, all of them (`known_pairs`, sorted).
+struct KnownPairs {
+  const std::vector<std::uint32_t>& triangles;
+  const std::vector<std::array<std::uint32_t, 2>>& pairs;
+};
 std::vector<std::array<std::uint32_t, 2>> pairs_after_edit(const Mesh& before,
                                                            const std::vector<std::array<std::uint32_t, 2>>& pairs,
                                                            const Mesh& after, const std::vector<std::uint32_t>& origin,
-                                                           std::vector<std::array<std::uint32_t, 2>>* fresh = nullptr) {
+                                                           std::vector<std::array<std::uint32_t, 2>>* fresh = nullptr,
+                                                           std::optional<KnownPairs> known = std::nullopt) {
   const auto nf = static_cast<std::uint32_t>(after.triangles.size());
   // Whether g's positions are o's, turned or not.
   auto same = [&](std::uint32_t g, std::uint32_t o) {
@@ -197,14 +203,22 @@ std::vector<std::array<std::uint32_t, 2>> pairs_after_edit(const Mesh& before,
   });
   std::vector<std::uint32_t> now(before.triangles.size(), kNoTriangle);  // before -> after, unchanged ones
   std::vector<std::uint32_t> changed;
+  std::size_t k = 0;  // (the next of the known triangles)
   for (std::uint32_t g = 0; g < nf; ++g) {
     if (kept[g] && now[origin[g]] == kNoTriangle) {
       now[origin[g]] = g;
-    } else {
-      changed.push_back(g);
+      continue;
     }
+    while (known && k < known->triangles.size() && known->triangles[k] < g) ++k;
+    if (!known || k == known->triangles.size() || known->triangles[k] != g) changed.push_back(g);
   }
   std::vector<std::array<std::uint32_t, 2>> out = TriangleIntersections(after).pairs_touching(changed);
+  if (known) {
+    // (Every pair touching a changed triangle: those touching the known ones, and the rest.)
+    out.insert(out.end(), known->pairs.begin(), known->pairs.end());
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  }
   if (fresh) *fresh = out;
   for (const auto& [f, g] : pairs) {
     if (now[f] != kNoTriangle && now[g] != kNoTriangle) out.push_back({std::min(now[f], now[g]), std::max(now[f], now[g])});
@@ -439,7 +453,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
       if (next.sound && next.parts <= now.parts) {
         std::vector<std::array<std::uint32_t, 2>> made;
-        after = pairs_after_edit(before.mesh, pairs, mesh, origin, &made);
+        after = pairs_after_edit(before.mesh, pairs, mesh, origin, &made,
+                                 KnownPairs{vp.new_triangles_of_result, vp.pairs_of_new});
         // The patches' own creases (where the voxel surface meets the cut one) are folds. In
         // the pass for thin nodes only those are untangled: the pairs the patches did not touch
         // were tried before, and on a large tree trying them again costs more than the pass.
@@ -451,6 +466,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         next.thick_inside = thick_inside(mesh);
         if (count_all) next.nodes_inside = nodes_inside(mesh);
         if (now.fidelity_p95) next.fidelity_p95 = fidelity();
+        st.timings.add("patch_figures", clock.lap());
       }
       if (const std::string why = refuse(now, next, {.handles_allowed = true}); !why.empty()) {
         st.problem = "volume patch: " + why;

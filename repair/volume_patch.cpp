@@ -286,6 +286,13 @@ class Builder {
       local.push_back(f);
       const glm::ivec3 lo = glm::max(glm::ivec3(glm::ceil((tb.lo - origin) / h)), glm::ivec3(0));
       const glm::ivec3 hi = glm::min(glm::ivec3(glm::floor((tb.hi - origin) / h)), n - glm::ivec3(1));
+      // Only voxels within the band of the triangle's plane can come nearer than the band (a
+      // coarse triangle in a fine grid: a slab of its box, not the box). The margin keeps
+      // every voxel whose distance, rounded, could still be under the band.
+      const dvec3 normal = glm::cross(b - a, c - a);
+      const double area2 = glm::length(normal);
+      const dvec3 unit = area2 > 0 ? normal / area2 : dvec3(0);
+      const double slab = band * (1 + 1e-6) + 1e-12;
       for (int k = lo.z; k <= hi.z; ++k)
         for (int j = lo.y; j <= hi.y; ++j) {
           const dvec3 row = centre(0, j, k);
@@ -293,7 +300,19 @@ class Builder {
           // Off the y and z faces only the ends of the row near the x faces are in the shell.
           const int skip_from = row_in_shell ? hi.x + 1 : static_cast<int>(std::floor((x_low_end - origin.x) / h)) + 1;
           const int skip_to = row_in_shell ? hi.x + 1 : static_cast<int>(std::ceil((x_high_start - origin.x) / h)) - 1;
-          for (int i = lo.x; i <= hi.x; ++i) {
+          // The row's voxels within the slab: the plane's distance is linear in i.
+          int first = lo.x, last = hi.x;
+          if (area2 > 0) {
+            const double d0 = glm::dot(row - a, unit), step = h * unit.x;
+            if (std::abs(step) > 1e-12 * h) {
+              const double u = (-slab - d0) / step, w = (slab - d0) / step;
+              first = std::max(first, static_cast<int>(std::floor(std::min(u, w))));
+              last = std::min(last, static_cast<int>(std::ceil(std::max(u, w))));
+            } else if (std::abs(d0) > slab) {
+              continue;
+            }
+          }
+          for (int i = first; i <= last; ++i) {
             if (i > skip_from && i < skip_to) i = skip_to;
             const dvec3 p = centre(i, j, k);
             if (phi(p) <= shell) continue;
@@ -503,17 +522,15 @@ class Builder {
 
     // The patch: the volume's surface inside the box, split along phi = 0 like the mesh.
     std::vector<std::uint32_t> index(pos.size(), kNone);
+    // Per patch vertex from here on, the point whose nearest cut triangle becomes its origin:
+    // looked up only once the rims have matched the holes (most builds that fail, fail there).
+    std::vector<dvec3> origin_of;
     auto add = [&](std::uint32_t u) {
       if (index[u] != kNone) return index[u];
       index[u] = nv + static_cast<std::uint32_t>(patch.positions.size());
       const dvec3 p = options_.grid > 0 ? snap_to_grid(pos[u], options_.grid) : pos[u];
       patch.positions.push_back(p);
-      std::uint32_t f = nearest_to(pos[u]);
-      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
-      const auto& t = mesh_.triangles[f];
-      patch.vertex_origin.push_back(f);
-      patch.vertex_closest.push_back(closest_on_triangle(pos[u], mesh_.positions[t[0]], mesh_.positions[t[1]],
-                                                         mesh_.positions[t[2]]));
+      origin_of.push_back(pos[u]);
       return index[u];
     };
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> iso_cut_point;
@@ -523,12 +540,7 @@ class Builder {
       const dvec3 q = zero_on(pos[key.first], pos[key.second]);
       const auto id = nv + static_cast<std::uint32_t>(patch.positions.size());
       patch.positions.push_back(q);
-      std::uint32_t f = nearest_to(q);
-      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
-      const auto& t = mesh_.triangles[f];
-      patch.vertex_origin.push_back(f);
-      patch.vertex_closest.push_back(
-          closest_on_triangle(q, mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
+      origin_of.push_back(q);
       iso_cut_point.emplace(key, id);
       return id;
     };
@@ -604,6 +616,14 @@ class Builder {
         }
       }
       std::erase_if(kept, [&](const Mesh::Triangle& t) { return !matched_part[parts.find(t[0])]; });
+    }
+    for (std::size_t k = 0; k < origin_of.size(); ++k) {
+      std::uint32_t f = nearest_to(origin_of[k]);
+      if (f == kNone) f = patch.cut.empty() ? patch.replaced.front() : patch.cut.front();
+      const auto& t = mesh_.triangles[f];
+      patch.vertex_origin.push_back(f);
+      patch.vertex_closest.push_back(
+          closest_on_triangle(origin_of[k], mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]));
     }
     patch.triangles = kept;
     // Near the holes the cut surface is clean and is the solid's boundary: the patch's vertices
@@ -1246,7 +1266,8 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
       }
     }
     std::vector<std::size_t> made(patches.size(), 0);
-    for (const auto& [f, g] : TriangleIntersections(out).pairs_touching(fresh)) {
+    std::vector<std::array<std::uint32_t, 2>> fresh_pairs = TriangleIntersections(out).pairs_touching(fresh);
+    for (const auto& [f, g] : fresh_pairs) {
       for (const std::uint32_t t : {f, g})
         if (patch_of[t] != kNone) ++made[patch_of[t]];
       if (options.allow_crossings) continue;
@@ -1275,6 +1296,9 @@ VolumePatchStats volume_patch(Mesh& mesh, const std::vector<std::array<std::uint
         st.removed_triangles += patches[p].cut.size();
         st.new_triangles += patches[p].triangles.size() + patches[p].fans.size();
       }
+      std::sort(fresh.begin(), fresh.end());
+      st.new_triangles_of_result = std::move(fresh);
+      st.pairs_of_new = std::move(fresh_pairs);
       mesh = std::move(out);
       return st;
     }

@@ -55,6 +55,10 @@ struct VolumePatchStats {
   std::vector<std::size_t> seam_crossings;     ///< per region: crossings its patch's seams made (0: none kept)
   std::vector<std::array<glm::dvec3, 2>> regions;  ///< per region (same order): its box, lo and hi
   std::vector<std::uint8_t> made;              ///< per region (same order): its patch was made
+  /// Where a patch was made: the result's new triangles (increasing), and every pair of the
+  /// result with a triangle among them (sorted), so that the caller need not search again.
+  std::vector<std::uint32_t> new_triangles_of_result;
+  std::vector<std::array<std::uint32_t, 2>> pairs_of_new;
 };
 
 /// Replaces the surface around `pairs` (intersecting triangle pairs of `mesh`) and around the
