@@ -114,6 +114,21 @@ std::vector<std::uint32_t> thick_node_ids(const Skeleton& skeleton) {
   return out;
 }
 
+double fidelity_p95(const Mesh& mesh, const Skeleton& skeleton) {
+  std::vector<std::uint8_t> used(mesh.positions.size(), 0);
+  for (const auto& t : mesh.triangles) {
+    for (const std::uint32_t v : t) used[v] = 1;
+  }
+  for (const dvec3& p : mesh.positions) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) return 0;
+  }
+  if (skeleton.empty()) return 0;
+  MeshCheckReport r;
+  r.fidelity_tolerance = MeshCheckParams{}.fidelity_tolerance;
+  measure_fidelity(mesh, used, skeleton, 0, 0, r);
+  return r.fidelity_p95;
+}
+
 MeshCheckReport check_mesh(const Mesh& mesh, const MeshCheckParams& params) {
   MeshCheckReport r;
   Stopwatch watch;

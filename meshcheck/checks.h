@@ -66,6 +66,11 @@ namespace sm {
 /// lower median for an even count), in index order.
 std::vector<std::uint32_t> thick_node_ids(const Skeleton& skeleton);
 
+/// check_mesh's fidelity p95 alone (the same value, with check_mesh's default tolerance for
+/// nothing else): for a repair that judges an edit by it, without the topology and the exact
+/// tests a whole check costs. 0 where the skeleton is empty or a vertex is not finite.
+double fidelity_p95(const Mesh& mesh, const Skeleton& skeleton);
+
 /// Options of check_mesh.
 struct MeshCheckParams {
   bool self_intersections = true;        ///< run the (most expensive) self-intersection test (default true)

@@ -409,11 +409,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     // The second pass is also held to the fidelity to the input's cones (its patches' many
     // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
     // inside are worth).
-    auto fidelity = [&] {
-      MeshCheckParams check{.self_intersections = false, .skeleton = input_skeleton ? input_skeleton : &input,
-                            .quality = false, .uvs = false};
-      return check_mesh(mesh, check).fidelity_p95;
-    };
+    auto fidelity = [&] { return fidelity_p95(mesh, input_skeleton ? *input_skeleton : input); };
     if (!uncovered.empty()) {
       now.fidelity_p95 = fidelity();
       // A margin under the check's tolerance: a tenth against the file's skeleton (what the
