@@ -63,6 +63,37 @@ TEST(SelfUnion, PairsTouchingASubsetAreThoseOfTheWholeSearch) {
   EXPECT_TRUE(ti.pairs_touching({}).empty());
 }
 
+TEST(SelfUnion, PairsOfALargeMeshAreTheSameAtGeoreferencedCoordinates) {
+  // 2,025 pairs of interpenetrating boxes (48,600 triangles: the searches split into slabs on
+  // all threads), at the origin and moved to UTM coordinates, where a float's step is half a
+  // metre (the boxes of the search are taken about a vertex of the mesh): the same pairs, and
+  // pairs_touching(S) the whole search's pairs with a triangle in S.
+  const Mesh pair = test::interpenetrating_boxes();
+  Mesh lattice;
+  for (int i = 0; i < 45; ++i) {
+    for (int j = 0; j < 45; ++j) {
+      const auto base = static_cast<std::uint32_t>(lattice.positions.size());
+      for (const glm::dvec3& p : pair.positions) lattice.positions.push_back(p + glm::dvec3(3 * i, 3 * j, 0.25 * (i % 3)));
+      for (Mesh::Triangle t : pair.triangles) {
+        for (std::uint32_t& v : t) v += base;
+        lattice.triangles.push_back(t);
+      }
+    }
+  }
+  const auto at_origin = all_pairs(lattice);
+  ASSERT_EQ(at_origin.size(), 45u * 45u * all_pairs(pair).size());
+  const Mesh far = test::translated(lattice, glm::dvec3(500000, 5200000, 300));  // (exact in double)
+  EXPECT_EQ(all_pairs(far), at_origin);
+  const TriangleIntersections ti(far);
+  std::vector<std::uint32_t> subset;
+  for (std::uint32_t f = 0; f < far.triangles.size(); f += 3) subset.push_back(f);
+  std::vector<std::array<std::uint32_t, 2>> expected;
+  for (const auto& pr : at_origin) {
+    if (pr[0] % 3 == 0 || pr[1] % 3 == 0) expected.push_back(pr);
+  }
+  EXPECT_EQ(ti.pairs_touching(subset), expected);
+}
+
 TEST(SelfUnion, DisjointPartsAreLeftAsTheyAre) {
   // No pairs: nothing to do, the mesh and the identity origin come back.
   Mesh m = test::box();
