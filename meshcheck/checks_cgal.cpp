@@ -228,34 +228,12 @@ class SoupIntersector {
     constexpr std::size_t kSlabBoxes = 20000;  // fewer given and candidate boxes: one search
     const std::size_t total = some.size() + every.size();
     const std::size_t slabs = total < kSlabBoxes ? 1 : std::clamp<std::size_t>(total / kSlabBoxes, 2, 16);
-    std::vector<double> cut;  // slab s holds overlaps starting in [cut[s - 1], cut[s])
-    if (slabs > 1) {
-      std::vector<double> mins(some.size());
-      for (std::size_t k = 0; k < some.size(); ++k) mins[k] = some[k].min_coord(axis);
-      auto from = mins.begin();
-      for (std::size_t s = 1; s < slabs; ++s) {
-        const auto at = mins.begin() + std::ptrdiff_t(s * mins.size() / slabs);
-        std::nth_element(from, at, mins.end());
-        cut.push_back(*at);
-        from = at + 1;
-      }
-    }
+    const Slabs slab(some, axis, slabs);
     std::vector<std::vector<Pair>> in_slab(slabs);
     tbb::parallel_for(std::size_t{0}, slabs, [&](std::size_t s) {
-      const double from = s == 0 ? -HUGE_VAL : cut[s - 1], to = s + 1 == slabs ? HUGE_VAL : cut[s];
-      auto within = [&](const std::vector<Box>& all) {
-        std::vector<const Box*> ptrs;
-        for (const Box& b : all) {
-          if (slabs == 1 || (double(b.min_coord(axis)) < to && double(b.max_coord(axis)) >= from)) ptrs.push_back(&b);
-        }
-        return ptrs;
-      };
-      std::vector<const Box*> mine = within(some), theirs = within(every);
+      std::vector<const Box*> mine = slab.reaching(some, s), theirs = slab.reaching(every, s);
       auto callback = [&](const Box* a, const Box* b) {
-        if (slabs > 1) {
-          const double start = double(std::max(a->min_coord(axis), b->min_coord(axis)));
-          if (start < from || start >= to) return;  // another slab's pair
-        }
+        if (!slab.holds(s, *a, *b)) return;  // another slab's pair
         const std::uint32_t i = a->info(), j = b->info();
         if (i != j && intersect(i, j)) in_slab[s].push_back({std::min(i, j), std::max(i, j)});
       };
@@ -266,6 +244,45 @@ class SoupIntersector {
     for (const auto& f : in_slab) found.insert(found.end(), f.begin(), f.end());
     return found;
   }
+
+  /// Slabs of a search along one axis: a pair of boxes belongs to the slab holding the lower
+  /// end of their overlap on that axis, so each pair is reported by one slab.
+  struct Slabs {
+    // Cuts at equal shares of the boxes' lower ends (order statistics at increasing ranks:
+    // ascending). Each is searched for only above the one before (nth_element leaves the
+    // larger values there): one pass over the values in all rather than one per cut.
+    Slabs(const std::vector<Box>& boxes, int along, std::size_t count) : axis(along), slabs(count) {
+      if (slabs < 2) return;
+      std::vector<double> mins(boxes.size());
+      for (std::size_t k = 0; k < boxes.size(); ++k) mins[k] = boxes[k].min_coord(axis);
+      auto from = mins.begin();
+      for (std::size_t s = 1; s < slabs; ++s) {
+        const auto at = mins.begin() + std::ptrdiff_t(s * mins.size() / slabs);
+        std::nth_element(from, at, mins.end());
+        cut.push_back(*at);
+        from = at + 1;
+      }
+    }
+    [[nodiscard]] double from(std::size_t s) const { return s == 0 ? -HUGE_VAL : cut[s - 1]; }
+    [[nodiscard]] double to(std::size_t s) const { return s + 1 == slabs ? HUGE_VAL : cut[s]; }
+    /// The boxes reaching into slab s (all of them where there is one slab).
+    [[nodiscard]] std::vector<const Box*> reaching(const std::vector<Box>& boxes, std::size_t s) const {
+      std::vector<const Box*> ptrs;
+      for (const Box& b : boxes) {
+        if (slabs == 1 || (double(b.min_coord(axis)) < to(s) && double(b.max_coord(axis)) >= from(s))) ptrs.push_back(&b);
+      }
+      return ptrs;
+    }
+    /// Whether the overlap of a and b starts in slab s.
+    [[nodiscard]] bool holds(std::size_t s, const Box& a, const Box& b) const {
+      if (slabs == 1) return true;
+      const double start = double(std::max(a.min_coord(axis), b.min_coord(axis)));
+      return start >= from(s) && start < to(s);
+    }
+    int axis;
+    std::size_t slabs;
+    std::vector<double> cut;  // slab s holds overlaps starting in [cut[s - 1], cut[s])
+  };
 
   /// The box of triangle t about origin_, in single precision rounded outwards. (Two boxes
   /// that overlap still do: the subtraction and the rounding keep the order of coordinates.)
@@ -317,7 +334,6 @@ class SoupIntersector {
     constexpr std::size_t kSlabBoxes = 20000;  // fewer: one search
     const std::size_t slabs = boxes.size() < kSlabBoxes ? 1 : std::clamp<std::size_t>(boxes.size() / kSlabBoxes, 2, 16);
     int axis = 0;
-    std::vector<double> cut;  // slab s holds overlaps starting in [cut[s - 1], cut[s])
     if (slabs > 1) {
       double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
       for (const Box& b : boxes) {
@@ -329,31 +345,13 @@ class SoupIntersector {
       for (int d = 1; d < 3; ++d) {
         if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
       }
-      // Equal shares of the boxes' lower ends (order statistics at increasing ranks: ascending).
-      // Each is searched for only above the one before (nth_element leaves the larger values
-      // there): one pass over the values in all rather than one per cut.
-      std::vector<double> mins(boxes.size());
-      for (std::size_t k = 0; k < boxes.size(); ++k) mins[k] = boxes[k].min_coord(axis);
-      auto from = mins.begin();
-      for (std::size_t s = 1; s < slabs; ++s) {
-        const auto at = mins.begin() + std::ptrdiff_t(s * mins.size() / slabs);
-        std::nth_element(from, at, mins.end());
-        cut.push_back(*at);
-        from = at + 1;
-      }
     }
+    const Slabs slab(boxes, axis, slabs);
     std::vector<std::vector<Pair>> found(slabs);
     tbb::parallel_for(std::size_t{0}, slabs, [&](std::size_t s) {
-      const double from = s == 0 ? -HUGE_VAL : cut[s - 1], to = s + 1 == slabs ? HUGE_VAL : cut[s];
-      std::vector<const Box*> ptrs;
-      for (const Box& b : boxes) {
-        if (slabs == 1 || (double(b.min_coord(axis)) < to && double(b.max_coord(axis)) >= from)) ptrs.push_back(&b);
-      }
+      std::vector<const Box*> ptrs = slab.reaching(boxes, s);
       auto callback = [&](const Box* a, const Box* b) {
-        if (slabs > 1) {
-          const double start = double(std::max(a->min_coord(axis), b->min_coord(axis)));
-          if (start < from || start >= to) return;  // another slab's pair
-        }
+        if (!slab.holds(s, *a, *b)) return;  // another slab's pair
         const std::uint32_t i = a->info(), j = b->info();
         if (intersect(i, j)) found[s].push_back({std::min(i, j), std::max(i, j)});
       };
