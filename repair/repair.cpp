@@ -533,6 +533,10 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();
+  if (st.counted && st.coincident_vertices == 0) {
+    st.pairs_known = true;
+    st.left_pairs = pairs;
+  }
   r.stats.vertices = mesh.vertex_count();
   r.stats.triangles = mesh.triangle_count();
   if (!st.problem.empty()) st.warnings.add("self_union_refused", "the self-union was refused: " + st.problem);

@@ -22,9 +22,11 @@
 /// and 3, each crotch in step 2) and otherwise leaves it as it was; a clean mesh passes
 /// through unchanged.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "contours/contours.h"
 #include "core/param_table.h"
@@ -131,6 +133,11 @@ struct RepairStats {
   std::size_t inner_shells = 0;    ///< enclosed voids dropped
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
   std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
+  /// The pairs left, sorted, where they are known exactly (counted, and no vertex moved off
+  /// another after they were found: `pairs_known`); for the sliver step, which then need not
+  /// search the whole mesh again.
+  std::vector<std::array<std::uint32_t, 2>> left_pairs;
+  bool pairs_known = false;
   // Step 6:
   std::size_t patch_clusters = 0;  ///< regions of pairs left by the union
   std::size_t patched = 0;         ///< of those, replaced by a volume patch

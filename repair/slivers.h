@@ -47,6 +47,7 @@
 /// Deterministic: slivers are visited in triangle order, serially.
 
 #include <cstddef>
+#include <array>
 #include <span>
 
 #include "meshing/meshing.h"
@@ -61,6 +62,10 @@ struct SliverOptions {
   /// The mesh is known to have no self-intersecting pair (the search for them is skipped; were
   /// it wrong, edits near a pair would only be refused).
   bool known_clean = false;
+  /// The mesh's self-intersecting pairs, sorted, where the caller knows them all
+  /// (`pairs_known`): the search for them is skipped.
+  std::span<const std::array<std::uint32_t, 2>> known_pairs;
+  bool pairs_known = false;
   /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
   /// collapse keeps the edge's end with the smaller value where it can.
   std::span<const double> vertex_error;
