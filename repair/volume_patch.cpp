@@ -305,9 +305,12 @@ class Builder {
           if (area2 > 0) {
             const double d0 = glm::dot(row - a, unit), step = h * unit.x;
             if (std::abs(step) > 1e-12 * h) {
+              // (Clamped to the row before the conversion: a plane nearly along x puts them
+              // far beyond any int.)
               const double u = (-slab - d0) / step, w = (slab - d0) / step;
-              first = std::max(first, static_cast<int>(std::floor(std::min(u, w))));
-              last = std::min(last, static_cast<int>(std::ceil(std::max(u, w))));
+              const double row_lo = lo.x - 1.0, row_hi = hi.x + 1.0;
+              first = std::max(first, static_cast<int>(std::floor(std::clamp(std::min(u, w), row_lo, row_hi))));
+              last = std::min(last, static_cast<int>(std::ceil(std::clamp(std::max(u, w), row_lo, row_hi))));
             } else if (std::abs(d0) > slab) {
               continue;
             }
