@@ -6,6 +6,7 @@
 #include <numeric>
 #include <optional>
 #include <set>
+#include <span>
 #include <tuple>
 
 #include <tbb/blocked_range.h>
@@ -152,6 +153,12 @@ Skeleton input_nodes(const Skeleton& skeleton, std::vector<std::uint32_t>& index
   out.children.resize(out.size());
   out.frame.resize(out.size());
   return out;
+}
+
+/// How many of `points` lie inside the closed mesh `m`.
+std::size_t count_inside(const Mesh& m, std::span<const glm::dvec3> points) {
+  const std::vector<std::uint8_t> in = inside_closed_mesh(m, points);
+  return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));
 }
 
 /// How many of `pairs` have a triangle whose centroid lies in the box {lo, hi}.
@@ -315,10 +322,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   // nodes inside counted); otherwise the mesh goes back to what it was and the repair stops.
   std::vector<glm::dvec3> thick;
   for (const std::uint32_t i : thick_node_ids(skeleton)) thick.push_back(skeleton.position[i]);
-  auto thick_inside = [&](const Mesh& m) {
-    const std::vector<std::uint8_t> in = inside_closed_mesh(m, thick);
-    return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));
-  };
+  auto thick_inside = [&](const Mesh& m) { return count_inside(m, thick); };
   MeshFigures now;
   if (params.self_union && !pairs.empty()) {
     now = {.parts = components(mesh), .volume = signed_volume(mesh), .pairs = pairs.size(),
@@ -391,10 +395,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   std::vector<std::uint32_t> input_index;
   const Skeleton input = can_patch ? input_nodes(skeleton, input_index) : Skeleton{};
   // Input nodes inside (all of them, not only the thick ones).
-  auto nodes_inside = [&](const Mesh& m) {
-    const std::vector<std::uint8_t> in = inside_closed_mesh(m, input.position);
-    return static_cast<std::size_t>(std::count(in.begin(), in.end(), std::uint8_t{1}));
-  };
+  auto nodes_inside = [&](const Mesh& m) { return count_inside(m, input.position); };
   auto patch_pass = [&](const std::vector<std::array<std::uint32_t, 2>>& patch_pairs,
                         const std::vector<std::uint32_t>& uncovered, const char* warning, const char* what,
                         std::optional<std::size_t> all_inside = std::nullopt) {
@@ -533,10 +534,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();
-  if (st.counted && st.coincident_vertices == 0) {
-    st.pairs_known = true;
-    st.left_pairs = pairs;
-  }
+  if (st.counted && (st.coincident_vertices == 0 || pairs.empty())) st.left_pairs = pairs;
   r.stats.vertices = mesh.vertex_count();
   r.stats.triangles = mesh.triangle_count();
   if (!st.problem.empty()) st.warnings.add("self_union_refused", "the self-union was refused: " + st.problem);

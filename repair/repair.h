@@ -25,6 +25,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -133,11 +134,10 @@ struct RepairStats {
   std::size_t inner_shells = 0;    ///< enclosed voids dropped
   std::size_t lumps = 0;           ///< loose parts without a skeleton node dropped
   std::size_t coincident_vertices = 0;  ///< vertices moved off another at the same position
-  /// The pairs left, sorted, where they are known exactly (counted, and no vertex moved off
-  /// another after they were found: `pairs_known`); for the sliver step, which then need not
-  /// search the whole mesh again.
-  std::vector<std::array<std::uint32_t, 2>> left_pairs;
-  bool pairs_known = false;
+  /// The pairs left, sorted, where they are known exactly (counted, and none left or no vertex
+  /// moved off another after they were found); for the sliver step, which then need not search
+  /// the whole mesh again.
+  std::optional<std::vector<std::array<std::uint32_t, 2>>> left_pairs;
   // Step 6:
   std::size_t patch_clusters = 0;  ///< regions of pairs left by the union
   std::size_t patched = 0;         ///< of those, replaced by a volume patch

@@ -357,11 +357,7 @@ class SliverRemover {
     // The mesh's crossing pairs, found once and kept up to date: an edit may not take part in
     // more of them than its triangles did before it.
     std::vector<std::array<std::uint32_t, 2>> known;
-    if (o_.pairs_known) {
-      known.assign(o_.known_pairs.begin(), o_.known_pairs.end());
-    } else if (!o_.known_clean) {
-      known = intersections.pairs(all);
-    }
+    known = o_.known_pairs ? *o_.known_pairs : intersections.pairs(all);
     st.found = find(all, limit_).size();
     // Needles first: with a limit well above a degree, the edits on milder slivers would lock
     // and reshape the neighbourhoods that the few needles' edits need, and leave more of them.

@@ -49,6 +49,7 @@
 #include <cstddef>
 #include <array>
 #include <span>
+#include <vector>
 
 #include "meshing/meshing.h"
 #include "skeleton/skeleton.h"
@@ -59,13 +60,10 @@ struct SliverOptions {
   double angle = 1.0;         ///< a sliver has an angle under this (degrees; 0 = none removed)
   double max_turn = 30.0;     ///< largest turn of a changed triangle's normal (degrees)
   int max_rounds = 64;        ///< rounds of finding slivers and editing them (count)
-  /// The mesh is known to have no self-intersecting pair (the search for them is skipped; were
-  /// it wrong, edits near a pair would only be refused).
-  bool known_clean = false;
-  /// The mesh's self-intersecting pairs, sorted, where the caller knows them all
-  /// (`pairs_known`): the search for them is skipped.
-  std::span<const std::array<std::uint32_t, 2>> known_pairs;
-  bool pairs_known = false;
+  /// The mesh's self-intersecting pairs, sorted, where the caller knows them all (none: an
+  /// empty list), or null: they are searched for. (Were the list short of some, edits near
+  /// them would only be refused.)
+  const std::vector<std::array<std::uint32_t, 2>>* known_pairs = nullptr;
   /// Per vertex (#V, or empty): how far it lies from the surface it stands for (any unit). A
   /// collapse keeps the edge's end with the smaller value where it can.
   std::span<const double> vertex_error;

@@ -102,9 +102,7 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
-                                     .known_clean = st.counted && st.pairs_left == 0,
-                                     .known_pairs = st.left_pairs,
-                                     .pairs_known = st.pairs_known,
+                                     .known_pairs = st.left_pairs ? &*st.left_pairs : nullptr,
                                      .vertex_error = error,
                                      .vertex_radius = radius,
                                      .max_move = params.sliver_max_move,

@@ -404,6 +404,7 @@ TEST(Checks, FidelityOfAScaledCylinderFails) {
   const MeshCheckReport r = check_mesh(m, {.skeleton = &skel});
   EXPECT_NEAR(r.fidelity_p50, 0.5, 1e-9);
   EXPECT_NEAR(r.fidelity_p95, 0.5, 1e-9);
+  EXPECT_EQ(fidelity_p95(m, skel), r.fidelity_p95);  // (the repair's guard: the same value alone)
   EXPECT_EQ(r.fidelity_outliers, m.positions.size());  // every vertex is half a radius out
   EXPECT_EQ(r.fidelity_outlier_examples.size(), MeshCheckParams{}.max_examples);
   EXPECT_FALSE(r.ok());

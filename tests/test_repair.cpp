@@ -198,14 +198,21 @@ PipelineParams keep_input() {
 
 // `raw` meshed with the input kept, checked against the input: with the volume patch around
 // thick nodes left outside (repair.patch_uncovered) off, then on.
-std::pair<MeshCheckReport, MeshCheckReport> checked_without_and_with_node_patches(const RawSkeleton& raw) {
+/// The meshes of `raw` with the repair's `pass` off and on (the rest as `params`), each checked
+/// against the input skeleton.
+std::pair<MeshCheckReport, MeshCheckReport> checked_without_and_with(const RawSkeleton& raw, bool RepairParams::*pass,
+                                                                     const PipelineParams& params) {
   const Skeleton input = input_skeleton(raw);
-  auto check = [&](bool uncovered) {
-    PipelineParams p = keep_input();
-    p.repair.patch_uncovered = uncovered;
+  auto check = [&](bool on) {
+    PipelineParams p = params;
+    p.repair.*pass = on;
     return check_mesh(run_pipeline(raw, p).mesh.mesh, {.skeleton = &input});
   };
   return {check(false), check(true)};
+}
+
+std::pair<MeshCheckReport, MeshCheckReport> checked_without_and_with_node_patches(const RawSkeleton& raw) {
+  return checked_without_and_with(raw, &RepairParams::patch_uncovered, keep_input());
 }
 
 /// Closed, manifold, oriented, one part; no node moved beyond max_node_move; the thick nodes of
@@ -456,13 +463,7 @@ TEST(Repair, VolumePatchCoversThinNodesLeftOutsideAtAHub) {
   // (As `strandmesh grow --messy --seed 222` writes it: the file's rounding keeps two nodes
   // that the grown tree's zero-length edges merge.)
   const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
-  const Skeleton input = input_skeleton(raw);
-  auto check = [&](bool thin) {
-    PipelineParams p;  // the defaults
-    p.repair.patch_uncovered_thin = thin;
-    return check_mesh(run_pipeline(raw, p).mesh.mesh, {.skeleton = &input});
-  };
-  const MeshCheckReport off = check(false), on = check(true);
+  const auto [off, on] = checked_without_and_with(raw, &RepairParams::patch_uncovered_thin, PipelineParams{});
   EXPECT_GE(double(on.nodes_inside), double(off.nodes_inside) + 5);
   EXPECT_GE(double(on.nodes_inside), 0.99 * double(on.nodes));
   EXPECT_GE(on.thick_nodes_inside, off.thick_nodes_inside);

@@ -679,12 +679,12 @@ TEST(Slivers, TheRepairHandsOnExactlyThePairsLeft) {
   params.repair.sliver_angle = 0;
   const PipelineResult r = run_pipeline(read_skeleton(file), params);
   const Mesh& m = r.mesh.mesh;
-  ASSERT_TRUE(r.repair.pairs_known);
-  EXPECT_GT(r.repair.left_pairs.size(), 0u);
-  EXPECT_EQ(r.repair.left_pairs.size(), r.repair.pairs_left);
+  ASSERT_TRUE(r.repair.left_pairs);
+  EXPECT_GT(r.repair.left_pairs->size(), 0u);
+  EXPECT_EQ(r.repair.left_pairs->size(), r.repair.pairs_left);
   std::vector<std::uint32_t> all(m.triangles.size());
   std::iota(all.begin(), all.end(), 0u);
-  EXPECT_EQ(r.repair.left_pairs, TriangleIntersections(m).pairs(all));
+  EXPECT_EQ(*r.repair.left_pairs, TriangleIntersections(m).pairs(all));
 }
 
 TEST(Slivers, SampleTreeHasNoneLeftAndNormalsOfTheFinishedSurface) {
