@@ -38,6 +38,7 @@
 #include "repair/junction_folds.h"
 #include "repair/near_misses.h"
 #include "repair/outer_surface.h"
+#include "repair/collars.h"
 #include "repair/slivers.h"
 #include "skeleton/skeleton.h"
 
@@ -96,6 +97,26 @@ struct RepairParams {
   /// Inside a patch, branches thinner than this many voxels in radius are drawn at this radius
   /// (a grid loses thinner ones, and the patch its rim there); 0: such a region is not patched.
   double patch_min_twig_voxels = 1.25;
+  /// Step 6b: the surface where a lateral leaves its parent remeshed finer and laid onto a
+  /// collar, the smooth union of the input's round cones there (repair/collars.h). Off by
+  /// default (2-4 times the triangles); on in configs/closeup.json.
+  bool collars = false;
+  /// A collar's region: the surface within this many lateral radii of the lateral's base.
+  double collar_reach = 2.5;
+  /// Target edge length of a collar's remeshed region (lateral radii).
+  double collar_edge = 0.3;
+  /// Width of the blend between the lateral's surface and its parent's (lateral radii): the
+  /// collar lies at most a quarter of it outside the union of their round cones.
+  double collar_blend = 0.6;
+  /// Largest move of a vertex onto the collar (x the larger of the lateral's and the local
+  /// radius); a region needing more stays as it was (its surface is not this fork's).
+  double collar_max_move = 1.0;
+  /// Smallest angle of the fans the remeshed region makes of the triangles outside its split
+  /// border edges (degrees), unless a fanned triangle had less: a region needing thinner ones
+  /// stays as it was.
+  double collar_min_angle = 1.0;
+  /// Most triangles of one collar's region: a larger region gets a longer target edge.
+  std::uint32_t collar_max_triangles = 4000;
   /// Step 7: triangles with an angle under this are flipped or collapsed away (degrees; 0 = none).
   double sliver_angle = 10.0;
   /// Largest turn of a triangle's normal by those flips and collapses (degrees).
@@ -142,6 +163,7 @@ struct RepairStats {
   std::size_t patch_clusters = 0;  ///< regions of pairs left by the union
   std::size_t patched = 0;         ///< of those, replaced by a volume patch
   std::size_t patch_voxels = 0;    ///< voxels of their grids
+  CollarStats collars;             ///< step 6b
   SliverStats slivers;             ///< step 7
   // Step 8:
   std::size_t split_normal_vertices = 0;  ///< vertices whose fan was split into smoothing groups

@@ -87,18 +87,35 @@ RepairStats repair_mesh(StitchedMesh stitched, ContourSet& contours, MeshResult&
   // 5. Crossings anywhere: folds and the self-union.
   report("repair");
   RepairStats st = repair_crossings(mesh, s, params, in.input);
-  // 7. Slivers.
   (void)clock.lap();  // (step 5 timed its own parts, in st.timings)
   // The nodes inside stay inside, the input's (`check` counts them all) and the sanitized
-  // skeleton's (the repair's rule): a sliver's edit is far smaller than what a node, thick
-  // or thin, needs to be outside.
-  std::vector<double> error, radius;
+  // skeleton's (the repair's rule): a collar's or a sliver's edit is far smaller than what a
+  // node, thick or thin, needs to be outside.
   std::vector<glm::dvec3> keep;
+  if (params.sliver_angle > 0 || params.collars) {
+    keep = s.position;
+    if (in.input) keep.insert(keep.end(), in.input->position.begin(), in.input->position.end());
+  }
+  // 6b. Collars where laterals leave their parents.
+  if (params.collars) {
+    report("collars");
+    st.collars = make_collars(mesh, s,
+                              {.reach = params.collar_reach,
+                               .edge = params.collar_edge,
+                               .blend = params.collar_blend,
+                               .max_move = params.collar_max_move,
+                               .max_region_triangles = params.collar_max_triangles,
+                               .min_angle = params.collar_min_angle,
+                               .measure = in.input,
+                               .keep_inside = keep},
+                              &st.left_pairs);
+  }
+  timings.add("collars", clock.lap());
+  // 7. Slivers.
+  std::vector<double> error, radius;
   if (params.sliver_angle > 0) {
     error = cone_error(mesh.mesh, s);
     radius = cone_radius(mesh.mesh, s);
-    keep = s.position;
-    if (in.input) keep.insert(keep.end(), in.input->position.begin(), in.input->position.end());
   }
   st.slivers = remove_slivers(mesh, {.angle = params.sliver_angle,
                                      .max_turn = params.sliver_max_turn,
