@@ -649,6 +649,7 @@ CollarStats make_collars(MeshResult& r, const Skeleton& skeleton, const CollarOp
     }
     // Applies the kept regions to a copy of the mesh; new and fanned triangles name their region.
     const MeshResult before = r;
+    std::vector<std::vector<std::uint32_t>> fanned(made.size());  // per region: the triangles outside it fanned
     std::vector<std::uint32_t> owner;  // per triangle of the result: region + 1, or 0
     std::vector<std::uint32_t> origin;  // per triangle of the result: triangle of `before`, or kNone
     auto apply = [&]() {
@@ -739,6 +740,7 @@ CollarStats make_collars(MeshResult& r, const Skeleton& skeleton, const CollarOp
             z = t[(at + 1) % 3];
           }
           const std::uint32_t from = g;
+          fanned[c].push_back(g);
           m.triangles[g] = {z, chain[0], chain[1]};
           if (uvs) {
             m.corner_uvs[g] = uvs_from(before.mesh, from,
@@ -750,16 +752,45 @@ CollarStats make_collars(MeshResult& r, const Skeleton& skeleton, const CollarOp
         }
       }
     };
-    // Checks: no pair made, no point left outside; regions failing either go back.
+    // Checks: the surface closed, no pair made, no point left outside; regions failing one go
+    // back. After regions went back for pairs or points, only their restored triangles can
+    // make new pairs (the others were searched against everything), and only the points near
+    // the regions can change sides.
+    std::vector<std::uint32_t> near;  // indices into keep_inside
+    for (std::size_t p = 0; p < o.keep_inside.size(); ++p) {
+      for (std::size_t c = 0; c < made.size(); ++c) {
+        const CollarSite& j = all[todo[chosen[c]]];
+        if (keep[c] && glm::length(o.keep_inside[p] - j.centre) <= 3 * j.radius) {
+          near.push_back(static_cast<std::uint32_t>(p));
+          break;
+        }
+      }
+    }
+    std::vector<glm::dvec3> near_points;
+    for (const std::uint32_t p : near) near_points.push_back(o.keep_inside[p]);
     const std::vector<std::uint8_t> inside_before =
-        o.keep_inside.empty() ? std::vector<std::uint8_t>{} : inside_closed_mesh(before.mesh, o.keep_inside);
+        near_points.empty() ? std::vector<std::uint8_t>{} : inside_closed_mesh(before.mesh, near_points);
+    std::optional<std::vector<std::uint32_t>> restored;  // set where only those need a search
     for (int attempt = 0; attempt < 4; ++attempt) {
+      const std::vector<std::uint8_t> kept_before = keep;
       apply();
       std::vector<std::uint32_t> changed;
       for (std::uint32_t f = 0; f < owner.size(); ++f) {
         if (owner[f] && r.mesh.triangles[f][0] != r.mesh.triangles[f][1]) changed.push_back(f);
       }
       if (changed.empty()) break;
+      // The triangles of the regions that go back this attempt, as restored in the next.
+      auto going_back = [&]() {
+        std::vector<std::uint32_t> out;
+        for (std::size_t c = 0; c < made.size(); ++c) {
+          if (!kept_before[c] || keep[c]) continue;
+          out.insert(out.end(), made[c].faces.begin(), made[c].faces.end());
+          out.insert(out.end(), fanned[c].begin(), fanned[c].end());
+        }
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+        return out;
+      };
       bool again = false;
       // Closed around every vertex of a changed triangle: each edge leaving it comes back.
       {
@@ -792,8 +823,11 @@ CollarStats make_collars(MeshResult& r, const Skeleton& skeleton, const CollarOp
           }
         }
       }
-      if (again) continue;
-      for (const auto& pr : TriangleIntersections(r.mesh).pairs_touching(changed)) {
+      if (again) {
+        restored.reset();  // (this attempt searched no pair: the next searches all)
+        continue;
+      }
+      for (const auto& pr : TriangleIntersections(r.mesh).pairs_touching(restored ? *restored : changed)) {
         for (const std::uint32_t f : pr) {
           if (owner[f] && keep[owner[f] - 1]) {
             keep[owner[f] - 1] = 0;
@@ -802,22 +836,36 @@ CollarStats make_collars(MeshResult& r, const Skeleton& skeleton, const CollarOp
           }
         }
       }
-      if (!again && !o.keep_inside.empty()) {
-        const std::vector<std::uint8_t> inside_after = inside_closed_mesh(r.mesh, o.keep_inside);
-        for (std::size_t p = 0; p < o.keep_inside.size(); ++p) {
-          if (!inside_before[p] || inside_after[p]) continue;
-          // The regions whose ball holds the point (grown by a half).
+      if (!again && !near_points.empty()) {
+        const std::vector<std::uint8_t> inside_after = inside_closed_mesh(r.mesh, near_points);
+        for (std::size_t q = 0; q < near_points.size(); ++q) {
+          if (!inside_before[q] || inside_after[q]) continue;
+          // The regions whose ball holds the point (grown by a half), else the nearest one.
+          std::size_t nearest = made.size();
+          double best = INFINITY;
+          bool found = false;
           for (std::size_t c = 0; c < made.size(); ++c) {
             const CollarSite& j = all[todo[chosen[c]]];
-            if (keep[c] && glm::length(o.keep_inside[p] - j.centre) <= 1.5 * j.radius) {
+            const double d = glm::length(near_points[q] - j.centre);
+            if (!keep[c]) continue;
+            if (d <= 1.5 * j.radius) {
               keep[c] = 0;
               ++st.refused_inside;
-              again = true;
+              found = again = true;
+            } else if (d < best) {
+              best = d;
+              nearest = c;
             }
+          }
+          if (!found && nearest < made.size()) {
+            keep[nearest] = 0;
+            ++st.refused_inside;
+            again = true;
           }
         }
       }
       if (!again) break;
+      restored = going_back();
       if (attempt == 3) std::fill(keep.begin(), keep.end(), 0), apply();
     }
     for (std::size_t c = 0; c < made.size(); ++c) st.made += keep[c];
