@@ -184,8 +184,32 @@ struct Made {
   enum class Verdict { made, shape, move } verdict = Verdict::shape;
 };
 
-/// The region of one junction: the triangles with all corners in the ball, the connected
-/// piece with the most of them (through shared edges).
+/// `faces` (sorted) and every triangle whose corners are all theirs, sorted: a region closed so,
+/// no triangle outside it has two border edges (its split would need more than a fan).
+std::vector<std::uint32_t> closed_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uint32_t> faces) {
+  std::vector<std::uint32_t> verts;
+  for (const std::uint32_t f : faces) verts.insert(verts.end(), mesh.triangles[f].begin(), mesh.triangles[f].end());
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  std::vector<std::uint32_t> closing;
+  for (const std::uint32_t v : verts) {
+    for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
+      const std::uint32_t f = vc.corner[i] / 3;
+      const auto& t = mesh.triangles[f];
+      if (t[0] == t[1] || std::binary_search(faces.begin(), faces.end(), f)) continue;
+      if (std::all_of(t.begin(), t.end(), [&](std::uint32_t w) { return std::binary_search(verts.begin(), verts.end(), w); })) {
+        closing.push_back(f);
+      }
+    }
+  }
+  faces.insert(faces.end(), closing.begin(), closing.end());
+  std::sort(faces.begin(), faces.end());
+  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+  return faces;
+}
+
+/// The region of one junction: of the triangles reaching into its ball (`near`: the vertices
+/// around it), the connected piece with the most of them (through shared edges), closed.
 std::vector<std::uint32_t> region_of(const Mesh& mesh, const VertexCorners& vc, const CollarSite& j,
                                      std::span<const std::uint32_t> near) {
   // The triangles that reach into the ball (their nearest point to its centre within it).
@@ -237,31 +261,11 @@ std::vector<std::uint32_t> region_of(const Mesh& mesh, const VertexCorners& vc, 
     sizes.push_back(n);
   }
   const auto best = static_cast<std::uint32_t>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
-  std::vector<std::uint32_t> out, kept;
+  std::vector<std::uint32_t> out;
   for (std::uint32_t k = 0; k < faces.size(); ++k) {
-    if (piece[k] == best) {
-      out.push_back(faces[k]);
-      kept.insert(kept.end(), mesh.triangles[faces[k]].begin(), mesh.triangles[faces[k]].end());
-    }
+    if (piece[k] == best) out.push_back(faces[k]);
   }
-  // Closed under "all corners in it" (a triangle outside would else have two border edges).
-  std::vector<std::uint32_t> closing;
-  std::sort(kept.begin(), kept.end());
-  kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
-  for (const std::uint32_t v : kept) {
-    for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
-      const std::uint32_t f = vc.corner[i] / 3;
-      const auto& t = mesh.triangles[f];
-      if (t[0] == t[1] || std::binary_search(out.begin(), out.end(), f)) continue;
-      if (std::all_of(t.begin(), t.end(), [&](std::uint32_t w) { return std::binary_search(kept.begin(), kept.end(), w); })) {
-        closing.push_back(f);
-      }
-    }
-  }
-  out.insert(out.end(), closing.begin(), closing.end());
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
+  return closed_region(mesh, vc, std::move(out));
 }
 
 /// The target edge of a region: `edge` lateral radii, longer where the region is too large for
@@ -304,25 +308,7 @@ std::vector<std::uint32_t> grown(const Mesh& mesh, const VertexCorners& vc, std:
     std::sort(faces.begin(), faces.end());
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
   }
-  std::vector<std::uint32_t> verts;
-  for (const std::uint32_t f : faces) verts.insert(verts.end(), mesh.triangles[f].begin(), mesh.triangles[f].end());
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  std::vector<std::uint32_t> closing;
-  for (const std::uint32_t v : verts) {
-    for (std::uint32_t i = vc.begin[v]; i < vc.begin[v + 1]; ++i) {
-      const std::uint32_t f = vc.corner[i] / 3;
-      const auto& t = mesh.triangles[f];
-      if (t[0] == t[1] || std::binary_search(faces.begin(), faces.end(), f)) continue;
-      if (std::all_of(t.begin(), t.end(), [&](std::uint32_t w) { return std::binary_search(verts.begin(), verts.end(), w); })) {
-        closing.push_back(f);
-      }
-    }
-  }
-  faces.insert(faces.end(), closing.begin(), closing.end());
-  std::sort(faces.begin(), faces.end());
-  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-  return faces;
+  return closed_region(mesh, vc, std::move(faces));
 }
 
 /// The smallest angle of triangle (a, b, c) (degrees; 0 when degenerate).
