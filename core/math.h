@@ -57,6 +57,21 @@ inline double segment_param(const dvec3& p, const dvec3& a, const dvec3& b) {
 /// The point of triangle (a, b, c) nearest to p (Ericson, Real-Time Collision Detection §5.1.5).
 dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c);
 
+/// The smallest angle of triangle (a, b, c) (radians; 0 where it is degenerate): the one
+/// opposite the shortest edge.
+inline double smallest_angle(const dvec3& a, const dvec3& b, const dvec3& c) {
+  const dvec3 p[3] = {a, b, c};
+  int k = 0;  // the corner opposite the shortest edge
+  double shortest = INFINITY;
+  for (int i = 0; i < 3; ++i) {
+    const dvec3 e = p[(i + 2) % 3] - p[(i + 1) % 3];
+    if (const double l = glm::dot(e, e); l < shortest) shortest = l, k = i;
+  }
+  const dvec3 u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
+  const double s = glm::length(glm::cross(u, v));
+  return s > 0 ? std::atan2(s, glm::dot(u, v)) : 0.0;
+}
+
 /// Barycentric coordinates of p, projected onto the plane of (a, b, c), in that triangle
 /// (unclamped; (1, 0, 0) for a degenerate triangle).
 dvec3 barycentric(const dvec3& a, const dvec3& b, const dvec3& c, const dvec3& p);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <unordered_map>
 #include <utility>
 
@@ -26,7 +27,6 @@ namespace {
 using K = CGAL::Simple_cartesian<double>;
 using SMesh = CGAL::Surface_mesh<K::Point_3>;
 using VD = SMesh::Vertex_index;
-using FD = SMesh::Face_index;
 namespace PMP = CGAL::Polygon_mesh_processing;
 constexpr std::uint32_t kNone = UINT32_MAX;
 
@@ -42,21 +42,19 @@ struct CollarSite {
   std::uint32_t fork_m = 0, child_m = 0;
 };
 
-/// A round cone: the skeleton edge from `a` (radius ra) to `b` (radius rb).
+/// A round cone: the skeleton edge from `a` (radius ra) to `b` (radius rb), measured from its
+/// axis point nearest p (not the exact hull of the two spheres: the edges' radii change slowly).
 struct Cone {
   glm::dvec3 a, b;
   double ra = 0, rb = 0;
-  [[nodiscard]] double distance(const glm::dvec3& p) const {
-    const glm::dvec3 ab = b - a;
-    const double l2 = glm::dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
-    return glm::length(p - (a + t * ab)) - (ra + t * (rb - ra));
-  }
-  [[nodiscard]] double radius(const glm::dvec3& p) const {
-    const glm::dvec3 ab = b - a;
-    const double l2 = glm::dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
-    return ra + t * (rb - ra);
+  struct Near {
+    double distance;  ///< signed, negative inside
+    double radius;    ///< the cone's radius there
+  };
+  [[nodiscard]] Near at(const glm::dvec3& p) const {
+    const double t = segment_param(p, a, b);
+    const double r = ra + t * (rb - ra);
+    return {glm::length(p - (a + t * (b - a))) - r, r};
   }
 };
 
@@ -67,8 +65,8 @@ struct CollarField {
   double blend = 0;
   [[nodiscard]] double operator()(const glm::dvec3& p) const {
     double dp = 1e300, dl = 1e300;
-    for (const Cone& c : parent) dp = std::min(dp, c.distance(p));
-    for (const Cone& c : lateral) dl = std::min(dl, c.distance(p));
+    for (const Cone& c : parent) dp = std::min(dp, c.at(p).distance);
+    for (const Cone& c : lateral) dl = std::min(dl, c.at(p).distance);
     const double h = std::max(blend - std::abs(dp - dl), 0.0) / blend;
     return std::min(dp, dl) - h * h * blend * 0.25;
   }
@@ -77,8 +75,8 @@ struct CollarField {
     double best = 1e300, r = 0;
     for (const auto* side : {&parent, &lateral}) {
       for (const Cone& c : *side) {
-        const double d = c.distance(p);
-        if (d < best) best = d, r = c.radius(p);
+        const Cone::Near n = c.at(p);
+        if (n.distance < best) best = n.distance, r = n.radius;
       }
     }
     return r;
@@ -109,7 +107,7 @@ CollarField field_of(const Skeleton& m, const CollarSite& j, double reach, doubl
     if (!p.valid()) continue;
     // (The cones `check` measures against: a lateral starts at its parent's radius.)
     const Cone c{m.position[p.idx()], m.position[x], m.start_radius(NodeId(static_cast<std::uint32_t>(x))), m.radius[x]};
-    if (c.distance(j.centre) > reach) continue;
+    if (c.at(j.centre).distance > reach) continue;
     // In the lateral's subtree: x reaches the lateral's first node before the fork.
     bool lateral = false;
     for (std::size_t y = x;;) {
@@ -268,6 +266,10 @@ std::vector<std::uint32_t> region_of(const Mesh& mesh, const VertexCorners& vc, 
   return closed_region(mesh, vc, std::move(out));
 }
 
+/// The longest edge the remeshing keeps for target edge h (CGAL's 4/3 h, a little less): the
+/// region's longer border edges are split, and grown across before that.
+double longest_kept(double h) { return 4.0 / 3.0 * h * 0.99; }
+
 /// The target edge of a region: `edge` lateral radii, longer where the region is too large for
 /// `max_region_triangles` of it.
 double target_edge(const Mesh& mesh, std::span<const std::uint32_t> faces, const CollarSite& j, const CollarOptions& o) {
@@ -284,7 +286,7 @@ double target_edge(const Mesh& mesh, std::span<const std::uint32_t> faces, const
 std::vector<std::uint32_t> grown(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uint32_t> faces,
                                  const CollarSite& j, const CollarOptions& o) {
   if (faces.empty()) return faces;
-  const double longest = 4.0 / 3.0 * target_edge(mesh, faces, j, o) * 0.99;
+  const double longest = longest_kept(target_edge(mesh, faces, j, o));
   for (int round = 0; round < o.grow_rounds; ++round) {
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> count;
     for (const std::uint32_t f : faces) {
@@ -311,19 +313,6 @@ std::vector<std::uint32_t> grown(const Mesh& mesh, const VertexCorners& vc, std:
   return closed_region(mesh, vc, std::move(faces));
 }
 
-/// The smallest angle of triangle (a, b, c) (degrees; 0 when degenerate).
-double smallest_angle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-  const glm::dvec3 p[3] = {a, b, c};
-  double out = 180;
-  for (int k = 0; k < 3; ++k) {
-    const glm::dvec3 u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
-    const double lu = glm::length(u), lv = glm::length(v);
-    if (!(lu > 0 && lv > 0)) return 0;
-    out = std::min(out, glm::degrees(std::acos(std::clamp(glm::dot(u, v) / (lu * lv), -1.0, 1.0))));
-  }
-  return out;
-}
-
 /// Remeshes a region and lays it onto the collar's surface (read-only on the mesh).
 Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uint32_t> faces, const CollarSite& j,
                  const CollarField& field, const CollarOptions& o) {
@@ -339,11 +328,9 @@ Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uin
   auto local = [&](std::uint32_t v) {
     return VD(static_cast<std::uint32_t>(std::lower_bound(verts.begin(), verts.end(), v) - verts.begin()));
   };
-  double area = 0;
   for (const std::uint32_t f : faces) {
     const auto& t = mesh.triangles[f];
     if (sm.add_face(local(t[0]), local(t[1]), local(t[2])) == SMesh::null_face()) return out;
-    area += 0.5 * glm::length(mesh.face_normal(t));
   }
   // A disc with holes: genus 0 with its border loops.
   std::vector<SMesh::Halfedge_index> border;
@@ -373,7 +360,7 @@ Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uin
       return out;
     }
   }
-  const double longest = 4.0 / 3.0 * h * 0.99;
+  const double longest = longest_kept(h);
   for (const auto e : border) {
     const std::uint32_t a = global[sm.source(e)], b = global[sm.target(e)];
     const glm::dvec3 pa = mesh.positions[a], pb = mesh.positions[b];
@@ -387,7 +374,8 @@ Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uin
       if (std::find(t.begin(), t.end(), b) == t.end() || std::binary_search(faces.begin(), faces.end(), f)) continue;
       std::uint32_t z = t[0];
       for (const std::uint32_t v : t) z = v != a && v != b ? v : z;
-      const double limit = std::min(o.min_angle, smallest_angle(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]));
+      const double limit = std::min(o.min_angle * std::numbers::pi / 180.0,
+                                    smallest_angle(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]));
       for (int q = 0; q < pieces; ++q) {
         const glm::dvec3 u = pa + (pb - pa) * (double(q) / pieces), w = pa + (pb - pa) * (double(q + 1) / pieces);
         if (smallest_angle(mesh.positions[z], u, w) < limit) {
@@ -400,7 +388,7 @@ Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uin
   try {
     std::vector<SMesh::Edge_index> border_edges;
     for (const auto e : border) border_edges.push_back(sm.edge(e));
-    PMP::split_long_edges(border_edges, 4.0 / 3.0 * h * 0.99, sm);
+    PMP::split_long_edges(border_edges, longest, sm);
     PMP::isotropic_remeshing(sm.faces(), h, sm,
                              PMP::parameters::number_of_iterations(3).protect_constraints(true));
   } catch (...) {
@@ -520,21 +508,11 @@ Made make_region(const Mesh& mesh, const VertexCorners& vc, std::vector<std::uin
 /// (its plane, extended beyond it).
 std::array<glm::vec2, 3> uvs_from(const Mesh& mesh, std::uint32_t o, const std::array<glm::dvec3, 3>& p) {
   const auto& t = mesh.triangles[o];
-  const glm::dvec3 a = mesh.positions[t[0]], e1 = mesh.positions[t[1]] - a, e2 = mesh.positions[t[2]] - a;
-  const double d11 = glm::dot(e1, e1), d12 = glm::dot(e1, e2), d22 = glm::dot(e2, e2);
-  const double det = d11 * d22 - d12 * d12;
   const auto& uv = mesh.corner_uvs[o];
   std::array<glm::vec2, 3> out{};
   for (int k = 0; k < 3; ++k) {
-    double s = 1.0 / 3.0, r = 1.0 / 3.0;
-    if (det > 0) {
-      const glm::dvec3 q = p[k] - a;
-      const double q1 = glm::dot(q, e1), q2 = glm::dot(q, e2);
-      s = (d22 * q1 - d12 * q2) / det;
-      r = (d11 * q2 - d12 * q1) / det;
-    }
-    const glm::dvec2 w = glm::dvec2(uv[0]) * (1 - s - r) + glm::dvec2(uv[1]) * s + glm::dvec2(uv[2]) * r;
-    out[k] = glm::vec2(w);
+    const glm::dvec3 w = barycentric(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]], p[k]);
+    out[k] = glm::vec2(glm::dvec2(uv[0]) * w.x + glm::dvec2(uv[1]) * w.y + glm::dvec2(uv[2]) * w.z);
   }
   return out;
 }

@@ -40,15 +40,7 @@ constexpr double kNeedle = 1.0 * kRadians;
 /// shortest edge.
 template <class Positions>
 double smallest_angle(const Positions& pos, const Tri& t) {
-  int k = 0;  // the corner opposite the shortest edge
-  double shortest = INFINITY;
-  for (int i = 0; i < 3; ++i) {
-    const dvec3 e = pos(t[(i + 2) % 3]) - pos(t[(i + 1) % 3]);
-    if (const double l = glm::dot(e, e); l < shortest) shortest = l, k = i;
-  }
-  const dvec3 a = pos(t[(k + 1) % 3]) - pos(t[k]), b = pos(t[(k + 2) % 3]) - pos(t[k]);
-  const double c = glm::length(glm::cross(a, b));
-  return c > 0 ? std::atan2(c, glm::dot(a, b)) : 0.0;
+  return sm::smallest_angle(pos(t[0]), pos(t[1]), pos(t[2]));
 }
 double smallest_angle(const Mesh& m, const Tri& t) {
   return smallest_angle([&](std::uint32_t v) -> const dvec3& { return m.positions[v]; }, t);
