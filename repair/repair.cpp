@@ -398,7 +398,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
   auto nodes_inside = [&](const Mesh& m) { return count_inside(m, input.position); };
   auto patch_pass = [&](const std::vector<std::array<std::uint32_t, 2>>& patch_pairs,
                         const std::vector<std::uint32_t>& uncovered, const char* warning, const char* what,
-                        std::optional<std::size_t> all_inside = std::nullopt) {
+                        std::optional<std::size_t> all_inside = std::nullopt, bool last = false) {
     // (Given: the pass for thin nodes, judged by all input nodes inside, counted by the caller.)
     const bool count_all = all_inside.has_value();
     if (patch_pairs.empty() && uncovered.empty()) return;
@@ -411,7 +411,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     // vertices on twigs drawn thicker than they are can cost more than the nodes they bring
     // inside are worth).
     auto fidelity = [&] { return fidelity_p95(mesh, input_skeleton ? *input_skeleton : input); };
-    if (!uncovered.empty()) {
+    if (!uncovered.empty() || last) {
       now.fidelity_p95 = fidelity();
       // A margin under the check's tolerance: a tenth against the file's skeleton (what the
       // check measures), two thirds against the sanitized one, which lacks the input nodes the
@@ -434,7 +434,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     // more with a subset of them (below), so that a few bad regions do not cost the others.
     VolumePatchStats vp;
     const std::string problem_before = st.problem;
-    for (int attempt = 0; attempt < 2; ++attempt) {
+    // (The last pass is tried once: a subset of regions that failed twice is seldom worth it.)
+    for (int attempt = 0; attempt < (last ? 1 : 2); ++attempt) {
       MeshResult before = r;
       vp = volume_patch(mesh, patch_pairs, skeleton, options, origin);
       st.timings.add("volume_patch", clock.lap());
@@ -531,6 +532,13 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
                    in_all.size() - uncovered.size());
       }
     }
+  }
+  // Last, the crossings still left, in regions drawn around them as they are now (the passes
+  // for nodes and their fold repairs moved the surface, and with it the spots where a region's
+  // faces cut two surfaces a voxel apart); kept only where fewer pairs are left and neither the
+  // input's nodes inside nor the fidelity to its cones get worse.
+  if (can_patch && params.patch_left && !pairs.empty()) {
+    patch_pass(pairs, {}, "volume_patch_refused_left", "region of crossings left", nodes_inside(mesh), true);
   }
   st.coincident_vertices = separate_coincident(mesh, r.grid);
   st.pairs_left = pairs.size();

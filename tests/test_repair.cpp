@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numeric>
 
 #include "fixtures.h"
@@ -472,6 +473,43 @@ TEST(Repair, VolumePatchCoversThinNodesLeftOutsideAtAHub) {
   EXPECT_LE(on.fidelity_p95, 0.1);
   EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
   EXPECT_EQ(on.components, 1u);
+}
+
+TEST(Repair, VolumePatchPassForThePairsLeftRemovesThem) {
+  // Messy seeds 301 and 327 keep a few pairs after the patch passes for the crossings and the
+  // nodes outside: their regions' faces cut two surfaces a voxel apart, and no patch's rims
+  // matched its holes. The pass for the pairs left (repair.patch_left) draws regions around
+  // them as the surface is now: no pair left, and nothing the check measures against the input
+  // is worse. (Seed 327 was grown after the tuning.)
+  for (const std::uint64_t seed : {301u, 327u}) {
+    SCOPED_TRACE("messy seed " + std::to_string(seed));
+    MessyGrowParams g;
+    g.seed = seed;
+    // (As `strandmesh grow --messy --seed N` writes it.)
+    const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+    const auto [off, on] = checked_without_and_with(raw, &RepairParams::patch_left, PipelineParams{});
+    EXPECT_GT(off.self_intersecting_pairs, 0u);
+    EXPECT_EQ(on.self_intersecting_pairs, 0u);
+    EXPECT_GE(on.nodes_inside, off.nodes_inside);
+    EXPECT_GE(on.thick_nodes_inside, off.thick_nodes_inside);
+    EXPECT_LE(on.fidelity_p95, std::max(off.fidelity_p95, 0.15));
+    EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
+    EXPECT_EQ(on.components, 1u);
+  }
+}
+
+TEST(Repair, VolumePatchPassForThePairsLeftIsTheSameForAnyThreadCount) {
+  MessyGrowParams g;
+  g.seed = 301;
+  const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+  auto mesh_of = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const PipelineResult r = run_pipeline(raw, PipelineParams{});
+    return std::pair(r.mesh.mesh.positions, r.mesh.mesh.triangles);
+  };
+  const auto one = mesh_of(1), two = mesh_of(2);
+  EXPECT_TRUE(two.first == one.first);
+  EXPECT_TRUE(two.second == one.second);
 }
 
 TEST(Repair, FirWhorlWithALateralRunningBackIsRoundAndHoldsItsNodes) {
