@@ -424,7 +424,8 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     options.voxels_per_radius = params.patch_voxels_per_radius;
     options.reach = params.patch_reach;
     options.max_voxels = params.patch_max_voxels;
-    // (The pass for thin nodes gets a quarter: a twig's node is worth less than a crossing.)
+    // (The passes for thin nodes and for the pairs left get a quarter: a twig's node is worth
+    // less than a crossing, and the pairs left failed once already.)
     options.max_total_voxels = count_all ? params.patch_budget_voxels / 4 : params.patch_budget_voxels;
     options.min_twig_voxels = params.patch_min_twig_voxels;
     options.grid = r.grid;
