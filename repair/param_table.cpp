@@ -44,8 +44,8 @@ const ParamSpec<R> kFields[] = {
     {.key = "patch_uncovered_thin", .field = &R::patch_uncovered_thin,
      .help = "then every node still outside, thin ones too, at its own scale (kept where more nodes are inside)"},
     {.key = "patch_left", .field = &R::patch_left,
-     .help = "then one more pass for the crossings still left, in regions drawn around them as they are now (kept only "
-             "where fewer pairs are left and the input's nodes and fidelity are no worse)"},
+     .help = "patches around the pairs left as they are now: the seams of the pass for thin nodes, then the crossings "
+             "still left (kept only where fewer pairs are left and the input's nodes and fidelity are no worse)"},
     {.key = "patch_voxels_per_radius", .field = &R::patch_voxels_per_radius, .range = {.min = 2.5, .max = 32},
      .unit = "voxels", .help = "voxels per thinnest local radius of those patches", .slider = {3, 16}},
     {.key = "patch_reach", .field = &R::patch_reach, .range = {.min = 0.5, .max = 20}, .unit = "x local radius",

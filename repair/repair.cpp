@@ -458,6 +458,28 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         // the pass for thin nodes only those are untangled: the pairs the patches did not touch
         // were tried before, and on a large tree trying them again costs more than the pass.
         untangle_folds(after, count_all ? &made : nullptr);
+        // Where the seams of a pass that brought nodes inside leave more pairs than there were,
+        // one round of patches around those as they are now, before the pass is judged.
+        if (count_all && params.patch_left && attempt == 0 && after.size() > now.pairs && now.nodes_inside &&
+            nodes_inside(mesh) > *now.nodes_inside) {
+          const MeshResult mid = r;
+          std::vector<std::uint32_t> origin2;
+          VolumePatchOptions seams = options;
+          seams.uncovered.clear();
+          seams.leave_out.clear();
+          const VolumePatchStats vp2 = volume_patch(mesh, after, skeleton, seams, origin2);
+          if (vp2.patched > 0) {
+            if (!r.triangle_kind.empty()) {
+              std::vector<TriangleKind> kind(origin2.size());
+              for (std::size_t f = 0; f < origin2.size(); ++f) kind[f] = mid.triangle_kind[origin2[f]];
+              r.triangle_kind = std::move(kind);
+            }
+            std::vector<std::array<std::uint32_t, 2>> made2;
+            after = pairs_after_edit(mid.mesh, after, mesh, origin2, &made2,
+                                     KnownPairs{vp2.new_triangles_of_result, vp2.pairs_of_new});
+            untangle_folds(after, &made2);
+          }
+        }
         next.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0;
         next.parts = components(mesh);
         next.volume = signed_volume(mesh);

@@ -86,9 +86,11 @@ struct RepairParams {
   /// Then every skeleton node still outside, thin ones too (a twig's first node at a hub), at
   /// its own scale; kept only where more nodes are inside and nothing else is worse.
   bool patch_uncovered_thin = true;
-  /// Then the crossings still left get one more pass, in regions drawn around them as they are
-  /// now, kept only where fewer pairs are left and the input's nodes inside and the fidelity to
-  /// its cones are no worse.
+  /// Pairs left: where the seams of the pass for thin nodes leave more pairs than there were,
+  /// one round of patches around those before the pass is judged; and last, one more pass for
+  /// the crossings still left. Both in regions drawn around the pairs as they are now, kept only
+  /// where fewer pairs are left and the input's nodes inside and the fidelity to its cones are
+  /// no worse.
   bool patch_left = true;
   /// Voxels per thinnest local radius of those patches.
   double patch_voxels_per_radius = 4;
