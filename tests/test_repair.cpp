@@ -232,6 +232,20 @@ MeshCheckReport expect_faithful(const RawSkeleton& raw, const PipelineResult& r,
   return rep;
 }
 
+/// A messy generator tree as `strandmesh grow --messy --seed N` writes it (the file's rounding
+/// keeps nodes that the grown tree's zero-length edges merge).
+RawSkeleton messy_as_written(std::uint64_t seed) {
+  MessyGrowParams g;
+  g.seed = seed;
+  return parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+}
+
+/// Closed, manifold, oriented, one part.
+void expect_sound_one_part(const MeshCheckReport& r) {
+  EXPECT_TRUE(r.closed && r.edge_manifold && r.vertex_manifold && r.oriented);
+  EXPECT_EQ(r.components, 1u);
+}
+
 TEST(Repair, VolumePatchAloneFusesCrossingBranches) {
   // The crossing of CrossingBranchesFuseWhereTheyAreWithAHandle with the self-union off: the
   // volume patch alone replaces the crossing by the round cones' union, stitched into the
@@ -459,11 +473,9 @@ TEST(Repair, VolumePatchCoversThinNodesLeftOutsideAtAHub) {
   // Messy seed 222: a hub of twelve twigs whose first nodes the slicing's webs leave outside.
   // The pass for every node still outside (repair.patch_uncovered_thin) draws the input's round
   // cones there: more input nodes inside, no fewer thick ones, no more pairs, the same genus.
-  MessyGrowParams g;
-  g.seed = 222;
   // (As `strandmesh grow --messy --seed 222` writes it: the file's rounding keeps two nodes
   // that the grown tree's zero-length edges merge.)
-  const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+  const RawSkeleton raw = messy_as_written(222);
   const auto [off, on] = checked_without_and_with(raw, &RepairParams::patch_uncovered_thin, PipelineParams{});
   EXPECT_GE(double(on.nodes_inside), double(off.nodes_inside) + 5);
   EXPECT_GE(double(on.nodes_inside), 0.99 * double(on.nodes));
@@ -483,18 +495,14 @@ TEST(Repair, VolumePatchPassForThePairsLeftRemovesThem) {
   // is worse. (Seed 327 was grown after the tuning.)
   for (const std::uint64_t seed : {301u, 327u}) {
     SCOPED_TRACE("messy seed " + std::to_string(seed));
-    MessyGrowParams g;
-    g.seed = seed;
-    // (As `strandmesh grow --messy --seed N` writes it.)
-    const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
-    const auto [off, on] = checked_without_and_with(raw, &RepairParams::patch_left, PipelineParams{});
+    const auto [off, on] =
+        checked_without_and_with(messy_as_written(seed), &RepairParams::patch_left, PipelineParams{});
     EXPECT_GT(off.self_intersecting_pairs, 0u);
     EXPECT_EQ(on.self_intersecting_pairs, 0u);
     EXPECT_GE(on.nodes_inside, off.nodes_inside);
     EXPECT_GE(on.thick_nodes_inside, off.thick_nodes_inside);
     EXPECT_LE(on.fidelity_p95, std::max(off.fidelity_p95, 0.15));
-    EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
-    EXPECT_EQ(on.components, 1u);
+    expect_sound_one_part(on);
   }
 }
 
@@ -503,23 +511,18 @@ TEST(Repair, SeamsOfThePassForThinNodesArePatchedBeforeItIsJudged) {
   // slicing's webs leave outside. The pass for thin nodes patches them, but its seams leave
   // pairs, and without another round around those it is refused. With it (repair.patch_left):
   // every input node inside, no pair, fidelity no worse.
-  MessyGrowParams g;
-  g.seed = 329;
-  const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
-  const auto [off, on] = checked_without_and_with(raw, &RepairParams::patch_left, PipelineParams{});
+  const auto [off, on] =
+      checked_without_and_with(messy_as_written(329), &RepairParams::patch_left, PipelineParams{});
   EXPECT_LT(off.nodes_inside, off.nodes);
   EXPECT_EQ(on.nodes_inside, on.nodes);
   EXPECT_EQ(on.self_intersecting_pairs, 0u);
   EXPECT_GE(on.thick_nodes_inside, off.thick_nodes_inside);
   EXPECT_LE(on.fidelity_p95, std::max(off.fidelity_p95, 0.1));
-  EXPECT_TRUE(on.closed && on.edge_manifold && on.vertex_manifold && on.oriented);
-  EXPECT_EQ(on.components, 1u);
+  expect_sound_one_part(on);
 }
 
 TEST(Repair, VolumePatchPassForThePairsLeftIsTheSameForAnyThreadCount) {
-  MessyGrowParams g;
-  g.seed = 301;
-  const RawSkeleton raw = parse_skeleton_json(raw_skeleton_to_json(grow_messy(g)));
+  const RawSkeleton raw = messy_as_written(301);
   auto mesh_of = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     const PipelineResult r = run_pipeline(raw, PipelineParams{});
