@@ -90,6 +90,15 @@ std::size_t components(const Mesh& m) {
   return n;
 }
 
+/// Per triangle of an edited mesh, the kind of the triangle it came from (`origin`: its index
+/// before the edit); empty where there were no kinds.
+std::vector<TriangleKind> kinds_by_origin(const std::vector<TriangleKind>& kinds, const std::vector<std::uint32_t>& origin) {
+  if (kinds.empty()) return {};
+  std::vector<TriangleKind> out(origin.size());
+  for (std::size_t f = 0; f < origin.size(); ++f) out[f] = kinds[origin[f]];
+  return out;
+}
+
 /// Vertices at the same position as another (a collapse or a cut line ending on a vertex can
 /// leave two): readers weld them, pinching the surface there. Every one but the first of each
 /// position moves two grid steps (or 1 % of the way, if longer) towards the centroid of its
@@ -366,11 +375,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
     st.split_vertices += u.split_vertices;
     st.inner_shells += u.inner_shells;
     st.lumps += u.lumps;
-    if (!r.triangle_kind.empty()) {
-      std::vector<TriangleKind> kind(origin.size());
-      for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = r.triangle_kind[origin[f]];
-      r.triangle_kind = std::move(kind);
-    }
+    r.triangle_kind = kinds_by_origin(r.triangle_kind, origin);
     // The pairs left out, in the new numbering: their triangles were not cut, so each is the
     // one triangle of the result from its origin.
     std::vector<std::uint32_t> now_of(before.mesh.triangles.size(), kNoTriangle), count(now_of.size(), 0);
@@ -443,11 +448,7 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
       st.patch_clusters += vp.clusters;
       st.patch_voxels += vp.voxels;
       if (vp.patched == 0) break;
-      if (!r.triangle_kind.empty()) {
-        std::vector<TriangleKind> kind(origin.size());
-        for (std::size_t f = 0; f < origin.size(); ++f) kind[f] = before.triangle_kind[origin[f]];
-        r.triangle_kind = std::move(kind);
-      }
+      r.triangle_kind = kinds_by_origin(before.triangle_kind, origin);
       std::vector<std::array<std::uint32_t, 2>> after;
       MeshFigures next{.sound = unpaired_half_edges(mesh, vertex_corners(mesh)) == 0, .parts = components(mesh)};
       if (next.sound && next.parts <= now.parts) {
@@ -462,20 +463,19 @@ RepairStats repair_crossings(MeshResult& r, const Skeleton& skeleton, const Repa
         // one round of patches around those as they are now, before the pass is judged.
         if (count_all && params.patch_left && attempt == 0 && after.size() > now.pairs && now.nodes_inside &&
             nodes_inside(mesh) > *now.nodes_inside) {
-          const MeshResult mid = r;
+          const Mesh mid = mesh;
           std::vector<std::uint32_t> origin2;
           VolumePatchOptions seams = options;
           seams.uncovered.clear();
           seams.leave_out.clear();
           const VolumePatchStats vp2 = volume_patch(mesh, after, skeleton, seams, origin2);
+          st.timings.add("volume_patch", clock.lap());
+          st.patch_clusters += vp2.clusters;
+          st.patch_voxels += vp2.voxels;
           if (vp2.patched > 0) {
-            if (!r.triangle_kind.empty()) {
-              std::vector<TriangleKind> kind(origin2.size());
-              for (std::size_t f = 0; f < origin2.size(); ++f) kind[f] = mid.triangle_kind[origin2[f]];
-              r.triangle_kind = std::move(kind);
-            }
+            r.triangle_kind = kinds_by_origin(r.triangle_kind, origin2);
             std::vector<std::array<std::uint32_t, 2>> made2;
-            after = pairs_after_edit(mid.mesh, after, mesh, origin2, &made2,
+            after = pairs_after_edit(mid, after, mesh, origin2, &made2,
                                      KnownPairs{vp2.new_triangles_of_result, vp2.pairs_of_new});
             untangle_folds(after, &made2);
           }
